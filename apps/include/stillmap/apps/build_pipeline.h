@@ -1,0 +1,42 @@
+// `stillmap build`: a sequence in, every map output out. Library code, so that tests drive it
+// exactly as the command line does.
+#pragma once
+
+#include <string>
+
+#include "stillmap/apps/config.h"
+
+namespace stillmap {
+
+// Where the camera poses come from.
+enum class PoseSource {
+  kGroundTruth,  // the sequence's groundtruth.txt, interpolated to each frame's time
+  kTracking,     // the tracker (not part of this build yet: rejected with a clear message)
+};
+
+struct BuildRequest {
+  std::string sequence_dir;
+  std::string output_dir;
+  BuildConfig config;
+  PoseSource poses = PoseSource::kTracking;
+  int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
+  bool show_progress = false;  // a progress line on stderr
+};
+
+// What a run did; the same figures are written to report.json.
+struct BuildSummary {
+  size_t frames_paired = 0;        // color/depth pairs in the range used
+  size_t frames_fused = 0;         // frames back-projected into the map
+  size_t frames_without_pose = 0;  // frames outside the ground truth (or across a gap in it)
+  size_t map_points = 0;           // voxels in map.ply
+  size_t octomap_leaves = 0;
+  double wall_time_s = 0.0;
+  double frames_per_second = 0.0;  // frames_paired / wall time
+  double peak_memory_mib = 0.0;
+};
+
+// Runs the whole build. Throws InputError for bad input or options (before anything is written
+// where possible); outputs are written under temporary names and renamed only when all exist.
+BuildSummary RunBuild(const BuildRequest& request);
+
+}  // namespace stillmap

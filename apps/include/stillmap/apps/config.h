@@ -1,0 +1,50 @@
+// The configuration of a `stillmap build` run: every option of every component under one dotted
+// key ("mapping.voxel_leaf"), read from a YAML file and `--set key=value`, written back as the
+// effective configuration next to the outputs.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "stillmap/io/evaluation.h"
+#include "stillmap/io/sequence.h"
+#include "stillmap/mapping/mapper.h"
+
+namespace stillmap {
+
+struct BuildConfig {
+  CameraOverrides camera;
+  SequenceOptions sequence;
+  size_t first_frame = 0;  // index of the first color/depth pair to use
+  size_t max_frames = 0;   // pairs to use from first_frame; 0 = all
+  MapperOptions mapping;
+  AteOptions ate;
+  RpeOptions rpe;
+
+  // Throws InputError naming the key of the first impossible value.
+  void Validate() const;
+};
+
+// One configurable key, for help texts.
+struct ConfigKeyInfo {
+  std::string name;
+  std::string help;
+};
+std::vector<ConfigKeyInfo> ListConfigKeys();
+
+// Sets one key from its text value; throws InputError naming `where` (the file and line, or
+// "--set") for an unknown key (listing the known ones) or a value of the wrong type.
+void SetConfigValue(BuildConfig* config, const std::string& key, const std::string& value,
+                    const std::string& where);
+
+// Applies "key=value" as given to --set.
+void ApplySetArgument(BuildConfig* config, const std::string& argument);
+
+// Applies a YAML file of nested sections ("mapping:\n  voxel_leaf: 0.02") or dotted keys.
+void ApplyConfigFile(BuildConfig* config, const std::string& path);
+
+// The effective configuration as YAML, every key with its value; reading it back with
+// ApplyConfigFile reproduces `config`.
+std::string ConfigToYaml(const BuildConfig& config);
+
+}  // namespace stillmap

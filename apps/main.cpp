@@ -1,0 +1,126 @@
+// The stillmap command: parses arguments and calls the library. Exit status: 0 success, 1 the run
+// failed, 2 bad usage or bad input.
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+
+#include "stillmap/apps/build_pipeline.h"
+#include "stillmap/apps/commands.h"
+#include "stillmap/apps/progress.h"
+#include "stillmap/io/error.h"
+
+namespace {
+
+std::string ConfigKeysHelp() {
+  std::string text = "Configuration keys (--set key=value, or in --config FILE.yaml):\n";
+  for (const stillmap::ConfigKeyInfo& key : stillmap::ListConfigKeys()) {
+    text += "  " + key.name + std::string(key.name.size() < 36 ? 36 - key.name.size() : 1, ' ') +
+            key.help + "\n";
+  }
+  return text;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  spdlog::set_default_logger(spdlog::stderr_color_st("stillmap"));
+  spdlog::set_pattern("stillmap: %l: %v");
+
+  CLI::App app{"stillmap: clean static maps from RGB-D sequences in which people move."};
+  app.set_version_flag("--version", std::string("stillmap ") + STILLMAP_VERSION);
+  app.require_subcommand(1);
+
+  // build
+  stillmap::BuildRequest build;
+  std::string config_file;
+  std::vector<std::string> set_arguments;
+  std::string poses;
+  bool quiet = false;
+  CLI::App* build_cmd = app.add_subcommand(
+      "build", "Build the maps of a TUM-layout sequence (map.ply, map.pcd, map.bt, map.ot, "
+               "trajectory.txt, keyframes.txt, report.json, config.yaml).");
+  build_cmd->add_option("SEQUENCE_DIR", build.sequence_dir, "TUM-layout sequence folder")
+      ->required();
+  build_cmd->add_option("-o,--output", build.output_dir, "output folder (created if needed)")
+      ->required();
+  build_cmd->add_option("--config", config_file, "YAML configuration file");
+  build_cmd->add_option("--set", set_arguments, "key=value; overrides --config (repeatable)");
+  build_cmd->add_option("--poses", poses,
+                        "'groundtruth': map from the sequence's ground-truth poses")
+      ->check(CLI::IsMember({"groundtruth"}));
+  build_cmd->add_option("--threads", build.threads, "worker threads (1: no read-ahead)")
+      ->check(CLI::Range(1, 64));
+  build_cmd->add_flag("--quiet", quiet, "no progress line, warnings only");
+  build_cmd->footer(ConfigKeysHelp());
+
+  // eval
+  stillmap::EvalRequest eval;
+  CLI::App* eval_cmd = app.add_subcommand(
+      "eval", "ATE and RPE of a trajectory against ground truth, as the TUM benchmark computes "
+              "them (association, Horn alignment without scale; RPE over a fixed time delta).");
+  eval_cmd->add_option("GROUNDTRUTH", eval.groundtruth_path, "TUM-format ground truth")
+      ->required();
+  eval_cmd->add_option("ESTIMATE", eval.estimate_path, "TUM-format estimate")->required();
+  eval_cmd->add_flag("--json", eval.json, "print JSON instead of text");
+  eval_cmd->add_option("--plot", eval.plot_path, "write a top-view PNG of both trajectories");
+  eval_cmd->add_option("--max-diff", eval.ate.max_time_difference,
+                       "association window [s] (default 0.02)");
+  eval_cmd->add_option("--delta", eval.rpe.delta, "RPE time delta [s] (default 1.0)");
+  eval_cmd->add_option("--camera", eval.camera_path,
+                       "camera.yaml with groundtruth_body_from_camera (default: the one beside "
+                       "GROUNDTRUTH, if any)");
+
+  // info
+  std::string info_dir;
+  std::string info_preset;
+  CLI::App* info_cmd =
+      app.add_subcommand("info", "Describe a sequence: pairs, duration, camera, ground truth.");
+  info_cmd->add_option("SEQUENCE_DIR", info_dir, "TUM-layout sequence folder")->required();
+  info_cmd->add_option("--camera-preset", info_preset,
+                       "tum1|tum2|tum3|bonn|ros_default when the folder has no camera.yaml");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return 2;
+  }
+
+  try {
+    if (*build_cmd) {
+      if (!config_file.empty()) stillmap::ApplyConfigFile(&build.config, config_file);
+      for (const std::string& argument : set_arguments) {
+        stillmap::ApplySetArgument(&build.config, argument);
+      }
+      build.poses = poses == "groundtruth" ? stillmap::PoseSource::kGroundTruth
+                                           : stillmap::PoseSource::kTracking;
+      build.show_progress = !quiet && stillmap::StderrIsTerminal();
+      if (quiet) spdlog::set_level(spdlog::level::warn);
+      const stillmap::BuildSummary summary = stillmap::RunBuild(build);
+      spdlog::info("{} frames fused of {}, {} map points, {:.1f} frames/s, peak memory {:.0f} MiB; "
+                   "outputs in {}",
+                   summary.frames_fused, summary.frames_paired, summary.map_points,
+                   summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
+    } else if (*eval_cmd) {
+      std::cout << stillmap::RunEval(eval);
+    } else if (*info_cmd) {
+      std::cout << stillmap::DescribeSequence(info_dir, info_preset);
+    }
+  } catch (const stillmap::InputError& e) {
+    std::fprintf(stderr, "stillmap: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "stillmap: failed: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,314 @@
+#include "stillmap/apps/config.h"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <functional>
+#include <map>
+#include <sstream>
+
+#include "stillmap/io/error.h"
+#include "stillmap/io/file_list.h"
+
+namespace stillmap {
+namespace {
+
+using Setter = std::function<void(BuildConfig*, const std::string& value, const std::string& where)>;
+using Getter = std::function<std::string(const BuildConfig&)>;  // empty: not set
+
+struct ConfigKey {
+  std::string name;
+  std::string help;
+  Setter set;
+  Getter get;
+};
+
+[[noreturn]] void BadValue(const std::string& where, const std::string& key,
+                           const std::string& value, const std::string& expected) {
+  throw InputError(fmt::format("{}: {}={}: expected {}", where, key, value, expected));
+}
+
+double ToDouble(const std::string& key, const std::string& value, const std::string& where) {
+  double parsed = 0.0;
+  if (!ParseFiniteDouble(value, &parsed)) BadValue(where, key, value, "a finite number");
+  return parsed;
+}
+
+long ToInteger(const std::string& key, const std::string& value, const std::string& where) {
+  const double parsed = ToDouble(key, value, where);
+  if (parsed != static_cast<double>(static_cast<long>(parsed))) {
+    BadValue(where, key, value, "a whole number");
+  }
+  return static_cast<long>(parsed);
+}
+
+size_t ToCount(const std::string& key, const std::string& value, const std::string& where) {
+  const long parsed = ToInteger(key, value, where);
+  if (parsed < 0) BadValue(where, key, value, "a whole number >= 0");
+  return static_cast<size_t>(parsed);
+}
+
+bool ToBool(const std::string& key, const std::string& value, const std::string& where) {
+  if (value == "true" || value == "1" || value == "on" || value == "yes") return true;
+  if (value == "false" || value == "0" || value == "off" || value == "no") return false;
+  BadValue(where, key, value, "true or false");
+}
+
+std::string Number(double value) { return fmt::format("{}", value); }
+
+// Keys bound to fields: a double, a count, a bool.
+ConfigKey DoubleKey(const std::string& name, const std::string& help,
+                    std::function<double&(BuildConfig&)> field) {
+  return {name, help,
+          [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
+            field(*c) = ToDouble(name, v, where);
+          },
+          [field](const BuildConfig& c) {
+            BuildConfig copy = c; return Number(field(copy)); }};
+}
+
+ConfigKey OptionalDoubleKey(const std::string& name, const std::string& help,
+                            std::function<std::optional<double>&(BuildConfig&)> field) {
+  return {name, help,
+          [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
+            field(*c) = ToDouble(name, v, where);
+          },
+          [field](const BuildConfig& c) {
+            BuildConfig copy = c;
+            const std::optional<double>& value = field(copy);
+            return value ? Number(*value) : std::string();
+          }};
+}
+
+ConfigKey OptionalIntKey(const std::string& name, const std::string& help,
+                         std::function<std::optional<int>&(BuildConfig&)> field) {
+  return {name, help,
+          [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
+            field(*c) = static_cast<int>(ToInteger(name, v, where));
+          },
+          [field](const BuildConfig& c) {
+            BuildConfig copy = c;
+            const std::optional<int>& value = field(copy);
+            return value ? std::to_string(*value) : std::string();
+          }};
+}
+
+ConfigKey CountKey(const std::string& name, const std::string& help,
+                   std::function<size_t&(BuildConfig&)> field) {
+  return {name, help,
+          [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
+            field(*c) = ToCount(name, v, where);
+          },
+          [field](const BuildConfig& c) {
+            BuildConfig copy = c;
+            return std::to_string(field(copy));
+          }};
+}
+
+ConfigKey BoolKey(const std::string& name, const std::string& help,
+                  std::function<bool&(BuildConfig&)> field) {
+  return {name, help,
+          [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
+            field(*c) = ToBool(name, v, where);
+          },
+          [field](const BuildConfig& c) {
+            BuildConfig copy = c;
+            return std::string(field(copy) ? "true" : "false");
+          }};
+}
+
+const std::vector<ConfigKey>& Keys() {
+  static const std::vector<ConfigKey> keys = [] {
+    std::vector<ConfigKey> k;
+    k.push_back({"camera.preset",
+                 "tum1|tum2|tum3|bonn|ros_default; used instead of the sequence's camera.yaml",
+                 [](BuildConfig* c, const std::string& v, const std::string&) {
+                   c->camera.preset = v;
+                   if (!v.empty()) CameraPreset(v);  // throws for an unknown name
+                 },
+                 [](const BuildConfig& c) { return c.camera.preset; }});
+    k.push_back(OptionalIntKey("camera.width", "image width [px]",
+                               [](BuildConfig& c) -> std::optional<int>& { return c.camera.width; }));
+    k.push_back(OptionalIntKey("camera.height", "image height [px]", [](BuildConfig& c) -> std::optional<int>& {
+      return c.camera.height;
+    }));
+    k.push_back(OptionalDoubleKey("camera.fx", "focal length x [px]",
+                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.fx; }));
+    k.push_back(OptionalDoubleKey("camera.fy", "focal length y [px]",
+                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.fy; }));
+    k.push_back(OptionalDoubleKey("camera.cx", "principal point x [px]",
+                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.cx; }));
+    k.push_back(OptionalDoubleKey("camera.cy", "principal point y [px]",
+                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.cy; }));
+    k.push_back({"camera.distortion", "k1,k2,p1,p2,k3 (OpenCV radial-tangential)",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   std::string text = v;
+                   for (char& ch : text) {
+                     if (ch == '[' || ch == ']') ch = ' ';
+                   }
+                   const std::vector<std::string> fields = SplitFields(text);
+                   if (fields.size() != 5) {
+                     BadValue(where, "camera.distortion", v, "5 numbers k1,k2,p1,p2,k3");
+                   }
+                   std::array<double, 5> d{};
+                   for (size_t i = 0; i < 5; ++i) d[i] = ToDouble("camera.distortion", fields[i], where);
+                   c->camera.distortion = d;
+                 },
+                 [](const BuildConfig& c) {
+                   if (!c.camera.distortion) return std::string();
+                   const auto& d = *c.camera.distortion;
+                   return fmt::format("[{}, {}, {}, {}, {}]", d[0], d[1], d[2], d[3], d[4]);
+                 }});
+    k.push_back(OptionalDoubleKey("camera.depth_factor", "depth PNG value per metre",
+                                  [](BuildConfig& c) -> std::optional<double>& {
+                                    return c.camera.depth_factor;
+                                  }));
+    k.push_back(DoubleKey("sequence.max_pair_time_difference",
+                          "color/depth association window [s] (TUM: 0.02)",
+                          [](BuildConfig& c) -> double& { return c.sequence.max_pair_time_difference; }));
+    k.push_back(DoubleKey("sequence.max_groundtruth_gap",
+                          "widest ground-truth gap a pose is interpolated across [s]",
+                          [](BuildConfig& c) -> double& { return c.sequence.max_groundtruth_gap; }));
+    k.push_back(CountKey("sequence.first_frame", "index of the first color/depth pair used",
+                         [](BuildConfig& c) -> size_t& { return c.first_frame; }));
+    k.push_back(CountKey("sequence.max_frames", "pairs used from first_frame; 0 = all",
+                         [](BuildConfig& c) -> size_t& { return c.max_frames; }));
+    k.push_back(DoubleKey("mapping.min_depth", "depth readings nearer are ignored [m]",
+                          [](BuildConfig& c) -> double& { return c.mapping.back_projection.min_depth; }));
+    k.push_back(DoubleKey("mapping.max_depth", "depth readings farther are ignored [m]",
+                          [](BuildConfig& c) -> double& { return c.mapping.back_projection.max_depth; }));
+    k.push_back({"mapping.pixel_stride", "back-project every n-th pixel along u and v",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   c->mapping.back_projection.pixel_stride =
+                       static_cast<int>(ToInteger("mapping.pixel_stride", v, where));
+                 },
+                 [](const BuildConfig& c) {
+                   return std::to_string(c.mapping.back_projection.pixel_stride);
+                 }});
+    k.push_back(DoubleKey("mapping.voxel_leaf", "voxel edge of the colored cloud [m]",
+                          [](BuildConfig& c) -> double& { return c.mapping.voxel.leaf_size; }));
+    k.push_back(BoolKey("octomap.enabled", "build the OctoMap (map.bt, map.ot)",
+                        [](BuildConfig& c) -> bool& { return c.mapping.occupancy_enabled; }));
+    k.push_back(DoubleKey("octomap.resolution", "OctoMap leaf size [m]",
+                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.resolution; }));
+    k.push_back(DoubleKey("octomap.max_range", "rays truncated at this range [m]; <= 0: none",
+                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.max_range; }));
+    k.push_back(DoubleKey("octomap.probability_hit", "sensor model: P(occupied | hit)",
+                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.probability_hit; }));
+    k.push_back(DoubleKey("octomap.probability_miss", "sensor model: P(occupied | pass-through)",
+                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.probability_miss; }));
+    k.push_back(DoubleKey("octomap.clamping_min", "lower probability clamp",
+                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_min; }));
+    k.push_back(DoubleKey("octomap.clamping_max", "upper probability clamp",
+                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_max; }));
+    k.push_back(DoubleKey("eval.max_time_difference", "ATE association window [s]",
+                          [](BuildConfig& c) -> double& { return c.ate.max_time_difference; }));
+    k.push_back(DoubleKey("eval.rpe_delta", "RPE pose-pair time delta [s]",
+                          [](BuildConfig& c) -> double& { return c.rpe.delta; }));
+    return k;
+  }();
+  return keys;
+}
+
+const ConfigKey& FindKey(const std::string& name, const std::string& where) {
+  for (const ConfigKey& key : Keys()) {
+    if (key.name == name) return key;
+  }
+  std::string known;
+  for (const ConfigKey& key : Keys()) known += " " + key.name;
+  throw InputError(fmt::format("{}: unknown configuration key '{}' (known:{})", where, name, known));
+}
+
+void Flatten(const YAML::Node& node, const std::string& prefix, const std::string& path,
+             std::vector<std::pair<std::string, YAML::Node>>* out) {
+  for (const auto& item : node) {
+    const std::string name =
+        (prefix.empty() ? "" : prefix + ".") + item.first.as<std::string>();
+    if (item.second.IsMap()) {
+      Flatten(item.second, name, path, out);
+    } else {
+      out->emplace_back(name, item.second);
+    }
+  }
+}
+
+}  // namespace
+
+void BuildConfig::Validate() const {
+  if (!(sequence.max_pair_time_difference > 0.0)) {
+    throw InputError("sequence.max_pair_time_difference must be positive");
+  }
+  if (!(sequence.max_groundtruth_gap > 0.0)) {
+    throw InputError("sequence.max_groundtruth_gap must be positive");
+  }
+  if (!(ate.max_time_difference > 0.0)) throw InputError("eval.max_time_difference must be > 0");
+  if (!(rpe.delta > 0.0)) throw InputError("eval.rpe_delta must be > 0");
+  mapping.Validate();
+}
+
+std::vector<ConfigKeyInfo> ListConfigKeys() {
+  std::vector<ConfigKeyInfo> infos;
+  for (const ConfigKey& key : Keys()) infos.push_back({key.name, key.help});
+  return infos;
+}
+
+void SetConfigValue(BuildConfig* config, const std::string& key, const std::string& value,
+                    const std::string& where) {
+  FindKey(key, where).set(config, value, where);
+}
+
+void ApplySetArgument(BuildConfig* config, const std::string& argument) {
+  const size_t equals = argument.find('=');
+  if (equals == std::string::npos || equals == 0) {
+    throw InputError("--set " + argument + ": expected key=value, e.g. --set mapping.voxel_leaf=0.02");
+  }
+  SetConfigValue(config, argument.substr(0, equals), argument.substr(equals + 1), "--set");
+}
+
+void ApplyConfigFile(BuildConfig* config, const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot open the configuration file");
+  } catch (const YAML::Exception& e) {
+    throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  if (root.IsNull()) return;
+  if (!root.IsMap()) throw InputError(path + ": expected a YAML map of configuration keys");
+  std::vector<std::pair<std::string, YAML::Node>> entries;
+  Flatten(root, "", path, &entries);
+  for (const auto& [name, node] : entries) {
+    const std::string where = WhereInFile(path, node.Mark().line + 1);
+    std::string value;
+    if (node.IsSequence()) {
+      for (const YAML::Node& item : node) value += (value.empty() ? "" : ",") + item.as<std::string>();
+    } else if (node.IsScalar()) {
+      value = node.as<std::string>();
+    } else if (!node.IsNull()) {
+      throw InputError(where + ": key '" + name + "' must hold a value");
+    }
+    SetConfigValue(config, name, value, where);
+  }
+}
+
+std::string ConfigToYaml(const BuildConfig& config) {
+  std::ostringstream out;
+  out << "# stillmap effective configuration; rerun with: stillmap build SEQ -o OUT --config "
+         "config.yaml\n";
+  std::string section;
+  for (const ConfigKey& key : Keys()) {
+    const size_t dot = key.name.find('.');
+    const std::string key_section = key.name.substr(0, dot);
+    const std::string value = key.get(config);
+    if (value.empty()) continue;  // unset optional keys stay unset
+    if (key_section != section) {
+      out << key_section << ":\n";
+      section = key_section;
+    }
+    out << "  " << key.name.substr(dot + 1) << ": " << value << "  # " << key.help << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace stillmap

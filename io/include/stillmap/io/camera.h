@@ -1,0 +1,47 @@
+// Pinhole RGB-D camera with OpenCV radial-tangential distortion, the depth scale of its PNGs and,
+// for motion-capture ground truth, the pose of the camera in the tracked body.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace stillmap {
+
+// Intrinsics of a color camera whose depth images are registered to it (TUM/Bonn convention: a
+// depth pixel (u, v) belongs to color pixel (u, v)).
+struct Camera {
+  int width = 640;                                // image width [px]
+  int height = 480;                               // image height [px]
+  double fx = 0.0;                                // focal length along x [px]
+  double fy = 0.0;                                // focal length along y [px]
+  double cx = 0.0;                                // principal point x [px]
+  double cy = 0.0;                                // principal point y [px]
+  std::array<double, 5> distortion{};             // OpenCV k1 k2 p1 p2 k3
+  double depth_factor = 5000.0;                   // depth PNG value per metre
+  // When set, groundtruth.txt gives the pose of a motion-capture body, and
+  // world_from_camera = world_from_body * body_from_camera (the Bonn sequences need it).
+  std::optional<Eigen::Isometry3d> groundtruth_body_from_camera;
+
+  // True when any distortion coefficient is non-zero.
+  bool HasDistortion() const;
+  // Throws InputError naming `source` and the first impossible value.
+  void Validate(const std::string& source) const;
+};
+
+// Names of the built-in presets: tum1, tum2, tum3, bonn, ros_default.
+std::vector<std::string> CameraPresetNames();
+
+// The calibration of a built-in preset (TUM freiburg1/2/3 from the benchmark's published
+// calibration, the Bonn Xtion, and the undistorted ROS default fx=fy=525). Throws InputError for
+// an unknown name, listing the known ones.
+Camera CameraPreset(const std::string& name);
+
+// Reads a camera.yaml (keys width, height, fx, fy, cx, cy, distortion, depth_factor and the
+// optional groundtruth_body_from_camera, row-major 4x4). A missing or malformed key, or an unknown
+// one, is an InputError naming the file and the key.
+Camera LoadCameraYaml(const std::string& path);
+
+}  // namespace stillmap

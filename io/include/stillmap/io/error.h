@@ -1,0 +1,19 @@
+// Exceptions that separate bad input (exit status 2) from a run that failed (exit status 1).
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace stillmap {
+
+// Bad input at the edges: a missing file, a malformed line, an impossible parameter. The message
+// names the file (and line) and says what was expected, so the command line can print it as is.
+class InputError : public std::runtime_error {
+ public:
+  explicit InputError(const std::string& message) : std::runtime_error(message) {}
+};
+
+// Formats "FILE:LINE: what" (LINE omitted when 0), the prefix every format error uses.
+std::string WhereInFile(const std::string& path, int line);
+
+}  // namespace stillmap

@@ -1,0 +1,22 @@
+// Decoding of color and depth images with the checks real recordings need (truncated files,
+// wrong bit depth, wrong size).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace stillmap {
+
+// Reads a PNG or JPEG color image as 8-bit BGR (gray images are expanded). Throws InputError for
+// a missing, unreadable or truncated file (a PNG without its IEND chunk, a JPEG without its end
+// marker: decoders would otherwise return a half-gray image without complaint).
+cv::Mat ReadColorImage(const std::string& path);
+
+// Reads a 16-bit depth PNG and converts it to metres (CV_32FC1, value / depth_factor, 0 = no
+// reading). Throws InputError for a missing or truncated file and for an 8-bit or color image.
+cv::Mat ReadDepthImage(const std::string& path, double depth_factor);
+
+// Writes an image under a temporary name and renames it; throws std::runtime_error on failure.
+void WriteImageAtomically(const std::string& path, const cv::Mat& image);
+
+}  // namespace stillmap

@@ -1,0 +1,83 @@
+// A recorded RGB-D sequence in the TUM layout: rgb.txt, depth.txt, optional groundtruth.txt and
+// camera.yaml, images under the folder.
+#pragma once
+
+#include <array>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/trajectory.h"
+
+namespace stillmap {
+
+// Camera settings given on the command line or in the config, applied over camera.yaml (or over
+// the preset, when one is named).
+struct CameraOverrides {
+  std::string preset;                               // tum1|tum2|tum3|bonn|ros_default, or empty
+  std::optional<int> width, height;                 // [px]
+  std::optional<double> fx, fy, cx, cy;             // [px]
+  std::optional<std::array<double, 5>> distortion;  // k1 k2 p1 p2 k3
+  std::optional<double> depth_factor;               // depth PNG value per metre
+};
+
+// The sequence's camera: the named preset, else SEQUENCE_DIR/camera.yaml, else the camera keys
+// (fx, fy, cx, cy at least), with any override applied last. Throws InputError saying how to name
+// the camera when none of these exists.
+Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& overrides);
+
+struct SequenceOptions {
+  double max_pair_time_difference = 0.02;  // color/depth association window [s] (TUM associate.py)
+  double max_groundtruth_gap = 0.1;  // widest ground-truth gap a pose is interpolated across [s]
+};
+
+// One color/depth pair of the sequence.
+struct FrameEntry {
+  double time = 0.0;        // color timestamp [s]; the frame's time
+  double depth_time = 0.0;  // depth timestamp [s]
+  std::string color_path;   // full path
+  std::string depth_path;   // full path
+};
+
+// A decoded frame, depth registered to color.
+struct Frame {
+  size_t index = 0;    // position in Sequence::frames()
+  double time = 0.0;   // [s]
+  cv::Mat color;       // CV_8UC3, BGR
+  cv::Mat depth_m;     // CV_32FC1 [m], 0 = no reading
+};
+
+class Sequence {
+ public:
+  // Reads the lists and ground truth of a TUM-layout folder and pairs color with depth. Throws
+  // InputError for a missing folder or list, a malformed line, or no pair within the window.
+  static Sequence Open(const std::string& dir, const Camera& camera,
+                       const SequenceOptions& options = {});
+
+  // Decodes frame `index`; throws InputError for a missing, truncated or malformed image, or one
+  // whose size differs from the camera's.
+  Frame LoadFrame(size_t index) const;
+
+  const std::string& dir() const { return dir_; }
+  const Camera& camera() const { return camera_; }
+  const SequenceOptions& options() const { return options_; }
+  const std::vector<FrameEntry>& frames() const { return frames_; }
+  size_t color_count() const { return color_count_; }  // lines in rgb.txt
+  size_t depth_count() const { return depth_count_; }  // lines in depth.txt
+  // The camera's ground-truth trajectory (groundtruth_body_from_camera applied), when the
+  // sequence has groundtruth.txt.
+  const std::optional<Trajectory>& groundtruth() const { return groundtruth_; }
+
+ private:
+  std::string dir_;
+  Camera camera_;
+  SequenceOptions options_;
+  std::vector<FrameEntry> frames_;
+  size_t color_count_ = 0;
+  size_t depth_count_ = 0;
+  std::optional<Trajectory> groundtruth_;
+};
+
+}  // namespace stillmap

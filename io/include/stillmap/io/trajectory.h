@@ -1,0 +1,50 @@
+// Camera trajectories in the TUM format ("timestamp tx ty tz qx qy qz qw", camera-to-world).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace stillmap {
+
+// A pose at a time: the camera's (or body's) pose in the world frame.
+struct StampedPose {
+  double time = 0.0;                                            // [s]
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+
+// A time-ordered list of poses with strictly increasing timestamps.
+class Trajectory {
+ public:
+  Trajectory() = default;
+  // Throws std::invalid_argument when times do not strictly increase.
+  explicit Trajectory(std::vector<StampedPose> poses);
+
+  // Reads a TUM trajectory. Throws InputError naming file and line for malformed lines, NaN or
+  // infinite values, quaternions whose norm is off 1 by more than 1 % (smaller deviations, from
+  // printing with few digits, are normalized), and unsorted or duplicate timestamps.
+  static Trajectory ReadTum(const std::string& path);
+
+  // Writes the TUM format (full double precision) to `path` directly; callers that need an
+  // atomic output pass a temporary path. Throws std::runtime_error when the file cannot be written.
+  void WriteTum(const std::string& path, const std::string& header = "") const;
+
+  // The pose at `time`, interpolated (linear translation, SLERP rotation) between the two
+  // bracketing poses, or nullopt when `time` lies outside the trajectory or the bracketing poses
+  // are more than `max_gap` seconds apart (a pose is never invented across a hole).
+  std::optional<Eigen::Isometry3d> Interpolate(double time, double max_gap) const;
+
+  // Every pose right-multiplied by `b_from_c` (e.g. world_from_body * body_from_camera).
+  Trajectory RightMultiplied(const Eigen::Isometry3d& b_from_c) const;
+
+  const std::vector<StampedPose>& poses() const { return poses_; }
+  std::vector<double> Times() const;
+  size_t size() const { return poses_.size(); }
+  bool empty() const { return poses_.empty(); }
+
+ private:
+  std::vector<StampedPose> poses_;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,153 @@
+#include "stillmap/io/camera.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <set>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+bool Camera::HasDistortion() const {
+  for (double k : distortion) {
+    if (k != 0.0) return true;
+  }
+  return false;
+}
+
+void Camera::Validate(const std::string& source) const {
+  auto fail = [&](const std::string& what) {
+    throw InputError(source + ": invalid camera: " + what);
+  };
+  if (width <= 0 || height <= 0) fail("width and height must be positive");
+  if (!(fx > 0.0) || !(fy > 0.0)) fail("fx and fy must be positive focal lengths in pixels");
+  if (!std::isfinite(cx) || !std::isfinite(cy)) fail("cx and cy must be finite");
+  for (double k : distortion) {
+    if (!std::isfinite(k)) fail("distortion coefficients must be finite");
+  }
+  if (!(depth_factor > 0.0)) fail("depth_factor (depth PNG value per metre) must be positive");
+  if (groundtruth_body_from_camera) {
+    const Eigen::Matrix3d r = groundtruth_body_from_camera->linear();
+    if (!r.allFinite() || (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() > 1e-3 ||
+        r.determinant() < 0.0) {
+      fail("groundtruth_body_from_camera must hold a rotation (orthonormal, determinant +1)");
+    }
+  }
+}
+
+std::vector<std::string> CameraPresetNames() {
+  return {"tum1", "tum2", "tum3", "bonn", "ros_default"};
+}
+
+Camera CameraPreset(const std::string& name) {
+  Camera camera;
+  if (name == "tum1") {
+    camera.fx = 517.3, camera.fy = 516.5, camera.cx = 318.6, camera.cy = 255.3;
+    camera.distortion = {0.2624, -0.9531, -0.0054, 0.0026, 1.1633};
+  } else if (name == "tum2") {
+    camera.fx = 520.9, camera.fy = 521.0, camera.cx = 325.1, camera.cy = 249.7;
+    camera.distortion = {0.2312, -0.7849, -0.0033, -0.0001, 0.9172};
+  } else if (name == "tum3") {
+    camera.fx = 535.4, camera.fy = 539.2, camera.cx = 320.1, camera.cy = 247.6;
+  } else if (name == "bonn") {
+    camera.fx = 542.822841, camera.fy = 542.576870, camera.cx = 315.593520, camera.cy = 237.756098;
+    camera.distortion = {0.039903, -0.099343, -0.000730, -0.000144, 0.0};
+  } else if (name == "ros_default") {
+    camera.fx = 525.0, camera.fy = 525.0, camera.cx = 319.5, camera.cy = 239.5;
+  } else {
+    std::string known;
+    for (const std::string& preset : CameraPresetNames()) known += " " + preset;
+    throw InputError("camera.preset: unknown preset '" + name + "' (known:" + known + ")");
+  }
+  return camera;
+}
+
+namespace {
+
+double ReadScalar(const YAML::Node& root, const std::string& key, const std::string& path) {
+  const YAML::Node node = root[key];
+  if (!node) {
+    throw InputError(path + ": missing key '" + key + "' (camera.yaml needs width, height, fx, "
+                     "fy, cx, cy, distortion, depth_factor)");
+  }
+  try {
+    return node.as<double>();
+  } catch (const YAML::Exception&) {
+    throw InputError(WhereInFile(path, node.Mark().line + 1) + ": key '" + key +
+                     "' must be a number");
+  }
+}
+
+std::vector<double> ReadList(const YAML::Node& root, const std::string& key,
+                             const std::string& path, size_t expected) {
+  const YAML::Node node = root[key];
+  const std::string where = WhereInFile(path, node ? node.Mark().line + 1 : 0);
+  if (!node || !node.IsSequence() || node.size() != expected) {
+    throw InputError(where + ": key '" + key + "' must be a list of " + std::to_string(expected) +
+                     " numbers");
+  }
+  std::vector<double> values;
+  try {
+    for (const YAML::Node& item : node) values.push_back(item.as<double>());
+  } catch (const YAML::Exception&) {
+    throw InputError(where + ": key '" + key + "' must hold numbers only");
+  }
+  return values;
+}
+
+}  // namespace
+
+Camera LoadCameraYaml(const std::string& path) {
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot open the camera file");
+  } catch (const YAML::Exception& e) {
+    throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(path + ": expected a YAML map of camera keys");
+  const std::set<std::string> known = {"width", "height",       "fx",
+                                       "fy",    "cx",           "cy",
+                                       "distortion", "depth_factor", "groundtruth_body_from_camera"};
+  for (const auto& item : root) {
+    const std::string key = item.first.as<std::string>();
+    if (known.count(key) == 0) {
+      throw InputError(WhereInFile(path, item.first.Mark().line + 1) + ": unknown key '" + key +
+                       "' (known: width height fx fy cx cy distortion depth_factor "
+                       "groundtruth_body_from_camera)");
+    }
+  }
+  Camera camera;
+  const double width = ReadScalar(root, "width", path);
+  const double height = ReadScalar(root, "height", path);
+  if (width != std::floor(width) || height != std::floor(height)) {
+    throw InputError(path + ": width and height must be whole numbers of pixels");
+  }
+  camera.width = static_cast<int>(width);
+  camera.height = static_cast<int>(height);
+  camera.fx = ReadScalar(root, "fx", path);
+  camera.fy = ReadScalar(root, "fy", path);
+  camera.cx = ReadScalar(root, "cx", path);
+  camera.cy = ReadScalar(root, "cy", path);
+  const std::vector<double> distortion = ReadList(root, "distortion", path, 5);
+  std::copy(distortion.begin(), distortion.end(), camera.distortion.begin());
+  camera.depth_factor = ReadScalar(root, "depth_factor", path);
+  if (root["groundtruth_body_from_camera"]) {
+    const std::vector<double> m = ReadList(root, "groundtruth_body_from_camera", path, 16);
+    Eigen::Matrix4d matrix;
+    for (int i = 0; i < 16; ++i) matrix(i / 4, i % 4) = m[i];
+    if ((matrix.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9) {
+      throw InputError(path + ": groundtruth_body_from_camera's last row must be 0 0 0 1");
+    }
+    Eigen::Isometry3d body_from_camera = Eigen::Isometry3d::Identity();
+    body_from_camera.linear() = matrix.topLeftCorner<3, 3>();
+    body_from_camera.translation() = matrix.topRightCorner<3, 1>();
+    camera.groundtruth_body_from_camera = body_from_camera;
+  }
+  camera.Validate(path);
+  return camera;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,106 @@
+#include "stillmap/io/sequence.h"
+
+#include <filesystem>
+
+#include "stillmap/io/error.h"
+#include "stillmap/io/file_list.h"
+#include "stillmap/io/image_io.h"
+
+namespace stillmap {
+
+namespace fs = std::filesystem;
+
+Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& overrides) {
+  Camera camera;
+  const fs::path yaml = fs::path(sequence_dir) / "camera.yaml";
+  std::string source;
+  if (!overrides.preset.empty()) {
+    camera = CameraPreset(overrides.preset);
+    source = "camera.preset=" + overrides.preset;
+  } else if (fs::exists(yaml)) {
+    camera = LoadCameraYaml(yaml.string());
+    source = yaml.string();
+  } else if (overrides.fx && overrides.fy && overrides.cx && overrides.cy) {
+    source = "camera keys";
+  } else {
+    throw InputError(sequence_dir + ": no camera.yaml; name the camera with --set camera.preset=" +
+                     "tum1|tum2|tum3|bonn|ros_default, or give camera.fx, camera.fy, camera.cx "
+                     "and camera.cy");
+  }
+  if (overrides.width) camera.width = *overrides.width;
+  if (overrides.height) camera.height = *overrides.height;
+  if (overrides.fx) camera.fx = *overrides.fx;
+  if (overrides.fy) camera.fy = *overrides.fy;
+  if (overrides.cx) camera.cx = *overrides.cx;
+  if (overrides.cy) camera.cy = *overrides.cy;
+  if (overrides.distortion) camera.distortion = *overrides.distortion;
+  if (overrides.depth_factor) camera.depth_factor = *overrides.depth_factor;
+  camera.Validate(source);
+  return camera;
+}
+
+Sequence Sequence::Open(const std::string& dir, const Camera& camera,
+                        const SequenceOptions& options) {
+  if (!fs::is_directory(dir)) {
+    throw InputError(dir + ": sequence folder not found (expected a TUM-layout folder with "
+                     "rgb.txt and depth.txt)");
+  }
+  if (!(options.max_pair_time_difference > 0.0)) {
+    throw InputError("sequence.max_pair_time_difference must be positive");
+  }
+  Sequence sequence;
+  sequence.dir_ = dir;
+  sequence.camera_ = camera;
+  sequence.options_ = options;
+  const std::vector<StampedPath> colors = ReadFileList((fs::path(dir) / "rgb.txt").string());
+  const std::vector<StampedPath> depths = ReadFileList((fs::path(dir) / "depth.txt").string());
+  sequence.color_count_ = colors.size();
+  sequence.depth_count_ = depths.size();
+  std::vector<double> color_times, depth_times;
+  for (const StampedPath& entry : colors) color_times.push_back(entry.time);
+  for (const StampedPath& entry : depths) depth_times.push_back(entry.time);
+  for (const auto& [c, d] :
+       AssociateTimestamps(color_times, depth_times, options.max_pair_time_difference)) {
+    FrameEntry frame;
+    frame.time = colors[c].time;
+    frame.depth_time = depths[d].time;
+    frame.color_path = (fs::path(dir) / colors[c].path).string();
+    frame.depth_path = (fs::path(dir) / depths[d].path).string();
+    sequence.frames_.push_back(frame);
+  }
+  if (sequence.frames_.empty()) {
+    throw InputError(dir + ": no color image has a depth image within " +
+                     std::to_string(options.max_pair_time_difference) +
+                     " s (compare the timestamps of rgb.txt and depth.txt)");
+  }
+  const fs::path groundtruth = fs::path(dir) / "groundtruth.txt";
+  if (fs::exists(groundtruth)) {
+    Trajectory trajectory = Trajectory::ReadTum(groundtruth.string());
+    if (camera.groundtruth_body_from_camera) {
+      trajectory = trajectory.RightMultiplied(*camera.groundtruth_body_from_camera);
+    }
+    sequence.groundtruth_ = std::move(trajectory);
+  }
+  return sequence;
+}
+
+Frame Sequence::LoadFrame(size_t index) const {
+  const FrameEntry& entry = frames_.at(index);
+  Frame frame;
+  frame.index = index;
+  frame.time = entry.time;
+  frame.color = ReadColorImage(entry.color_path);
+  frame.depth_m = ReadDepthImage(entry.depth_path, camera_.depth_factor);
+  auto check_size = [&](const cv::Mat& image, const std::string& path) {
+    if (image.cols != camera_.width || image.rows != camera_.height) {
+      throw InputError(path + ": image is " + std::to_string(image.cols) + "x" +
+                       std::to_string(image.rows) + " but the camera is " +
+                       std::to_string(camera_.width) + "x" + std::to_string(camera_.height));
+    }
+  };
+  check_size(frame.color, entry.color_path);
+  check_size(frame.depth_m, entry.depth_path);
+  return frame;
+}
+
+}  // namespace stillmap

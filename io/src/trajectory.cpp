@@ -1,0 +1,122 @@
+#include "stillmap/io/trajectory.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include "stillmap/io/error.h"
+#include "stillmap/io/file_list.h"
+
+namespace stillmap {
+
+Trajectory::Trajectory(std::vector<StampedPose> poses) : poses_(std::move(poses)) {
+  for (size_t i = 1; i < poses_.size(); ++i) {
+    if (!(poses_[i].time > poses_[i - 1].time)) {
+      throw std::invalid_argument("trajectory timestamps must strictly increase");
+    }
+  }
+}
+
+Trajectory Trajectory::ReadTum(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open the trajectory file");
+  std::vector<StampedPose> poses;
+  std::vector<int> lines;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const std::vector<std::string> fields = SplitFields(line);
+    if (fields.empty() || fields[0][0] == '#') continue;
+    const std::string where = WhereInFile(path, line_number);
+    if (fields.size() != 8) {
+      throw InputError(where + ": expected 8 numbers 'timestamp tx ty tz qx qy qz qw', got " +
+                       std::to_string(fields.size()) + " field(s)");
+    }
+    double v[8];
+    for (int i = 0; i < 8; ++i) {
+      if (!ParseFiniteDouble(fields[i], &v[i])) {
+        throw InputError(where + ": field " + std::to_string(i + 1) + " '" + fields[i] +
+                         "' is not a finite number (NaN and inf are not poses)");
+      }
+    }
+    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    const double norm = q.norm();
+    if (std::abs(norm - 1.0) > 0.01) {
+      std::ostringstream message;
+      message << where << ": quaternion (qx qy qz qw) has norm " << norm
+              << ", expected 1 (is the column order 'tx ty tz qx qy qz qw'?)";
+      throw InputError(message.str());
+    }
+    StampedPose pose;
+    pose.time = v[0];
+    pose.world_from_camera.linear() = q.normalized().toRotationMatrix();
+    pose.world_from_camera.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+    if (!poses.empty() && pose.time <= poses.back().time) {
+      std::ostringstream message;
+      message << std::setprecision(16) << where << ": timestamp " << pose.time
+              << (pose.time == poses.back().time ? " repeats" : " is earlier than") << " line "
+              << lines.back() << "'s; timestamps must strictly increase";
+      throw InputError(message.str());
+    }
+    poses.push_back(pose);
+    lines.push_back(line_number);
+  }
+  if (poses.empty()) throw InputError(path + ": the trajectory holds no poses");
+  return Trajectory(std::move(poses));
+}
+
+void Trajectory::WriteTum(const std::string& path, const std::string& header) const {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write the trajectory");
+  if (!header.empty()) out << "# " << header << "\n";
+  out << "# timestamp tx ty tz qx qy qz qw\n";
+  char buffer[256];
+  for (const StampedPose& pose : poses_) {
+    const Eigen::Vector3d t = pose.world_from_camera.translation();
+    const Eigen::Quaterniond q(pose.world_from_camera.rotation());
+    std::snprintf(buffer, sizeof(buffer), "%.6f %.9f %.9f %.9f %.9f %.9f %.9f %.9f\n", pose.time,
+                  t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    out << buffer;
+  }
+  if (!out.flush()) throw std::runtime_error(path + ": could not write the trajectory");
+}
+
+std::optional<Eigen::Isometry3d> Trajectory::Interpolate(double time, double max_gap) const {
+  if (poses_.empty() || time < poses_.front().time || time > poses_.back().time) {
+    return std::nullopt;
+  }
+  std::vector<StampedPose>::const_iterator upper = std::lower_bound(
+      poses_.begin(), poses_.end(), time,
+      [](const StampedPose& pose, double t) { return pose.time < t; });
+  if (upper->time == time) return upper->world_from_camera;
+  const StampedPose& a = *(upper - 1);
+  const StampedPose& b = *upper;
+  if (b.time - a.time > max_gap) return std::nullopt;
+  const double s = (time - a.time) / (b.time - a.time);
+  const Eigen::Quaterniond qa(a.world_from_camera.rotation());
+  const Eigen::Quaterniond qb(b.world_from_camera.rotation());
+  Eigen::Isometry3d result = Eigen::Isometry3d::Identity();
+  result.linear() = qa.slerp(s, qb).toRotationMatrix();
+  result.translation() =
+      (1.0 - s) * a.world_from_camera.translation() + s * b.world_from_camera.translation();
+  return result;
+}
+
+Trajectory Trajectory::RightMultiplied(const Eigen::Isometry3d& b_from_c) const {
+  std::vector<StampedPose> poses = poses_;
+  for (StampedPose& pose : poses) pose.world_from_camera = pose.world_from_camera * b_from_c;
+  return Trajectory(std::move(poses));
+}
+
+std::vector<double> Trajectory::Times() const {
+  std::vector<double> times;
+  times.reserve(poses_.size());
+  for (const StampedPose& pose : poses_) times.push_back(pose.time);
+  return times;
+}
+
+}  // namespace stillmap

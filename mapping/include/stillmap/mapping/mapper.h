@@ -1,0 +1,70 @@
+// The mapping back-end: frames with known poses in, voxel cloud and OctoMap out.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/mapping/back_projection.h"
+#include "stillmap/mapping/occupancy_map.h"
+#include "stillmap/mapping/voxel_cloud.h"
+
+namespace stillmap {
+
+struct MapperOptions {
+  BackProjectionOptions back_projection;
+  VoxelCloudOptions voxel;
+  OccupancyMapOptions occupancy;
+  bool occupancy_enabled = true;  // build the OctoMap (ray casting is the costliest stage)
+
+  void Validate() const;
+};
+
+// One frame to fuse: images as decoded by io, a mask of pixels to leave out (CV_8UC1, non-zero =
+// excluded, or empty) and the camera's final pose.
+struct MapperFrame {
+  double time = 0.0;  // [s]
+  cv::Mat color;      // CV_8UC3 BGR
+  cv::Mat depth_m;    // CV_32FC1 [m]
+  cv::Mat mask;       // CV_8UC1 or empty
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+
+// Totals over all fused frames.
+struct MapperStatistics {
+  size_t frames = 0;            // frames fused
+  size_t points = 0;            // back-projected points fused
+  double back_projection_ms = 0.0;
+  double voxel_ms = 0.0;
+  double occupancy_ms = 0.0;
+};
+
+class Mapper {
+ public:
+  Mapper(const Camera& camera, const MapperOptions& options);
+
+  // Back-projects the frame's unmasked depth and fuses it into the voxel cloud and the OctoMap
+  // (the camera center is the origin of every ray).
+  void Integrate(const MapperFrame& frame);
+
+  // Writes map.ply/map.pcd (voxel cloud) and, when enabled, map.bt/map.ot to the given paths.
+  void WriteCloud(const std::string& ply_path, const std::string& pcd_path) const;
+  void WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const;
+
+  const VoxelCloud& cloud() const { return cloud_; }
+  const OccupancyMap* occupancy() const { return occupancy_.get(); }
+  const MapperStatistics& statistics() const { return statistics_; }
+  const MapperOptions& options() const { return options_; }
+
+ private:
+  MapperOptions options_;
+  DepthBackProjector projector_;
+  VoxelCloud cloud_;
+  std::unique_ptr<OccupancyMap> occupancy_;
+  ColoredPoints scratch_;
+  MapperStatistics statistics_;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,55 @@
+// Probabilistic 3-D occupancy (OctoMap) with ray-cast insertion: each depth reading marks its
+// voxel occupied and the voxels along the ray from the camera free.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace stillmap {
+
+struct OccupancyMapOptions {
+  double resolution = 0.05;        // leaf voxel edge [m]
+  double max_range = 4.0;          // rays are truncated here (free up to it, no hit) [m]; <= 0: none
+  double probability_hit = 0.7;    // OctoMap's default sensor model
+  double probability_miss = 0.4;
+  double clamping_min = 0.1192;    // OctoMap's default clamping thresholds
+  double clamping_max = 0.971;
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+};
+
+// Owns an octomap::OcTree (kept out of this header: OctoMap stays in the .cpp).
+class OccupancyMap {
+ public:
+  explicit OccupancyMap(const OccupancyMapOptions& options = {});
+  ~OccupancyMap();
+  OccupancyMap(OccupancyMap&&) noexcept;
+  OccupancyMap& operator=(OccupancyMap&&) noexcept;
+
+  // Inserts one scan: endpoints and the sensor origin in the world frame [m]. Endpoints are first
+  // reduced to one per octree voxel (OctoMap's discretized insertion), then rays are cast.
+  void InsertScan(const std::vector<Eigen::Vector3f>& points_in_world,
+                  const Eigen::Vector3f& sensor_origin_in_world);
+
+  // Occupancy probability of the leaf at `point_in_world`, or a negative value when unknown.
+  double Occupancy(const Eigen::Vector3d& point_in_world) const;
+
+  size_t LeafCount() const;
+  size_t OccupiedLeafCount() const;
+  size_t MemoryBytes() const;
+  double resolution() const;
+
+  // Writes OctoMap's compact binary format (.bt: maximum-likelihood occupied/free only).
+  void WriteBinary(const std::string& path) const;
+  // Writes OctoMap's full format (.ot: probabilities kept).
+  void WriteFull(const std::string& path) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,68 @@
+// A voxelized colored point cloud: one point per occupied voxel, the centroid of the points that
+// fell into it, with their mean color.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "stillmap/mapping/back_projection.h"
+
+namespace stillmap {
+
+struct VoxelCloudOptions {
+  double leaf_size = 0.01;  // voxel edge [m]
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+};
+
+// One output point of the voxel cloud.
+struct VoxelPoint {
+  Eigen::Vector3f position;         // centroid of the voxel's points, world frame [m]
+  std::array<std::uint8_t, 3> rgb;  // mean color
+  std::uint32_t count;              // points averaged
+};
+
+// Hash-keyed voxel grid with open addressing (linear probing, power-of-two capacity). Written
+// here rather than taken from PCL: PCL's VoxelGrid works on a finished cloud, needs a second pass
+// and returns its input unfiltered when the grid's index range overflows (large extents at 1 cm);
+// this grid accumulates frame by frame in O(1) per point and its key range is ±10 km at 1 cm.
+class VoxelCloud {
+ public:
+  explicit VoxelCloud(const VoxelCloudOptions& options = {});
+
+  // Accumulates points (world frame) into their voxels. Points beyond the key range (2^20 voxels
+  // from the origin along any axis) are counted in rejected_count() and left out.
+  void Insert(const ColoredPoints& points);
+
+  // Centroid and mean color of every voxel, in a deterministic order (sorted by voxel key).
+  std::vector<VoxelPoint> Points() const;
+
+  size_t size() const { return size_; }
+  size_t rejected_count() const { return rejected_; }
+  double leaf_size() const { return leaf_size_; }
+  // Bytes held by the table.
+  size_t MemoryBytes() const;
+
+ private:
+  struct Accumulator {
+    float offset_sum[3];  // sum of positions relative to the voxel's min corner [m]
+    std::uint32_t color_sum[3];
+    std::uint32_t count;
+  };
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+
+  void Grow();
+  size_t FindSlot(std::uint64_t key) const;
+
+  double leaf_size_;
+  float inverse_leaf_;
+  std::vector<std::uint64_t> keys_;
+  std::vector<Accumulator> values_;
+  size_t size_ = 0;
+  size_t rejected_ = 0;
+};
+
+}  // namespace stillmap

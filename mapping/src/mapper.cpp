@@ -1,0 +1,61 @@
+#include "stillmap/mapping/mapper.h"
+
+#include <chrono>
+
+#include "stillmap/mapping/map_io.h"
+
+namespace stillmap {
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
+void MapperOptions::Validate() const {
+  back_projection.Validate();
+  voxel.Validate();
+  occupancy.Validate();
+}
+
+Mapper::Mapper(const Camera& camera, const MapperOptions& options)
+    : options_(options), projector_(camera, options.back_projection), cloud_(options.voxel) {
+  options_.Validate();
+  if (options_.occupancy_enabled) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
+}
+
+void Mapper::Integrate(const MapperFrame& frame) {
+  auto start = std::chrono::steady_clock::now();
+  scratch_.Clear();
+  projector_.BackProject(frame.depth_m, frame.color, frame.mask, frame.world_from_camera.cast<float>(),
+                         &scratch_);
+  statistics_.back_projection_ms += MillisecondsSince(start);
+
+  start = std::chrono::steady_clock::now();
+  cloud_.Insert(scratch_);
+  statistics_.voxel_ms += MillisecondsSince(start);
+
+  if (occupancy_) {
+    start = std::chrono::steady_clock::now();
+    occupancy_->InsertScan(scratch_.positions, frame.world_from_camera.translation().cast<float>());
+    statistics_.occupancy_ms += MillisecondsSince(start);
+  }
+  ++statistics_.frames;
+  statistics_.points += scratch_.size();
+}
+
+void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {
+  const std::vector<VoxelPoint> points = cloud_.Points();
+  WritePly(ply_path, points);
+  WritePcd(pcd_path, points);
+}
+
+void Mapper::WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const {
+  if (!occupancy_) return;
+  occupancy_->WriteBinary(bt_path);
+  occupancy_->WriteFull(ot_path);
+}
+
+}  // namespace stillmap

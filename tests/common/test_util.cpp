@@ -1,0 +1,131 @@
+#include "test_util.h"
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
+
+namespace stillmap::testing {
+
+namespace fs = std::filesystem;
+
+TempDir::TempDir() {
+  static std::mt19937_64 rng(std::random_device{}());
+  for (;;) {
+    const fs::path candidate =
+        fs::temp_directory_path() / ("stillmap_test_" + std::to_string(rng() % 100000000));
+    if (fs::create_directory(candidate)) {
+      path_ = candidate.string();
+      return;
+    }
+  }
+}
+
+TempDir::~TempDir() {
+  std::error_code error;
+  fs::permissions(path_, fs::perms::owner_all, fs::perm_options::add, error);
+  for (const auto& entry : fs::recursive_directory_iterator(path_, error)) {
+    fs::permissions(entry.path(), fs::perms::owner_all, fs::perm_options::add, error);
+  }
+  fs::remove_all(path_, error);
+}
+
+std::optional<std::string> SharedSequence(const std::string& name) {
+  const char* env = std::getenv("STILLMAP_DATA");
+  const fs::path root = env != nullptr ? fs::path(env) : fs::path(STILLMAP_SHARED_DATA);
+  const fs::path dir = root / name;
+  if (!fs::exists(dir / "rgb.txt")) return std::nullopt;
+  return dir.string();
+}
+
+Camera SmallCamera(int width, int height) {
+  Camera camera;
+  camera.width = width;
+  camera.height = height;
+  camera.fx = camera.fy = 0.8 * width;
+  camera.cx = (width - 1) / 2.0;
+  camera.cy = (height - 1) / 2.0;
+  camera.depth_factor = 5000.0;
+  return camera;
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, const PlaneScene& scene,
+                              const std::vector<Eigen::Isometry3d>& world_from_camera) {
+  fs::create_directories(fs::path(dir) / "rgb");
+  fs::create_directories(fs::path(dir) / "depth");
+  std::ofstream rgb_list(dir + "/rgb.txt"), depth_list(dir + "/depth.txt");
+  rgb_list << "# color images\n";
+  depth_list << "# depth images\n";
+  std::vector<StampedPose> poses;
+  char name[64];
+  for (size_t i = 0; i < world_from_camera.size(); ++i) {
+    const double time = 1000.0 + static_cast<double>(i) / 30.0;
+    const Eigen::Isometry3d& pose = world_from_camera[i];
+    cv::Mat color(camera.height, camera.width, CV_8UC3);
+    cv::Mat depth(camera.height, camera.width, CV_16UC1);
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const Eigen::Vector3d ray_in_camera((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy,
+                                            1.0);
+        const Eigen::Vector3d ray = pose.linear() * ray_in_camera;
+        const double denominator = scene.normal.dot(ray);
+        double z = 0.0;
+        if (std::abs(denominator) > 1e-9) {
+          z = (scene.distance - scene.normal.dot(pose.translation())) / denominator;
+        }
+        const Eigen::Vector3d hit = pose.translation() + z * ray;
+        const bool dark = (static_cast<int>(std::floor(hit.x() / 0.1)) +
+                           static_cast<int>(std::floor(hit.y() / 0.1))) % 2 == 0;
+        color.at<cv::Vec3b>(v, u) = dark ? cv::Vec3b(40, 60, 200) : cv::Vec3b(230, 230, 230);
+        const double value = z > 0 ? std::round(z * camera.depth_factor) : 0.0;
+        depth.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(std::min(value, 65535.0));
+      }
+    }
+    std::snprintf(name, sizeof(name), "%.6f.png", time);
+    cv::imwrite(dir + "/rgb/" + name, color);
+    cv::imwrite(dir + "/depth/" + name, depth);
+    rgb_list << std::fixed << time << " rgb/" << name << "\n";
+    depth_list << std::fixed << time << " depth/" << name << "\n";
+    poses.push_back({time, pose});
+  }
+  const Trajectory trajectory(poses);
+  trajectory.WriteTum(dir + "/groundtruth.txt");
+  std::ofstream yaml(dir + "/camera.yaml");
+  yaml << "width: " << camera.width << "\nheight: " << camera.height << "\nfx: " << camera.fx
+       << "\nfy: " << camera.fy << "\ncx: " << camera.cx << "\ncy: " << camera.cy
+       << "\ndistortion: [0, 0, 0, 0, 0]\ndepth_factor: " << camera.depth_factor << "\n";
+  return trajectory;
+}
+
+int RunStillmap(const std::string& arguments, std::string* output) {
+  const std::string command = std::string(STILLMAP_BINARY) + " " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return -1;
+  std::array<char, 4096> buffer{};
+  output->clear();
+  size_t read = 0;
+  while ((read = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) output->append(buffer.data(), read);
+  const int status = pclose(pipe);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace stillmap::testing

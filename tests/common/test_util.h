@@ -1,0 +1,56 @@
+// Helpers shared by the test programs: temporary folders, synthetic TUM sequences with exact
+// geometry, the location of the real data, and running the stillmap binary.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/trajectory.h"
+
+namespace stillmap::testing {
+
+// A folder under the system temp dir, removed with everything in it on destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::string& path() const { return path_; }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+// The folder of the real sequences ($STILLMAP_DATA, else ../shared/data), or nullopt when the
+// named sequence is absent there.
+std::optional<std::string> SharedSequence(const std::string& name);
+
+// An analytic scene: the plane n . X = d (world frame), textured by a checkerboard.
+struct PlaneScene {
+  Eigen::Vector3d normal = Eigen::Vector3d(0, 0, -1);  // unit, world frame
+  double distance = -2.0;                              // n . X = d, i.e. z = 2 m by default
+};
+
+// Writes a TUM-layout sequence viewing `scene` from the given camera-to-world poses at 30 Hz:
+// rgb/ (PNG), depth/ (16-bit PNG, ray-plane depth exactly quantized), rgb.txt, depth.txt,
+// groundtruth.txt and camera.yaml. Returns the poses written (time-stamped).
+Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, const PlaneScene& scene,
+                              const std::vector<Eigen::Isometry3d>& world_from_camera);
+
+// A camera without distortion, 64x48 by default (tests stay fast).
+Camera SmallCamera(int width = 64, int height = 48);
+
+// Writes a text file.
+void WriteText(const std::string& path, const std::string& text);
+std::string ReadText(const std::string& path);
+
+// Runs the stillmap binary with `arguments` (shell-quoted here); returns its exit status and puts
+// stderr (and stdout) in `output`.
+int RunStillmap(const std::string& arguments, std::string* output);
+
+}  // namespace stillmap::testing

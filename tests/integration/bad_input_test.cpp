@@ -1,0 +1,176 @@
+// Every bad input of issue 2 through the real binary: one clear line naming the culprit, exit
+// status 2, and no output left behind.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::ReadText;
+using testing::RunStillmap;
+using testing::TempDir;
+using testing::WriteText;
+
+class BadInputTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    sequence_ = dir_ / "seq";
+    output_ = dir_ / "out";
+    std::vector<Eigen::Isometry3d> poses(4, Eigen::Isometry3d::Identity());
+    for (size_t i = 0; i < poses.size(); ++i) poses[i].translation().x() = 0.01 * i;
+    testing::WritePlaneSequence(sequence_, testing::SmallCamera(), {}, poses);
+  }
+
+  // Runs `build` and checks the contract: exit 2, a single "stillmap: error:" line mentioning
+  // `expected`, and no output folder (it did not exist before).
+  void ExpectRefused(const std::string& expected, const std::string& extra = "") {
+    std::string output;
+    const int status =
+        RunStillmap("build " + sequence_ + " -o " + output_ + " --poses groundtruth --quiet " + extra,
+                    &output);
+    EXPECT_EQ(status, 2) << output;
+    EXPECT_NE(output.find("stillmap: error: "), std::string::npos) << output;
+    EXPECT_NE(output.find(expected), std::string::npos) << "expected '" << expected << "' in: "
+                                                        << output;
+    EXPECT_EQ(std::count(output.begin(), output.end(), '\n'), 1) << output;
+    EXPECT_FALSE(fs::exists(output_)) << "outputs left behind in " << output_;
+  }
+
+  std::string FirstListedDepth() {
+    const std::string list = ReadText(sequence_ + "/depth.txt");
+    const size_t line = list.find("depth/");
+    return sequence_ + "/" + list.substr(line, list.find('\n', line) - line);
+  }
+
+  TempDir dir_;
+  std::string sequence_;
+  std::string output_;
+};
+
+TEST_F(BadInputTest, TheGoodSequenceBuilds) {
+  std::string output;
+  EXPECT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ + " --poses groundtruth --quiet",
+                        &output),
+            0)
+      << output;
+  EXPECT_TRUE(fs::exists(output_ + "/map.ply"));
+}
+
+TEST_F(BadInputTest, MissingSequenceFolder) {
+  sequence_ = dir_ / "nowhere";
+  ExpectRefused("sequence folder not found");
+}
+
+TEST_F(BadInputTest, MissingRgbList) {
+  fs::remove(sequence_ + "/rgb.txt");
+  ExpectRefused("rgb.txt: cannot open");
+}
+
+TEST_F(BadInputTest, EmptyDepthList) {
+  WriteText(sequence_ + "/depth.txt", "# nothing here\n");
+  ExpectRefused("depth.txt: the file list names no images");
+}
+
+TEST_F(BadInputTest, ImageListedButMissing) {
+  fs::remove(FirstListedDepth());
+  ExpectRefused("image listed but missing");
+}
+
+TEST_F(BadInputTest, TruncatedPng) {
+  const std::string depth = FirstListedDepth();
+  fs::resize_file(depth, fs::file_size(depth) / 2);
+  ExpectRefused("truncated PNG");
+}
+
+TEST_F(BadInputTest, TruncatedPngLateInTheSequenceLeavesNoOutputs) {
+  const std::string list = ReadText(sequence_ + "/depth.txt");
+  const size_t last = list.rfind("depth/");
+  const std::string depth = sequence_ + "/" + list.substr(last, list.find('\n', last) - last);
+  fs::resize_file(depth, fs::file_size(depth) - 20);
+  ExpectRefused("truncated PNG");
+}
+
+TEST_F(BadInputTest, EightBitDepth) {
+  cv::imwrite(FirstListedDepth(), cv::Mat(48, 64, CV_8UC1, cv::Scalar(100)));
+  ExpectRefused("8 bits");
+}
+
+TEST_F(BadInputTest, UnsortedTimestamps) {
+  WriteText(sequence_ + "/rgb.txt",
+            "1000.033333 rgb/1000.033333.png\n1000.000000 rgb/1000.000000.png\n");
+  ExpectRefused("rgb.txt:2: timestamp");
+}
+
+TEST_F(BadInputTest, DuplicateTimestamps) {
+  WriteText(sequence_ + "/depth.txt",
+            "1000.000000 depth/1000.000000.png\n1000.000000 depth/1000.033333.png\n");
+  ExpectRefused("repeats");
+}
+
+TEST_F(BadInputTest, NoPairWithinTheWindow) {
+  WriteText(sequence_ + "/depth.txt", "1005.0 depth/1000.000000.png\n");
+  ExpectRefused("no color image has a depth image within");
+}
+
+TEST_F(BadInputTest, NanInGroundTruth) {
+  WriteText(sequence_ + "/groundtruth.txt", "1000 0 0 0 0 0 0 1\n1000.1 0 0 nan 0 0 0 1\n");
+  ExpectRefused("groundtruth.txt:2");
+}
+
+TEST_F(BadInputTest, NonUnitQuaternionInGroundTruth) {
+  WriteText(sequence_ + "/groundtruth.txt", "1000 0 0 0 0 0 0.5 0.5\n");
+  ExpectRefused("expected 1");
+}
+
+TEST_F(BadInputTest, CameraFileWithAMissingKey) {
+  std::string camera = ReadText(sequence_ + "/camera.yaml");
+  camera.erase(camera.find("cy:"), camera.find('\n', camera.find("cy:")) - camera.find("cy:") + 1);
+  WriteText(sequence_ + "/camera.yaml", camera);
+  ExpectRefused("missing key 'cy'");
+}
+
+TEST_F(BadInputTest, NoCameraAtAll) {
+  fs::remove(sequence_ + "/camera.yaml");
+  ExpectRefused("camera.preset");
+}
+
+TEST_F(BadInputTest, SetOfAnUnknownKey) {
+  ExpectRefused("unknown configuration key 'mapping.leaf'", "--set mapping.leaf=0.02");
+}
+
+TEST_F(BadInputTest, ImpossibleValue) {
+  ExpectRefused("mapping.voxel_leaf", "--set mapping.voxel_leaf=-1");
+}
+
+TEST_F(BadInputTest, OutputFolderThatCannotBeWritten) {
+  WriteText(dir_ / "a_file", "x");
+  output_ = dir_ / "a_file/out";
+  ExpectRefused("cannot create the output folder");
+}
+
+TEST_F(BadInputTest, TrackingIsNotAvailableYet) {
+  std::string output;
+  EXPECT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ + " --quiet", &output), 2);
+  EXPECT_NE(output.find("--poses groundtruth"), std::string::npos) << output;
+}
+
+TEST(CommandLineTest, UsageErrorsExitWithTwoAndHelpWithZero) {
+  std::string output;
+  EXPECT_EQ(RunStillmap("", &output), 2);
+  EXPECT_EQ(RunStillmap("build", &output), 2);
+  EXPECT_EQ(RunStillmap("frobnicate", &output), 2);
+  EXPECT_EQ(RunStillmap("--version", &output), 0);
+  EXPECT_NE(output.find("stillmap 0."), std::string::npos);
+  for (const char* command : {"build", "eval", "info"}) {
+    EXPECT_EQ(RunStillmap(std::string(command) + " --help", &output), 0) << command;
+    EXPECT_NE(output.find("Usage"), std::string::npos) << output;
+  }
+}
+
+}  // namespace
+}  // namespace stillmap

@@ -1,0 +1,77 @@
+#include "stillmap/io/camera.h"
+
+#include <gtest/gtest.h>
+
+#include "stillmap/io/error.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+using testing::TempDir;
+using testing::WriteText;
+
+const char* kCameraYaml =
+    "width: 640\nheight: 480\nfx: 542.8\nfy: 542.5\ncx: 315.5\ncy: 237.7\n"
+    "distortion: [0.04, -0.1, -0.0007, -0.0001, 0.0]\ndepth_factor: 5000.0\n";
+
+TEST(CameraTest, PresetsMatchPublishedCalibrations) {
+  const Camera tum3 = CameraPreset("tum3");
+  EXPECT_DOUBLE_EQ(tum3.fx, 535.4);
+  EXPECT_DOUBLE_EQ(tum3.cy, 247.6);
+  EXPECT_FALSE(tum3.HasDistortion());
+  const Camera tum1 = CameraPreset("tum1");
+  EXPECT_TRUE(tum1.HasDistortion());
+  EXPECT_DOUBLE_EQ(tum1.distortion[4], 1.1633);
+  EXPECT_DOUBLE_EQ(CameraPreset("ros_default").cx, 319.5);
+  for (const std::string& name : CameraPresetNames()) EXPECT_NO_THROW(CameraPreset(name));
+  EXPECT_THROW(CameraPreset("kinect9"), InputError);
+}
+
+TEST(CameraTest, ReadsYamlWithBodyFromCamera) {
+  TempDir dir;
+  WriteText(dir / "camera.yaml",
+            std::string(kCameraYaml) +
+                "groundtruth_body_from_camera: [0, -1, 0, 0.1, 1, 0, 0, 0.2, 0, 0, 1, 0.3, 0, 0, 0, 1]\n");
+  const Camera camera = LoadCameraYaml(dir / "camera.yaml");
+  EXPECT_EQ(camera.width, 640);
+  EXPECT_DOUBLE_EQ(camera.fx, 542.8);
+  EXPECT_DOUBLE_EQ(camera.distortion[0], 0.04);
+  ASSERT_TRUE(camera.groundtruth_body_from_camera.has_value());
+  EXPECT_DOUBLE_EQ(camera.groundtruth_body_from_camera->matrix()(0, 1), -1.0);
+  EXPECT_DOUBLE_EQ(camera.groundtruth_body_from_camera->translation().z(), 0.3);
+}
+
+TEST(CameraTest, MissingKeyIsNamed) {
+  TempDir dir;
+  std::string text = kCameraYaml;
+  text.erase(text.find("fy:"), text.find("cx:") - text.find("fy:"));
+  WriteText(dir / "camera.yaml", text);
+  try {
+    LoadCameraYaml(dir / "camera.yaml");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing key 'fy'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("camera.yaml"), std::string::npos);
+  }
+}
+
+TEST(CameraTest, RejectsUnknownKeysAndImpossibleValues) {
+  TempDir dir;
+  WriteText(dir / "a.yaml", std::string(kCameraYaml) + "fz: 3\n");
+  EXPECT_THROW(LoadCameraYaml(dir / "a.yaml"), InputError);
+  std::string negative = kCameraYaml;
+  negative.replace(negative.find("fx: 542.8"), 9, "fx: -5");
+  WriteText(dir / "b.yaml", negative);
+  EXPECT_THROW(LoadCameraYaml(dir / "b.yaml"), InputError);
+  WriteText(dir / "c.yaml", std::string(kCameraYaml) +
+                                "groundtruth_body_from_camera: [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, "
+                                "0, 0, 0, 1]\n");
+  EXPECT_THROW(LoadCameraYaml(dir / "c.yaml"), InputError);
+  WriteText(dir / "d.yaml", "width: [\n");
+  EXPECT_THROW(LoadCameraYaml(dir / "d.yaml"), InputError);
+  EXPECT_THROW(LoadCameraYaml(dir / "missing.yaml"), InputError);
+}
+
+}  // namespace
+}  // namespace stillmap

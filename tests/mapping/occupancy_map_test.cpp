@@ -1,0 +1,73 @@
+#include "stillmap/mapping/occupancy_map.h"
+
+#include <gtest/gtest.h>
+#include <octomap/OcTree.h>
+
+#include <memory>
+
+#include "stillmap/io/error.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+// A 1 m x 1 m wall at z = 2 m, sampled every 1 cm, seen from the origin.
+std::vector<Eigen::Vector3f> Wall() {
+  std::vector<Eigen::Vector3f> points;
+  for (int i = -50; i <= 50; ++i) {
+    for (int j = -50; j <= 50; ++j) points.emplace_back(0.01f * i, 0.01f * j, 2.0f);
+  }
+  return points;
+}
+
+TEST(OccupancyMapTest, RayCastingMarksHitsOccupiedAndTheWayFree) {
+  OccupancyMap map;  // 5 cm
+  for (int k = 0; k < 3; ++k) map.InsertScan(Wall(), Eigen::Vector3f::Zero());
+  EXPECT_GT(map.Occupancy({0.0, 0.0, 2.0}), 0.5);
+  EXPECT_GT(map.Occupancy({0.3, -0.3, 2.01}), 0.5);
+  EXPECT_LT(map.Occupancy({0.0, 0.0, 1.0}), 0.5);   // seen through: free
+  EXPECT_GE(map.Occupancy({0.0, 0.0, 1.0}), 0.0);   // and known
+  EXPECT_LT(map.Occupancy({0.0, 0.0, 3.0}), 0.0);   // behind the wall: unknown
+  EXPECT_LT(map.Occupancy({2.0, 0.0, 1.0}), 0.0);   // outside the view: unknown
+  EXPECT_GT(map.OccupiedLeafCount(), 300u);
+}
+
+TEST(OccupancyMapTest, MaxRangeTruncatesRaysWithoutHits) {
+  OccupancyMapOptions options;
+  options.max_range = 1.0;
+  OccupancyMap map(options);
+  map.InsertScan(Wall(), Eigen::Vector3f::Zero());
+  EXPECT_LT(map.Occupancy({0.0, 0.0, 2.0}), 0.0);  // beyond range: not inserted
+  EXPECT_LT(map.Occupancy({0.0, 0.0, 0.5}), 0.5);  // free up to the range
+  EXPECT_GE(map.Occupancy({0.0, 0.0, 0.5}), 0.0);
+}
+
+TEST(OccupancyMapTest, BinaryAndFullFilesReadBackInOctoMap) {
+  testing::TempDir dir;
+  OccupancyMap map;
+  map.InsertScan(Wall(), Eigen::Vector3f::Zero());
+  map.WriteBinary(dir / "map.bt");
+  map.WriteFull(dir / "map.ot");
+  octomap::OcTree binary(0.1);
+  ASSERT_TRUE(binary.readBinary(dir / "map.bt"));
+  EXPECT_DOUBLE_EQ(binary.getResolution(), 0.05);
+  const octomap::OcTreeNode* hit = binary.search(0.0, 0.0, 2.0);
+  ASSERT_NE(hit, nullptr);
+  EXPECT_TRUE(binary.isNodeOccupied(hit));
+  std::unique_ptr<octomap::AbstractOcTree> full(octomap::AbstractOcTree::read(dir / "map.ot"));
+  ASSERT_NE(full, nullptr);
+  EXPECT_EQ(full->getTreeType(), "OcTree");
+  EXPECT_EQ(full->size(), binary.size());
+}
+
+TEST(OccupancyMapTest, ImpossibleOptionsAreRejected) {
+  OccupancyMapOptions options;
+  options.resolution = 0.0;
+  EXPECT_THROW(options.Validate(), InputError);
+  options = {};
+  options.probability_hit = 0.3;
+  EXPECT_THROW(options.Validate(), InputError);
+}
+
+}  // namespace
+}  // namespace stillmap

@@ -1,0 +1,51 @@
+#include "stillmap/viewer/trajectory_plot.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+AteResult SquareLoop() {
+  std::vector<StampedPose> truth, estimate;
+  for (int i = 0; i < 200; ++i) {
+    const double a = i * 2.0 * M_PI / 200.0;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(2.0 * std::cos(a), std::sin(a), 0.1);
+    truth.push_back({i * 0.1, pose});
+    pose.translation() += Eigen::Vector3d(0.05 * std::sin(5 * a), 0.0, 0.0);
+    estimate.push_back({i * 0.1, pose});
+  }
+  return ComputeAte(Trajectory(truth), Trajectory(estimate));
+}
+
+int CountPixels(const cv::Mat& image, const cv::Vec3b& color) {
+  int count = 0;
+  for (int v = 0; v < image.rows; ++v) {
+    for (int u = 0; u < image.cols; ++u) count += image.at<cv::Vec3b>(v, u) == color;
+  }
+  return count;
+}
+
+TEST(TrajectoryPlotTest, DrawsBothTrajectoriesAndIsDeterministic) {
+  const AteResult ate = SquareLoop();
+  const cv::Mat image = DrawTrajectoryPlot(ate);
+  ASSERT_EQ(image.size(), cv::Size(1000, 800));
+  EXPECT_GT(CountPixels(image, cv::Vec3b(0, 0, 0)), 2000);       // ground truth, axes, text
+  EXPECT_GT(CountPixels(image, cv::Vec3b(200, 90, 20)), 500);    // the estimate
+  EXPECT_GT(CountPixels(image, cv::Vec3b(40, 40, 220)), 50);     // the differences
+  const cv::Mat again = DrawTrajectoryPlot(ate);
+  EXPECT_EQ(cv::norm(image, again, cv::NORM_INF), 0.0);
+}
+
+TEST(TrajectoryPlotTest, WritesAPng) {
+  testing::TempDir dir;
+  WriteTrajectoryPlot(dir / "plot.png", SquareLoop());
+  EXPECT_EQ(cv::imread(dir / "plot.png").size(), cv::Size(1000, 800));
+}
+
+}  // namespace
+}  // namespace stillmap

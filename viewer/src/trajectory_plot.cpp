@@ -1,0 +1,125 @@
+#include "stillmap/viewer/trajectory_plot.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "stillmap/io/image_io.h"
+
+namespace stillmap {
+namespace {
+
+// A 1-2-5 step giving about `target` intervals over `span`.
+double NiceStep(double span, int target) {
+  const double raw = span / target;
+  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0}) {
+    if (m * magnitude >= raw) return m * magnitude;
+  }
+  return 10.0 * magnitude;
+}
+
+}  // namespace
+
+cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& options) {
+  const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kGrid(225, 225, 225);
+  const cv::Scalar kEstimate(200, 90, 20), kError(40, 40, 220);
+  cv::Mat image(options.height, options.width, CV_8UC3, kWhite);
+  if (ate.groundtruth_positions.empty()) return image;
+
+  // The two axes along which the ground truth extends most form the "top" view.
+  Eigen::Vector3d lo = ate.groundtruth_positions.front(), hi = lo;
+  for (const auto& points : {ate.groundtruth_positions, ate.aligned_positions}) {
+    for (const Eigen::Vector3d& p : points) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  }
+  std::array<int, 3> axes = {0, 1, 2};
+  const Eigen::Vector3d extent = hi - lo;
+  std::sort(axes.begin(), axes.end(), [&](int a, int b) { return extent[a] > extent[b]; });
+  const int ax = std::min(axes[0], axes[1]);
+  const int ay = std::max(axes[0], axes[1]);
+  const char* kAxisNames = "xyz";
+
+  const int left = 90, right = 30, top = 60, bottom = 70;
+  const int plot_w = options.width - left - right, plot_h = options.height - top - bottom;
+  double span = std::max({extent[ax] / plot_w, extent[ay] / plot_h, 1e-6});  // metres per pixel
+  span *= 1.1;
+  const double center_x = 0.5 * (lo[ax] + hi[ax]), center_y = 0.5 * (lo[ay] + hi[ay]);
+  auto to_pixel = [&](const Eigen::Vector3d& p) {
+    return cv::Point2d(left + plot_w / 2.0 + (p[ax] - center_x) / span,
+                       top + plot_h / 2.0 - (p[ay] - center_y) / span);
+  };
+  const int kShift = 4;  // sub-pixel drawing
+  auto fixed = [&](cv::Point2d p) {
+    return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
+                     static_cast<int>(std::lround(p.y * (1 << kShift))));
+  };
+
+  // Grid, ticks and labels in metres.
+  const double x_min = center_x - span * plot_w / 2.0, x_max = center_x + span * plot_w / 2.0;
+  const double y_min = center_y - span * plot_h / 2.0, y_max = center_y + span * plot_h / 2.0;
+  const double step = NiceStep(std::max(x_max - x_min, y_max - y_min), 8);
+  const int digits = std::max(0, -static_cast<int>(std::floor(std::log10(step))));
+  for (double x = std::ceil(x_min / step) * step; x <= x_max; x += step) {
+    const int px = static_cast<int>(std::lround(left + plot_w / 2.0 + (x - center_x) / span));
+    cv::line(image, {px, top}, {px, top + plot_h}, kGrid, 1);
+    cv::putText(image, fmt::format("{:.{}f}", x, digits), {px - 18, top + plot_h + 22},
+                cv::FONT_HERSHEY_SIMPLEX, 0.45, kBlack, 1, cv::LINE_AA);
+  }
+  for (double y = std::ceil(y_min / step) * step; y <= y_max; y += step) {
+    const int py = static_cast<int>(std::lround(top + plot_h / 2.0 - (y - center_y) / span));
+    cv::line(image, {left, py}, {left + plot_w, py}, kGrid, 1);
+    cv::putText(image, fmt::format("{:.{}f}", y, digits), {left - 60, py + 5},
+                cv::FONT_HERSHEY_SIMPLEX, 0.45, kBlack, 1, cv::LINE_AA);
+  }
+  cv::rectangle(image, {left, top}, {left + plot_w, top + plot_h}, kBlack, 1);
+  cv::putText(image, fmt::format("{} [m]", kAxisNames[ax]), {left + plot_w / 2 - 20, options.height - 20},
+              cv::FONT_HERSHEY_SIMPLEX, 0.6, kBlack, 1, cv::LINE_AA);
+  cv::putText(image, fmt::format("{} [m]", kAxisNames[ay]), {10, top + plot_h / 2},
+              cv::FONT_HERSHEY_SIMPLEX, 0.6, kBlack, 1, cv::LINE_AA);
+
+  // Errors first, trajectories over them.
+  for (size_t i = 0; i < ate.groundtruth_positions.size(); ++i) {
+    cv::line(image, fixed(to_pixel(ate.groundtruth_positions[i])),
+             fixed(to_pixel(ate.aligned_positions[i])), kError, 1, cv::LINE_AA, kShift);
+  }
+  for (size_t i = 1; i < ate.groundtruth_positions.size(); ++i) {
+    cv::line(image, fixed(to_pixel(ate.groundtruth_positions[i - 1])),
+             fixed(to_pixel(ate.groundtruth_positions[i])), kBlack, 2, cv::LINE_AA, kShift);
+    cv::line(image, fixed(to_pixel(ate.aligned_positions[i - 1])),
+             fixed(to_pixel(ate.aligned_positions[i])), kEstimate, 2, cv::LINE_AA, kShift);
+  }
+
+  // Legend and title.
+  const int lx = left + 12, ly = top + 12;
+  cv::rectangle(image, {lx, ly}, {lx + 230, ly + 78}, kWhite, cv::FILLED);
+  cv::rectangle(image, {lx, ly}, {lx + 230, ly + 78}, kBlack, 1);
+  const std::array<std::pair<cv::Scalar, const char*>, 3> entries = {
+      std::make_pair(kBlack, "ground truth"), std::make_pair(kEstimate, "estimate (aligned)"),
+      std::make_pair(kError, "difference")};
+  for (size_t i = 0; i < entries.size(); ++i) {
+    const int y = ly + 20 + static_cast<int>(i) * 22;
+    cv::line(image, {lx + 10, y}, {lx + 50, y}, entries[i].first, 2, cv::LINE_AA);
+    cv::putText(image, entries[i].second, {lx + 60, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.5, kBlack,
+                1, cv::LINE_AA);
+  }
+  const std::string title =
+      options.title.empty()
+          ? fmt::format("ATE RMSE {:.4f} m, max {:.4f} m, {} poses (top view)",
+                        ate.translation.rmse, ate.translation.max, ate.translation.count)
+          : options.title;
+  cv::putText(image, title, {left, 35}, cv::FONT_HERSHEY_SIMPLEX, 0.65, kBlack, 1, cv::LINE_AA);
+  return image;
+}
+
+void WriteTrajectoryPlot(const std::string& path, const AteResult& ate,
+                         const TrajectoryPlotOptions& options) {
+  WriteImageAtomically(path, DrawTrajectoryPlot(ate, options));
+}
+
+}  // namespace stillmap
