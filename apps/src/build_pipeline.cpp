@@ -119,8 +119,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
                  config.sequence.max_groundtruth_gap);
   }
 
+  CreatedFolderGuard folder_guard(request.output_dir);  // before the folder may be created
   PrepareOutputFolder(request.output_dir);
-  CreatedFolderGuard folder_guard(request.output_dir);
   OutputSet outputs(request.output_dir);
 
   Mapper mapper(camera, config.mapping);

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include <fmt/format.h>
+
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 
@@ -39,10 +41,10 @@ AteResult ComputeAte(const Trajectory& groundtruth, const Trajectory& estimate,
   const std::vector<std::pair<size_t, size_t>> matches = AssociateTimestamps(
       estimate.Times(), groundtruth.Times(), options.max_time_difference);
   if (matches.size() < 3) {
-    throw InputError("ATE: only " + std::to_string(matches.size()) +
-                     " estimate pose(s) have a ground-truth pose within " +
-                     std::to_string(options.max_time_difference) +
-                     " s; are the files from the same sequence (or raise --max-diff)?");
+    throw InputError(fmt::format(
+        "ATE: only {} estimate pose(s) associated with a ground-truth pose within {} s (3 needed); "
+        "are the files from the same sequence (or raise --max-diff)?",
+        matches.size(), options.max_time_difference));
   }
   Eigen::Matrix3Xd estimate_xyz(3, matches.size());
   Eigen::Matrix3Xd groundtruth_xyz(3, matches.size());

@@ -35,7 +35,7 @@ void VoxelCloudOptions::Validate() const {
 }
 
 VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)
-    : leaf_size_(options.leaf_size), inverse_leaf_(static_cast<float>(1.0 / options.leaf_size)) {
+    : leaf_size_(options.leaf_size), inverse_leaf_(1.0 / options.leaf_size) {
   options.Validate();
   keys_.assign(1 << 16, kEmpty);
   values_.resize(keys_.size());
@@ -68,7 +68,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
     std::int64_t index[3];
     bool in_range = true;
     for (int axis = 0; axis < 3; ++axis) {
-      index[axis] = static_cast<std::int64_t>(std::floor(p[axis] * inverse_leaf_));
+      index[axis] = static_cast<std::int64_t>(std::floor(static_cast<double>(p[axis]) * inverse_leaf_));
       in_range = in_range && index[axis] >= -kAxisOffset && index[axis] < kAxisOffset;
     }
     if (!in_range) {

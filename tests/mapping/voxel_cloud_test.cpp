@@ -59,19 +59,19 @@ TEST(VoxelCloudTest, MatchesAReferenceMapOnRandomPoints) {
     const auto key = std::make_tuple(static_cast<long>(std::floor(p.x() / 0.02)),
                                      static_cast<long>(std::floor(p.y() / 0.02)),
                                      static_cast<long>(std::floor(p.z() / 0.02)));
-    auto& entry = reference[key];
+    auto [it, inserted] = reference.try_emplace(key, Eigen::Vector3d::Zero(), 0);
+    auto& entry = it->second;
     entry.first += p.cast<double>();
     ++entry.second;
   }
   ASSERT_EQ(cloud.size(), reference.size());
-  for (const VoxelPoint& p : cloud.Points()) {
-    const auto key = std::make_tuple(static_cast<long>(std::floor(p.position.x() / 0.02)),
-                                     static_cast<long>(std::floor(p.position.y() / 0.02)),
-                                     static_cast<long>(std::floor(p.position.z() / 0.02)));
-    const auto it = reference.find(key);
-    ASSERT_NE(it, reference.end());
+  // Points() is sorted by voxel key, i.e. by (ix, iy, iz) as the reference map.
+  const std::vector<VoxelPoint> points = cloud.Points();
+  auto it = reference.begin();
+  for (const VoxelPoint& p : points) {
     EXPECT_EQ(static_cast<int>(p.count), it->second.second);
     EXPECT_LT((p.position.cast<double>() - it->second.first / it->second.second).norm(), 1e-5);
+    ++it;
   }
 }
 

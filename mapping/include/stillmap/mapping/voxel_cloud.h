@@ -58,7 +58,7 @@ class VoxelCloud {
   size_t FindSlot(std::uint64_t key) const;
 
   double leaf_size_;
-  float inverse_leaf_;
+  double inverse_leaf_;
   std::vector<std::uint64_t> keys_;
   std::vector<Accumulator> values_;
   size_t size_ = 0;
