@@ -123,7 +123,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
   PrepareOutputFolder(request.output_dir);
   OutputSet outputs(request.output_dir);
 
-  Mapper mapper(camera, config.mapping);
+  MapperOptions mapper_options = config.mapping;
+  mapper_options.occupancy_in_background = request.threads > 1;
+  Mapper mapper(camera, mapper_options);
   ProgressLine progress("stillmap build", frame_indices.size(), request.show_progress);
   double load_s = 0.0;
   auto load = [&sequence](size_t index) { return sequence.LoadFrame(index); };
@@ -144,6 +146,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
     mapper.Integrate(input);
     progress.Update(k + 1);
   }
+  mapper.Finish();
   progress.Finish();
   const double processing_s = Seconds(start);
 
@@ -207,12 +210,14 @@ BuildSummary RunBuild(const BuildRequest& request) {
       {"back_projection_total", stats.back_projection_ms},
       {"voxel_total", stats.voxel_ms},
       {"octomap_total", stats.occupancy_ms},
+      {"octomap_wait_total", stats.occupancy_wait_ms},
       {"write_outputs", write_s * 1000.0},
       {"per_frame",
        {{"load_wait", load_s * 1000.0 / n},
         {"back_projection", stats.back_projection_ms / n},
         {"voxel", stats.voxel_ms / n},
         {"octomap", stats.occupancy_ms / n},
+        {"octomap_wait", stats.occupancy_wait_ms / n},
         {"total", processing_s * 1000.0 / n}}}};
   report["wall_time_s"] = summary.wall_time_s;
   report["frames_per_second"] = summary.frames_per_second;

@@ -37,89 +37,105 @@ void VoxelCloudOptions::Validate() const {
 VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)
     : leaf_size_(options.leaf_size), inverse_leaf_(1.0 / options.leaf_size) {
   options.Validate();
-  keys_.assign(1 << 16, kEmpty);
-  values_.resize(keys_.size());
+  slots_.assign(1 << 16, Slot{kEmpty, {}, {}, 0});
 }
 
 size_t VoxelCloud::FindSlot(std::uint64_t key) const {
-  const size_t mask = keys_.size() - 1;
+  const size_t mask = slots_.size() - 1;
   size_t slot = Mix(key) & mask;
-  while (keys_[slot] != kEmpty && keys_[slot] != key) slot = (slot + 1) & mask;
+  while (slots_[slot].key != kEmpty && slots_[slot].key != key) slot = (slot + 1) & mask;
   return slot;
 }
 
 void VoxelCloud::Grow() {
-  const std::vector<std::uint64_t> old_keys = std::move(keys_);
-  const std::vector<Accumulator> old_values = std::move(values_);
-  keys_.assign(old_keys.size() * 2, kEmpty);
-  values_.assign(old_keys.size() * 2, Accumulator{});
-  for (size_t i = 0; i < old_keys.size(); ++i) {
-    if (old_keys[i] == kEmpty) continue;
-    const size_t slot = FindSlot(old_keys[i]);
-    keys_[slot] = old_keys[i];
-    values_[slot] = old_values[i];
+  const std::vector<Slot> old = std::move(slots_);
+  slots_.assign(old.size() * 2, Slot{kEmpty, {}, {}, 0});
+  for (const Slot& slot : old) {
+    if (slot.key != kEmpty) slots_[FindSlot(slot.key)] = slot;
   }
 }
 
 void VoxelCloud::Insert(const ColoredPoints& points) {
+  // Measured on TUM teddy (1 cm, ~2M voxels): a lookup is a cache miss in a table of ~160 MB. Keys
+  // are computed for a batch of points and their slots prefetched, so the misses overlap; and
+  // neighbouring pixels mostly fall into the same voxel, so the last slot is tried first.
+  constexpr size_t kBatch = 32;
   const float leaf = static_cast<float>(leaf_size_);
-  for (size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector3f& p = points.positions[i];
-    std::int64_t index[3];
-    bool in_range = true;
-    for (int axis = 0; axis < 3; ++axis) {
-      index[axis] = static_cast<std::int64_t>(std::floor(static_cast<double>(p[axis]) * inverse_leaf_));
-      in_range = in_range && index[axis] >= -kAxisOffset && index[axis] < kAxisOffset;
+  std::uint64_t keys[kBatch];
+  float offsets[kBatch][3];
+  std::uint64_t last_key = kEmpty;
+  size_t last_slot = 0;
+  for (size_t begin = 0; begin < points.size(); begin += kBatch) {
+    const size_t count = std::min(kBatch, points.size() - begin);
+    for (size_t b = 0; b < count; ++b) {
+      const Eigen::Vector3f& p = points.positions[begin + b];
+      std::int64_t index[3];
+      bool in_range = true;
+      for (int axis = 0; axis < 3; ++axis) {
+        index[axis] =
+            static_cast<std::int64_t>(std::floor(static_cast<double>(p[axis]) * inverse_leaf_));
+        in_range = in_range && index[axis] >= -kAxisOffset && index[axis] < kAxisOffset;
+        offsets[b][axis] = p[axis] - static_cast<float>(index[axis]) * leaf;
+      }
+      if (!in_range) {
+        keys[b] = kEmpty;
+        continue;
+      }
+      keys[b] = (static_cast<std::uint64_t>(index[0] + kAxisOffset) << (2 * kAxisBits)) |
+                (static_cast<std::uint64_t>(index[1] + kAxisOffset) << kAxisBits) |
+                static_cast<std::uint64_t>(index[2] + kAxisOffset);
+      __builtin_prefetch(&slots_[Mix(keys[b]) & (slots_.size() - 1)], 1);
     }
-    if (!in_range) {
-      ++rejected_;
-      continue;
+    for (size_t b = 0; b < count; ++b) {
+      const std::uint64_t key = keys[b];
+      if (key == kEmpty) {
+        ++rejected_;
+        continue;
+      }
+      if (key != last_key) {
+        if (2 * (size_ + 1) > slots_.size()) Grow();  // load factor <= 0.5
+        last_slot = FindSlot(key);
+        if (slots_[last_slot].key == kEmpty) {
+          slots_[last_slot] = Slot{key, {}, {}, 0};
+          ++size_;
+        }
+        last_key = key;
+      }
+      Slot& slot = slots_[last_slot];
+      const std::array<std::uint8_t, 3>& color = points.colors[begin + b];
+      for (int axis = 0; axis < 3; ++axis) {
+        slot.offset_sum[axis] += offsets[b][axis];
+        slot.color_sum[axis] += color[axis];
+      }
+      ++slot.count;
     }
-    const std::uint64_t key = (static_cast<std::uint64_t>(index[0] + kAxisOffset) << (2 * kAxisBits)) |
-                              (static_cast<std::uint64_t>(index[1] + kAxisOffset) << kAxisBits) |
-                              static_cast<std::uint64_t>(index[2] + kAxisOffset);
-    if (2 * (size_ + 1) > keys_.size()) Grow();  // load factor <= 0.5
-    const size_t slot = FindSlot(key);
-    Accumulator& acc = values_[slot];
-    if (keys_[slot] == kEmpty) {
-      keys_[slot] = key;
-      acc = Accumulator{};
-      ++size_;
-    }
-    for (int axis = 0; axis < 3; ++axis) {
-      acc.offset_sum[axis] += p[axis] - static_cast<float>(index[axis]) * leaf;
-      acc.color_sum[axis] += points.colors[i][axis];
-    }
-    ++acc.count;
   }
 }
 
 std::vector<VoxelPoint> VoxelCloud::Points() const {
-  std::vector<size_t> slots;
-  slots.reserve(size_);
-  for (size_t i = 0; i < keys_.size(); ++i) {
-    if (keys_[i] != kEmpty) slots.push_back(i);
+  std::vector<const Slot*> used;
+  used.reserve(size_);
+  for (const Slot& slot : slots_) {
+    if (slot.key != kEmpty) used.push_back(&slot);
   }
-  std::sort(slots.begin(), slots.end(), [&](size_t a, size_t b) { return keys_[a] < keys_[b]; });
+  std::sort(used.begin(), used.end(), [](const Slot* a, const Slot* b) { return a->key < b->key; });
   std::vector<VoxelPoint> points;
-  points.reserve(slots.size());
-  for (size_t slot : slots) {
-    const Accumulator& acc = values_[slot];
-    const float n = static_cast<float>(acc.count);
+  points.reserve(used.size());
+  for (const Slot* slot : used) {
+    const float n = static_cast<float>(slot->count);
     VoxelPoint point;
     for (int axis = 0; axis < 3; ++axis) {
-      const double corner = static_cast<double>(AxisIndex(keys_[slot], axis)) * leaf_size_;
-      point.position[axis] = static_cast<float>(corner + acc.offset_sum[axis] / n);
-      point.rgb[axis] = static_cast<std::uint8_t>((acc.color_sum[axis] + acc.count / 2) / acc.count);
+      const double corner = static_cast<double>(AxisIndex(slot->key, axis)) * leaf_size_;
+      point.position[axis] = static_cast<float>(corner + slot->offset_sum[axis] / n);
+      point.rgb[axis] =
+          static_cast<std::uint8_t>((slot->color_sum[axis] + slot->count / 2) / slot->count);
     }
-    point.count = acc.count;
+    point.count = slot->count;
     points.push_back(point);
   }
   return points;
 }
 
-size_t VoxelCloud::MemoryBytes() const {
-  return keys_.size() * (sizeof(std::uint64_t) + sizeof(Accumulator));
-}
+size_t VoxelCloud::MemoryBytes() const { return slots_.size() * sizeof(Slot); }
 
 }  // namespace stillmap

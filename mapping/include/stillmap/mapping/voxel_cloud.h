@@ -47,7 +47,9 @@ class VoxelCloud {
   size_t MemoryBytes() const;
 
  private:
-  struct Accumulator {
+  // Key and sums side by side: one cache line touched per lookup.
+  struct Slot {
+    std::uint64_t key;
     float offset_sum[3];  // sum of positions relative to the voxel's min corner [m]
     std::uint32_t color_sum[3];
     std::uint32_t count;
@@ -59,8 +61,7 @@ class VoxelCloud {
 
   double leaf_size_;
   double inverse_leaf_;
-  std::vector<std::uint64_t> keys_;
-  std::vector<Accumulator> values_;
+  std::vector<Slot> slots_;
   size_t size_ = 0;
   size_t rejected_ = 0;
 };
