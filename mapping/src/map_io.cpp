@@ -33,7 +33,9 @@ pcl::PointCloud<pcl::PointXYZRGB> ToPcl(const std::vector<VoxelPoint>& points) {
 }  // namespace
 
 void WritePly(const std::string& path, const std::vector<VoxelPoint>& points) {
-  if (pcl::io::savePLYFileBinary(path, ToPcl(points)) != 0) {
+  // No PCL "camera" element: plain vertex lists open everywhere (Open3D, MeshLab, CloudCompare).
+  pcl::PLYWriter writer;
+  if (writer.write(path, ToPcl(points), /*binary=*/true, /*use_camera=*/false) != 0) {
     throw std::runtime_error(path + ": could not write the PLY cloud");
   }
 }
