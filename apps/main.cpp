@@ -23,9 +23,7 @@ std::string ConfigKeysHelp() {
   return text;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int Run(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_st("stillmap"));
   spdlog::set_pattern("stillmap: %l: %v");
 
@@ -40,16 +38,17 @@ int main(int argc, char** argv) {
   std::string poses;
   bool quiet = false;
   CLI::App* build_cmd = app.add_subcommand(
-      "build", "Build the maps of a TUM-layout sequence (map.ply, map.pcd, map.bt, map.ot, "
-               "trajectory.txt, keyframes.txt, report.json, config.yaml).");
+      "build",
+      "Build the maps of a TUM-layout sequence (map.ply, map.pcd, map.bt, map.ot, "
+      "trajectory.txt, keyframes.txt, report.json, config.yaml).");
   build_cmd->add_option("SEQUENCE_DIR", build.sequence_dir, "TUM-layout sequence folder")
       ->required();
   build_cmd->add_option("-o,--output", build.output_dir, "output folder (created if needed)")
       ->required();
   build_cmd->add_option("--config", config_file, "YAML configuration file");
   build_cmd->add_option("--set", set_arguments, "key=value; overrides --config (repeatable)");
-  build_cmd->add_option("--poses", poses,
-                        "'groundtruth': map from the sequence's ground-truth poses")
+  build_cmd
+      ->add_option("--poses", poses, "'groundtruth': map from the sequence's ground-truth poses")
       ->check(CLI::IsMember({"groundtruth"}));
   build_cmd->add_option("--threads", build.threads, "worker threads (1: no read-ahead)")
       ->check(CLI::Range(1, 64));
@@ -59,10 +58,10 @@ int main(int argc, char** argv) {
   // eval
   stillmap::EvalRequest eval;
   CLI::App* eval_cmd = app.add_subcommand(
-      "eval", "ATE and RPE of a trajectory against ground truth, as the TUM benchmark computes "
-              "them (association, Horn alignment without scale; RPE over a fixed time delta).");
-  eval_cmd->add_option("GROUNDTRUTH", eval.groundtruth_path, "TUM-format ground truth")
-      ->required();
+      "eval",
+      "ATE and RPE of a trajectory against ground truth, as the TUM benchmark computes "
+      "them (association, Horn alignment without scale; RPE over a fixed time delta).");
+  eval_cmd->add_option("GROUNDTRUTH", eval.groundtruth_path, "TUM-format ground truth")->required();
   eval_cmd->add_option("ESTIMATE", eval.estimate_path, "TUM-format estimate")->required();
   eval_cmd->add_flag("--json", eval.json, "print JSON instead of text");
   eval_cmd->add_option("--plot", eval.plot_path, "write a top-view PNG of both trajectories");
@@ -106,10 +105,11 @@ int main(int argc, char** argv) {
       build.show_progress = !quiet && stillmap::StderrIsTerminal();
       if (quiet) spdlog::set_level(spdlog::level::warn);
       const stillmap::BuildSummary summary = stillmap::RunBuild(build);
-      spdlog::info("{} frames fused of {}, {} map points, {:.1f} frames/s, peak memory {:.0f} MiB; "
-                   "outputs in {}",
-                   summary.frames_fused, summary.frames_paired, summary.map_points,
-                   summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
+      spdlog::info(
+          "{} frames fused of {}, {} map points, {:.1f} frames/s, peak memory {:.0f} MiB; "
+          "outputs in {}",
+          summary.frames_fused, summary.frames_paired, summary.map_points,
+          summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
     } else if (*eval_cmd) {
       std::cout << stillmap::RunEval(eval);
     } else if (*info_cmd) {
@@ -123,4 +123,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {  // e.g. logging set-up; everything else is handled in Run
+    std::fprintf(stderr, "stillmap: failed: %s\n", e.what());
+    return 1;
+  }
 }

@@ -50,12 +50,16 @@ class CreatedFolderGuard {
 };
 
 nlohmann::json CameraJson(const Camera& camera) {
-  nlohmann::json json = {{"width", camera.width}, {"height", camera.height},
-                         {"fx", camera.fx},       {"fy", camera.fy},
-                         {"cx", camera.cx},       {"cy", camera.cy},
-                         {"distortion", camera.distortion},
-                         {"depth_factor", camera.depth_factor},
-                         {"groundtruth_body_from_camera", camera.groundtruth_body_from_camera.has_value()}};
+  nlohmann::json json = {
+      {"width", camera.width},
+      {"height", camera.height},
+      {"fx", camera.fx},
+      {"fy", camera.fy},
+      {"cx", camera.cx},
+      {"cy", camera.cy},
+      {"distortion", camera.distortion},
+      {"depth_factor", camera.depth_factor},
+      {"groundtruth_body_from_camera", camera.groundtruth_body_from_camera.has_value()}};
   return json;
 }
 
@@ -113,10 +117,10 @@ BuildSummary RunBuild(const BuildRequest& request) {
                      "of rgb.txt and groundtruth.txt)");
   }
   if (summary.frames_without_pose > 0) {
-    spdlog::warn("{} of {} frames lie outside the ground truth (or across a gap wider than {} s) "
-                 "and are left out",
-                 summary.frames_without_pose, summary.frames_paired,
-                 config.sequence.max_groundtruth_gap);
+    spdlog::warn(
+        "{} of {} frames lie outside the ground truth (or across a gap wider than {} s) "
+        "and are left out",
+        summary.frames_without_pose, summary.frames_paired, config.sequence.max_groundtruth_gap);
   }
 
   CreatedFolderGuard folder_guard(request.output_dir);  // before the folder may be created
@@ -205,20 +209,19 @@ BuildSummary RunBuild(const BuildRequest& request) {
                    {"octomap_leaves", summary.octomap_leaves},
                    {"octomap_occupied_leaves",
                     mapper.occupancy() ? mapper.occupancy()->OccupiedLeafCount() : 0}};
-  report["timing_ms"] = {
-      {"load_wait_total", load_s * 1000.0},
-      {"back_projection_total", stats.back_projection_ms},
-      {"voxel_total", stats.voxel_ms},
-      {"octomap_total", stats.occupancy_ms},
-      {"octomap_wait_total", stats.occupancy_wait_ms},
-      {"write_outputs", write_s * 1000.0},
-      {"per_frame",
-       {{"load_wait", load_s * 1000.0 / n},
-        {"back_projection", stats.back_projection_ms / n},
-        {"voxel", stats.voxel_ms / n},
-        {"octomap", stats.occupancy_ms / n},
-        {"octomap_wait", stats.occupancy_wait_ms / n},
-        {"total", processing_s * 1000.0 / n}}}};
+  report["timing_ms"] = {{"load_wait_total", load_s * 1000.0},
+                         {"back_projection_total", stats.back_projection_ms},
+                         {"voxel_total", stats.voxel_ms},
+                         {"octomap_total", stats.occupancy_ms},
+                         {"octomap_wait_total", stats.occupancy_wait_ms},
+                         {"write_outputs", write_s * 1000.0},
+                         {"per_frame",
+                          {{"load_wait", load_s * 1000.0 / n},
+                           {"back_projection", stats.back_projection_ms / n},
+                           {"voxel", stats.voxel_ms / n},
+                           {"octomap", stats.occupancy_ms / n},
+                           {"octomap_wait", stats.occupancy_wait_ms / n},
+                           {"total", processing_s * 1000.0 / n}}}};
   report["wall_time_s"] = summary.wall_time_s;
   report["frames_per_second"] = summary.frames_per_second;
   report["peak_memory_mib"] = summary.peak_memory_mib;

@@ -23,10 +23,11 @@ nlohmann::json StatisticsJson(const ErrorStatistics& s) {
 
 std::string StatisticsLine(const std::string& name, const ErrorStatistics& s, double scale,
                            const std::string& unit) {
-  return fmt::format("{:<18} rmse {:.4f}  mean {:.4f}  median {:.4f}  std {:.4f}  min {:.4f}  "
-                     "max {:.4f} {}  ({} pairs)\n",
-                     name, s.rmse * scale, s.mean * scale, s.median * scale, s.std_dev * scale,
-                     s.min * scale, s.max * scale, unit, s.count);
+  return fmt::format(
+      "{:<18} rmse {:.4f}  mean {:.4f}  median {:.4f}  std {:.4f}  min {:.4f}  "
+      "max {:.4f} {}  ({} pairs)\n",
+      name, s.rmse * scale, s.mean * scale, s.median * scale, s.std_dev * scale, s.min * scale,
+      s.max * scale, unit, s.count);
 }
 
 }  // namespace
@@ -56,28 +57,27 @@ std::string RunEval(const EvalRequest& request) {
   if (!request.plot_path.empty()) WriteTrajectoryPlot(request.plot_path, ate);
 
   if (request.json) {
-    nlohmann::json json = {
-        {"groundtruth", request.groundtruth_path},
-        {"estimate", request.estimate_path},
-        {"groundtruth_conversion", conversion},
-        {"ate_m", StatisticsJson(ate.translation)},
-        {"rpe_translation_m_per_delta", StatisticsJson(rpe.translation)},
-        {"rpe_rotation_deg_per_delta", StatisticsJson(rpe.rotation)},
-        {"rpe_delta_s", request.rpe.delta},
-        {"max_time_difference_s", request.ate.max_time_difference},
-        {"estimate_poses", estimate.size()},
-        {"groundtruth_poses", groundtruth.size()}};
+    nlohmann::json json = {{"groundtruth", request.groundtruth_path},
+                           {"estimate", request.estimate_path},
+                           {"groundtruth_conversion", conversion},
+                           {"ate_m", StatisticsJson(ate.translation)},
+                           {"rpe_translation_m_per_delta", StatisticsJson(rpe.translation)},
+                           {"rpe_rotation_deg_per_delta", StatisticsJson(rpe.rotation)},
+                           {"rpe_delta_s", request.rpe.delta},
+                           {"max_time_difference_s", request.ate.max_time_difference},
+                           {"estimate_poses", estimate.size()},
+                           {"groundtruth_poses", groundtruth.size()}};
     return json.dump(2) + "\n";
   }
   std::string text;
   text += fmt::format("ground truth: {} ({} poses; body-to-camera conversion: {})\n",
                       request.groundtruth_path, groundtruth.size(), conversion);
-  text += fmt::format("estimate:     {} ({} poses, {} associated within {} s)\n",
-                      request.estimate_path, estimate.size(), ate.translation.count,
-                      request.ate.max_time_difference);
+  text +=
+      fmt::format("estimate:     {} ({} poses, {} associated within {} s)\n", request.estimate_path,
+                  estimate.size(), ate.translation.count, request.ate.max_time_difference);
   text += StatisticsLine("ATE", ate.translation, 1.0, "m");
-  text += StatisticsLine(fmt::format("RPE trans/{}s", request.rpe.delta), rpe.translation, 1.0,
-                         "m");
+  text +=
+      StatisticsLine(fmt::format("RPE trans/{}s", request.rpe.delta), rpe.translation, 1.0, "m");
   text += StatisticsLine(fmt::format("RPE rot/{}s", request.rpe.delta), rpe.rotation, 1.0, "deg");
   if (!request.plot_path.empty()) text += "plot: " + request.plot_path + "\n";
   return text;
@@ -110,12 +110,12 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
         ++covered;
       }
     }
-    text += fmt::format("groundtruth: {} poses, {:.2f} s; {} of {} pairs have a pose{}\n",
-                        sequence.groundtruth()->size(),
-                        sequence.groundtruth()->poses().back().time -
-                            sequence.groundtruth()->poses().front().time,
-                        covered, frames.size(),
-                        camera.groundtruth_body_from_camera ? " (body-to-camera applied)" : "");
+    text += fmt::format(
+        "groundtruth: {} poses, {:.2f} s; {} of {} pairs have a pose{}\n",
+        sequence.groundtruth()->size(),
+        sequence.groundtruth()->poses().back().time - sequence.groundtruth()->poses().front().time,
+        covered, frames.size(),
+        camera.groundtruth_body_from_camera ? " (body-to-camera applied)" : "");
   } else {
     text += "groundtruth: none\n";
   }

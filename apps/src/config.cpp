@@ -13,7 +13,8 @@
 namespace stillmap {
 namespace {
 
-using Setter = std::function<void(BuildConfig*, const std::string& value, const std::string& where)>;
+using Setter =
+    std::function<void(BuildConfig*, const std::string& value, const std::string& where)>;
 using Getter = std::function<std::string(const BuildConfig&)>;  // empty: not set
 
 struct ConfigKey {
@@ -58,17 +59,19 @@ std::string Number(double value) { return fmt::format("{}", value); }
 
 // Keys bound to fields: a double, a count, a bool.
 ConfigKey DoubleKey(const std::string& name, const std::string& help,
-                    std::function<double&(BuildConfig&)> field) {
+                    const std::function<double&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
             field(*c) = ToDouble(name, v, where);
           },
           [field](const BuildConfig& c) {
-            BuildConfig copy = c; return Number(field(copy)); }};
+            BuildConfig copy = c;
+            return Number(field(copy));
+          }};
 }
 
 ConfigKey OptionalDoubleKey(const std::string& name, const std::string& help,
-                            std::function<std::optional<double>&(BuildConfig&)> field) {
+                            const std::function<std::optional<double>&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
             field(*c) = ToDouble(name, v, where);
@@ -81,7 +84,7 @@ ConfigKey OptionalDoubleKey(const std::string& name, const std::string& help,
 }
 
 ConfigKey OptionalIntKey(const std::string& name, const std::string& help,
-                         std::function<std::optional<int>&(BuildConfig&)> field) {
+                         const std::function<std::optional<int>&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
             field(*c) = static_cast<int>(ToInteger(name, v, where));
@@ -94,7 +97,7 @@ ConfigKey OptionalIntKey(const std::string& name, const std::string& help,
 }
 
 ConfigKey CountKey(const std::string& name, const std::string& help,
-                   std::function<size_t&(BuildConfig&)> field) {
+                   const std::function<size_t&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
             field(*c) = ToCount(name, v, where);
@@ -106,7 +109,7 @@ ConfigKey CountKey(const std::string& name, const std::string& help,
 }
 
 ConfigKey BoolKey(const std::string& name, const std::string& help,
-                  std::function<bool&(BuildConfig&)> field) {
+                  const std::function<bool&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
             field(*c) = ToBool(name, v, where);
@@ -118,7 +121,7 @@ ConfigKey BoolKey(const std::string& name, const std::string& help,
 }
 
 const std::vector<ConfigKey>& Keys() {
-  static const std::vector<ConfigKey> keys = [] {
+  static const std::vector<ConfigKey> kKeys = [] {
     std::vector<ConfigKey> k;
     k.push_back({"camera.preset",
                  "tum1|tum2|tum3|bonn|ros_default; used instead of the sequence's camera.yaml",
@@ -127,19 +130,24 @@ const std::vector<ConfigKey>& Keys() {
                    if (!v.empty()) CameraPreset(v);  // throws for an unknown name
                  },
                  [](const BuildConfig& c) { return c.camera.preset; }});
-    k.push_back(OptionalIntKey("camera.width", "image width [px]",
-                               [](BuildConfig& c) -> std::optional<int>& { return c.camera.width; }));
-    k.push_back(OptionalIntKey("camera.height", "image height [px]", [](BuildConfig& c) -> std::optional<int>& {
-      return c.camera.height;
-    }));
-    k.push_back(OptionalDoubleKey("camera.fx", "focal length x [px]",
-                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.fx; }));
-    k.push_back(OptionalDoubleKey("camera.fy", "focal length y [px]",
-                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.fy; }));
-    k.push_back(OptionalDoubleKey("camera.cx", "principal point x [px]",
-                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.cx; }));
-    k.push_back(OptionalDoubleKey("camera.cy", "principal point y [px]",
-                                  [](BuildConfig& c) -> std::optional<double>& { return c.camera.cy; }));
+    k.push_back(
+        OptionalIntKey("camera.width", "image width [px]",
+                       [](BuildConfig& c) -> std::optional<int>& { return c.camera.width; }));
+    k.push_back(
+        OptionalIntKey("camera.height", "image height [px]",
+                       [](BuildConfig& c) -> std::optional<int>& { return c.camera.height; }));
+    k.push_back(
+        OptionalDoubleKey("camera.fx", "focal length x [px]",
+                          [](BuildConfig& c) -> std::optional<double>& { return c.camera.fx; }));
+    k.push_back(
+        OptionalDoubleKey("camera.fy", "focal length y [px]",
+                          [](BuildConfig& c) -> std::optional<double>& { return c.camera.fy; }));
+    k.push_back(
+        OptionalDoubleKey("camera.cx", "principal point x [px]",
+                          [](BuildConfig& c) -> std::optional<double>& { return c.camera.cx; }));
+    k.push_back(
+        OptionalDoubleKey("camera.cy", "principal point y [px]",
+                          [](BuildConfig& c) -> std::optional<double>& { return c.camera.cy; }));
     k.push_back({"camera.distortion", "k1,k2,p1,p2,k3 (OpenCV radial-tangential)",
                  [](BuildConfig* c, const std::string& v, const std::string& where) {
                    std::string text = v;
@@ -151,7 +159,8 @@ const std::vector<ConfigKey>& Keys() {
                      BadValue(where, "camera.distortion", v, "5 numbers k1,k2,p1,p2,k3");
                    }
                    std::array<double, 5> d{};
-                   for (size_t i = 0; i < 5; ++i) d[i] = ToDouble("camera.distortion", fields[i], where);
+                   for (size_t i = 0; i < 5; ++i)
+                     d[i] = ToDouble("camera.distortion", fields[i], where);
                    c->camera.distortion = d;
                  },
                  [](const BuildConfig& c) {
@@ -159,24 +168,25 @@ const std::vector<ConfigKey>& Keys() {
                    const auto& d = *c.camera.distortion;
                    return fmt::format("[{}, {}, {}, {}, {}]", d[0], d[1], d[2], d[3], d[4]);
                  }});
-    k.push_back(OptionalDoubleKey("camera.depth_factor", "depth PNG value per metre",
-                                  [](BuildConfig& c) -> std::optional<double>& {
-                                    return c.camera.depth_factor;
-                                  }));
-    k.push_back(DoubleKey("sequence.max_pair_time_difference",
-                          "color/depth association window [s] (TUM: 0.02)",
-                          [](BuildConfig& c) -> double& { return c.sequence.max_pair_time_difference; }));
-    k.push_back(DoubleKey("sequence.max_groundtruth_gap",
-                          "widest ground-truth gap a pose is interpolated across [s]",
-                          [](BuildConfig& c) -> double& { return c.sequence.max_groundtruth_gap; }));
+    k.push_back(OptionalDoubleKey(
+        "camera.depth_factor", "depth PNG value per metre",
+        [](BuildConfig& c) -> std::optional<double>& { return c.camera.depth_factor; }));
+    k.push_back(DoubleKey(
+        "sequence.max_pair_time_difference", "color/depth association window [s] (TUM: 0.02)",
+        [](BuildConfig& c) -> double& { return c.sequence.max_pair_time_difference; }));
+    k.push_back(DoubleKey(
+        "sequence.max_groundtruth_gap", "widest ground-truth gap a pose is interpolated across [s]",
+        [](BuildConfig& c) -> double& { return c.sequence.max_groundtruth_gap; }));
     k.push_back(CountKey("sequence.first_frame", "index of the first color/depth pair used",
                          [](BuildConfig& c) -> size_t& { return c.first_frame; }));
     k.push_back(CountKey("sequence.max_frames", "pairs used from first_frame; 0 = all",
                          [](BuildConfig& c) -> size_t& { return c.max_frames; }));
-    k.push_back(DoubleKey("mapping.min_depth", "depth readings nearer are ignored [m]",
-                          [](BuildConfig& c) -> double& { return c.mapping.back_projection.min_depth; }));
-    k.push_back(DoubleKey("mapping.max_depth", "depth readings farther are ignored [m]",
-                          [](BuildConfig& c) -> double& { return c.mapping.back_projection.max_depth; }));
+    k.push_back(
+        DoubleKey("mapping.min_depth", "depth readings nearer are ignored [m]",
+                  [](BuildConfig& c) -> double& { return c.mapping.back_projection.min_depth; }));
+    k.push_back(
+        DoubleKey("mapping.max_depth", "depth readings farther are ignored [m]",
+                  [](BuildConfig& c) -> double& { return c.mapping.back_projection.max_depth; }));
     k.push_back({"mapping.pixel_stride", "back-project every n-th pixel along u and v",
                  [](BuildConfig* c, const std::string& v, const std::string& where) {
                    c->mapping.back_projection.pixel_stride =
@@ -189,25 +199,30 @@ const std::vector<ConfigKey>& Keys() {
                           [](BuildConfig& c) -> double& { return c.mapping.voxel.leaf_size; }));
     k.push_back(BoolKey("octomap.enabled", "build the OctoMap (map.bt, map.ot)",
                         [](BuildConfig& c) -> bool& { return c.mapping.occupancy_enabled; }));
-    k.push_back(DoubleKey("octomap.resolution", "OctoMap leaf size [m]",
-                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.resolution; }));
+    k.push_back(
+        DoubleKey("octomap.resolution", "OctoMap leaf size [m]",
+                  [](BuildConfig& c) -> double& { return c.mapping.occupancy.resolution; }));
     k.push_back(DoubleKey("octomap.max_range", "rays truncated at this range [m]; <= 0: none",
                           [](BuildConfig& c) -> double& { return c.mapping.occupancy.max_range; }));
-    k.push_back(DoubleKey("octomap.probability_hit", "sensor model: P(occupied | hit)",
-                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.probability_hit; }));
-    k.push_back(DoubleKey("octomap.probability_miss", "sensor model: P(occupied | pass-through)",
-                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.probability_miss; }));
-    k.push_back(DoubleKey("octomap.clamping_min", "lower probability clamp",
-                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_min; }));
-    k.push_back(DoubleKey("octomap.clamping_max", "upper probability clamp",
-                          [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_max; }));
+    k.push_back(
+        DoubleKey("octomap.probability_hit", "sensor model: P(occupied | hit)",
+                  [](BuildConfig& c) -> double& { return c.mapping.occupancy.probability_hit; }));
+    k.push_back(
+        DoubleKey("octomap.probability_miss", "sensor model: P(occupied | pass-through)",
+                  [](BuildConfig& c) -> double& { return c.mapping.occupancy.probability_miss; }));
+    k.push_back(
+        DoubleKey("octomap.clamping_min", "lower probability clamp",
+                  [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_min; }));
+    k.push_back(
+        DoubleKey("octomap.clamping_max", "upper probability clamp",
+                  [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_max; }));
     k.push_back(DoubleKey("eval.max_time_difference", "ATE association window [s]",
                           [](BuildConfig& c) -> double& { return c.ate.max_time_difference; }));
     k.push_back(DoubleKey("eval.rpe_delta", "RPE pose-pair time delta [s]",
                           [](BuildConfig& c) -> double& { return c.rpe.delta; }));
     return k;
   }();
-  return keys;
+  return kKeys;
 }
 
 const ConfigKey& FindKey(const std::string& name, const std::string& where) {
@@ -216,14 +231,14 @@ const ConfigKey& FindKey(const std::string& name, const std::string& where) {
   }
   std::string known;
   for (const ConfigKey& key : Keys()) known += " " + key.name;
-  throw InputError(fmt::format("{}: unknown configuration key '{}' (known:{})", where, name, known));
+  throw InputError(
+      fmt::format("{}: unknown configuration key '{}' (known:{})", where, name, known));
 }
 
 void Flatten(const YAML::Node& node, const std::string& prefix, const std::string& path,
              std::vector<std::pair<std::string, YAML::Node>>* out) {
   for (const auto& item : node) {
-    const std::string name =
-        (prefix.empty() ? "" : prefix + ".") + item.first.as<std::string>();
+    const std::string name = (prefix.empty() ? "" : prefix + ".") + item.first.as<std::string>();
     if (item.second.IsMap()) {
       Flatten(item.second, name, path, out);
     } else {
@@ -260,7 +275,8 @@ void SetConfigValue(BuildConfig* config, const std::string& key, const std::stri
 void ApplySetArgument(BuildConfig* config, const std::string& argument) {
   const size_t equals = argument.find('=');
   if (equals == std::string::npos || equals == 0) {
-    throw InputError("--set " + argument + ": expected key=value, e.g. --set mapping.voxel_leaf=0.02");
+    throw InputError("--set " + argument +
+                     ": expected key=value, e.g. --set mapping.voxel_leaf=0.02");
   }
   SetConfigValue(config, argument.substr(0, equals), argument.substr(equals + 1), "--set");
 }
@@ -282,11 +298,14 @@ void ApplyConfigFile(BuildConfig* config, const std::string& path) {
     const std::string where = WhereInFile(path, node.Mark().line + 1);
     std::string value;
     if (node.IsSequence()) {
-      for (const YAML::Node& item : node) value += (value.empty() ? "" : ",") + item.as<std::string>();
+      for (const YAML::Node& item : node) {
+        if (!value.empty()) value += ',';
+        value += item.as<std::string>();
+      }
     } else if (node.IsScalar()) {
       value = node.as<std::string>();
     } else if (!node.IsNull()) {
-      throw InputError(where + ": key '" + name + "' must hold a value");
+      throw InputError(fmt::format("{}: key '{}' must hold a value", where, name));
     }
     SetConfigValue(config, name, value, where);
   }

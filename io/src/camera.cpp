@@ -68,7 +68,8 @@ namespace {
 double ReadScalar(const YAML::Node& root, const std::string& key, const std::string& path) {
   const YAML::Node node = root[key];
   if (!node) {
-    throw InputError(path + ": missing key '" + key + "' (camera.yaml needs width, height, fx, "
+    throw InputError(path + ": missing key '" + key +
+                     "' (camera.yaml needs width, height, fx, "
                      "fy, cx, cy, distortion, depth_factor)");
   }
   try {
@@ -108,9 +109,10 @@ Camera LoadCameraYaml(const std::string& path) {
     throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " + e.msg);
   }
   if (!root.IsMap()) throw InputError(path + ": expected a YAML map of camera keys");
-  const std::set<std::string> known = {"width", "height",       "fx",
-                                       "fy",    "cx",           "cy",
-                                       "distortion", "depth_factor", "groundtruth_body_from_camera"};
+  const std::set<std::string> known = {
+      "width",      "height",       "fx",
+      "fy",         "cx",           "cy",
+      "distortion", "depth_factor", "groundtruth_body_from_camera"};
   for (const auto& item : root) {
     const std::string key = item.first.as<std::string>();
     if (known.count(key) == 0) {

@@ -1,11 +1,11 @@
 #include "stillmap/io/evaluation.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-
-#include <fmt/format.h>
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
@@ -38,8 +38,8 @@ ErrorStatistics ComputeStatistics(std::vector<double> errors) {
 
 AteResult ComputeAte(const Trajectory& groundtruth, const Trajectory& estimate,
                      const AteOptions& options) {
-  const std::vector<std::pair<size_t, size_t>> matches = AssociateTimestamps(
-      estimate.Times(), groundtruth.Times(), options.max_time_difference);
+  const std::vector<std::pair<size_t, size_t>> matches =
+      AssociateTimestamps(estimate.Times(), groundtruth.Times(), options.max_time_difference);
   if (matches.size() < 3) {
     throw InputError(fmt::format(
         "ATE: only {} estimate pose(s) associated with a ground-truth pose within {} s (3 needed); "

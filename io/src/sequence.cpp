@@ -42,7 +42,8 @@ Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& ove
 Sequence Sequence::Open(const std::string& dir, const Camera& camera,
                         const SequenceOptions& options) {
   if (!fs::is_directory(dir)) {
-    throw InputError(dir + ": sequence folder not found (expected a TUM-layout folder with "
+    throw InputError(dir +
+                     ": sequence folder not found (expected a TUM-layout folder with "
                      "rgb.txt and depth.txt)");
   }
   if (!(options.max_pair_time_difference > 0.0)) {

@@ -89,9 +89,9 @@ std::optional<Eigen::Isometry3d> Trajectory::Interpolate(double time, double max
   if (poses_.empty() || time < poses_.front().time || time > poses_.back().time) {
     return std::nullopt;
   }
-  std::vector<StampedPose>::const_iterator upper = std::lower_bound(
-      poses_.begin(), poses_.end(), time,
-      [](const StampedPose& pose, double t) { return pose.time < t; });
+  std::vector<StampedPose>::const_iterator upper =
+      std::lower_bound(poses_.begin(), poses_.end(), time,
+                       [](const StampedPose& pose, double t) { return pose.time < t; });
   if (upper->time == time) return upper->world_from_camera;
   const StampedPose& a = *(upper - 1);
   const StampedPose& b = *upper;

@@ -32,7 +32,8 @@ DepthBackProjector::DepthBackProjector(const Camera& camera, const BackProjectio
   std::vector<cv::Point2f> pixels;
   pixels.reserve(count);
   for (int v = 0; v < height_; ++v) {
-    for (int u = 0; u < width_; ++u) pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    for (int u = 0; u < width_; ++u)
+      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
   }
   const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
   const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
@@ -66,8 +67,8 @@ void DepthBackProjector::BackProject(const cv::Mat& depth_m, const cv::Mat& colo
     const float* depth_row = depth_m.ptr<float>(v);
     const cv::Vec3b* color_row = color.ptr<cv::Vec3b>(v);
     const std::uint8_t* mask_row = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(v);
-    const float* ray_x = &ray_x_[v * width_];
-    const float* ray_y = &ray_y_[v * width_];
+    const float* ray_x = &ray_x_[static_cast<size_t>(v) * width_];
+    const float* ray_y = &ray_y_[static_cast<size_t>(v) * width_];
     for (int u = 0; u < width_; u += stride) {
       const float z = depth_row[u];
       if (!(z > 0.0f && z >= min_depth && z <= max_depth)) continue;

@@ -50,8 +50,8 @@ const MapperStatistics& Mapper::statistics() {
 void Mapper::Integrate(const MapperFrame& frame) {
   auto start = std::chrono::steady_clock::now();
   scratch_.Clear();
-  projector_.BackProject(frame.depth_m, frame.color, frame.mask, frame.world_from_camera.cast<float>(),
-                         &scratch_);
+  projector_.BackProject(frame.depth_m, frame.color, frame.mask,
+                         frame.world_from_camera.cast<float>(), &scratch_);
   statistics_.back_projection_ms += MillisecondsSince(start);
 
   if (occupancy_) {

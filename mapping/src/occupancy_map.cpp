@@ -79,7 +79,15 @@ double OccupancyMap::resolution() const { return impl_->tree.getResolution(); }
 
 void OccupancyMap::WriteBinary(const std::string& path) const {
   std::ofstream out(path, std::ios::binary);
-  if (!out || !impl_->tree.writeBinaryConst(out) || !out.flush()) {
+  // The header of OctoMap's .bt format, then its binary node data. Debian's liboctomap is built
+  // with debug output, and writeBinaryConst() would print " done." on stderr even with --quiet.
+  out << "# Octomap OcTree binary file\n"
+      << "# (feel free to add / change comments, but leave the first line as it is!)\n#\n"
+      << "id " << impl_->tree.getTreeType() << "\n"
+      << "size " << impl_->tree.size() << "\n"
+      << "res " << impl_->tree.getResolution() << "\n"
+      << "data\n";
+  if (!out || !impl_->tree.writeBinaryData(out) || !out.flush()) {
     throw std::runtime_error(path + ": could not write the OctoMap (.bt)");
   }
 }

@@ -46,13 +46,15 @@ TEST(ConfigTest, UnknownKeysAndBadValuesAreNamed) {
   const std::string unknown = ErrorOf([&] { ApplySetArgument(&config, "mapping.voxel_size=1"); });
   EXPECT_NE(unknown.find("unknown configuration key 'mapping.voxel_size'"), std::string::npos);
   EXPECT_NE(unknown.find("mapping.voxel_leaf"), std::string::npos);  // lists the known keys
-  EXPECT_NE(ErrorOf([&] { ApplySetArgument(&config, "mapping.voxel_leaf=big"); })
-                .find("expected a finite number"),
+  EXPECT_NE(ErrorOf([&] {
+              ApplySetArgument(&config, "mapping.voxel_leaf=big");
+            }).find("expected a finite number"),
             std::string::npos);
   EXPECT_NE(ErrorOf([&] { ApplySetArgument(&config, "novalue"); }).find("key=value"),
             std::string::npos);
-  EXPECT_NE(ErrorOf([&] { ApplySetArgument(&config, "camera.preset=kinect9"); }).find("unknown preset"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf([&] { ApplySetArgument(&config, "camera.preset=kinect9"); }).find("unknown preset"),
+      std::string::npos);
   ApplySetArgument(&config, "mapping.max_depth=0.05");
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("mapping.max_depth"), std::string::npos);
 }

@@ -84,8 +84,8 @@ Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, cons
     cv::Mat depth(camera.height, camera.width, CV_16UC1);
     for (int v = 0; v < camera.height; ++v) {
       for (int u = 0; u < camera.width; ++u) {
-        const Eigen::Vector3d ray_in_camera((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy,
-                                            1.0);
+        const Eigen::Vector3d ray_in_camera((u - camera.cx) / camera.fx,
+                                            (v - camera.cy) / camera.fy, 1.0);
         const Eigen::Vector3d ray = pose.linear() * ray_in_camera;
         const double denominator = scene.normal.dot(ray);
         double z = 0.0;
@@ -94,7 +94,9 @@ Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, cons
         }
         const Eigen::Vector3d hit = pose.translation() + z * ray;
         const bool dark = (static_cast<int>(std::floor(hit.x() / 0.1)) +
-                           static_cast<int>(std::floor(hit.y() / 0.1))) % 2 == 0;
+                           static_cast<int>(std::floor(hit.y() / 0.1))) %
+                              2 ==
+                          0;
         color.at<cv::Vec3b>(v, u) = dark ? cv::Vec3b(40, 60, 200) : cv::Vec3b(230, 230, 230);
         const double value = z > 0 ? std::round(z * camera.depth_factor) : 0.0;
         depth.at<std::uint16_t>(v, u) = static_cast<std::uint16_t>(std::min(value, 65535.0));
@@ -107,7 +109,7 @@ Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, cons
     depth_list << std::fixed << time << " depth/" << name << "\n";
     poses.push_back({time, pose});
   }
-  const Trajectory trajectory(poses);
+  Trajectory trajectory(poses);
   trajectory.WriteTum(dir + "/groundtruth.txt");
   std::ofstream yaml(dir + "/camera.yaml");
   yaml << "width: " << camera.width << "\nheight: " << camera.height << "\nfx: " << camera.fx
@@ -123,7 +125,8 @@ int RunStillmap(const std::string& arguments, std::string* output) {
   std::array<char, 4096> buffer{};
   output->clear();
   size_t read = 0;
-  while ((read = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) output->append(buffer.data(), read);
+  while ((read = fread(buffer.data(), 1, buffer.size(), pipe)) > 0)
+    output->append(buffer.data(), read);
   const int status = pclose(pipe);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }

@@ -30,13 +30,12 @@ class BadInputTest : public ::testing::Test {
   // `expected`, and no output folder (it did not exist before).
   void ExpectRefused(const std::string& expected, const std::string& extra = "") {
     std::string output;
-    const int status =
-        RunStillmap("build " + sequence_ + " -o " + output_ + " --poses groundtruth --quiet " + extra,
-                    &output);
+    const int status = RunStillmap(
+        "build " + sequence_ + " -o " + output_ + " --poses groundtruth --quiet " + extra, &output);
     EXPECT_EQ(status, 2) << output;
     EXPECT_NE(output.find("stillmap: error: "), std::string::npos) << output;
-    EXPECT_NE(output.find(expected), std::string::npos) << "expected '" << expected << "' in: "
-                                                        << output;
+    EXPECT_NE(output.find(expected), std::string::npos)
+        << "expected '" << expected << "' in: " << output;
     EXPECT_EQ(std::count(output.begin(), output.end(), '\n'), 1) << output;
     EXPECT_FALSE(fs::exists(output_)) << "outputs left behind in " << output_;
   }

@@ -1,7 +1,5 @@
 // The build pipeline end to end on synthetic planes (exact truth) and, when present, on the real
 // TUM teddy sequence with its motion-capture trajectory.
-#include "stillmap/apps/build_pipeline.h"
-
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 #include <pcl/kdtree/kdtree_flann.h>
@@ -11,6 +9,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "stillmap/apps/build_pipeline.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/back_projection.h"
@@ -22,8 +21,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const char* kOutputs[] = {"map.ply",       "map.pcd",     "map.bt",      "map.ot",
-                          "trajectory.txt", "keyframes.txt", "report.json", "config.yaml"};
+constexpr const char* kOutputs[] = {"map.ply",     "map.pcd",        "map.bt",
+                                    "map.ot",      "trajectory.txt", "keyframes.txt",
+                                    "report.json", "config.yaml"};
 
 TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   testing::TempDir dir;
@@ -47,7 +47,8 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
 
   for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
   for (const auto& entry : fs::directory_iterator(dir / "out")) {
-    EXPECT_EQ(entry.path().extension(), entry.path().extension() == ".tmp" ? ".none" : entry.path().extension())
+    EXPECT_EQ(entry.path().extension(),
+              entry.path().extension() == ".tmp" ? ".none" : entry.path().extension())
         << "temporary file left: " << entry.path();
   }
 
@@ -60,8 +61,8 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   const Trajectory written = Trajectory::ReadTum(dir / "out/trajectory.txt");
   ASSERT_EQ(written.size(), truth.size());
   for (size_t i = 0; i < truth.size(); ++i) {
-    EXPECT_TRUE(written.poses()[i].world_from_camera.isApprox(truth.poses()[i].world_from_camera,
-                                                              1e-8));
+    EXPECT_TRUE(
+        written.poses()[i].world_from_camera.isApprox(truth.poses()[i].world_from_camera, 1e-8));
   }
 
   // The OctoMap opens in OctoMap and has the wall occupied, the space before it free.
@@ -108,13 +109,15 @@ TEST(BuildTest, FramesOutsideTheGroundTruthAreLeftOutNotInvented) {
 // the Kinect at 1-2 m is a few mm.
 TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
   const std::optional<std::string> sequence = testing::SharedSequence("tum_fr3_teddy_200");
-  if (!sequence) GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
+  if (!sequence)
+    GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
   testing::TempDir dir;
   BuildRequest request;
   request.sequence_dir = *sequence;
   request.output_dir = dir / "out";
   request.poses = PoseSource::kGroundTruth;
-  ApplySetArgument(&request.config, "sequence.first_frame=5");  // frames 0-4 precede the ground truth
+  ApplySetArgument(&request.config,
+                   "sequence.first_frame=5");  // frames 0-4 precede the ground truth
   ApplySetArgument(&request.config, "sequence.max_frames=40");
   const BuildSummary summary = RunBuild(request);
   EXPECT_EQ(summary.frames_fused, 40u);
@@ -137,20 +140,22 @@ TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
     const Frame frame = frames.LoadFrame(held_out);
     ColoredPoints points;
     projector.BackProject(frame.depth_m, frame.color, cv::Mat(),
-                          frames.groundtruth()->Interpolate(frame.time, 0.1)->cast<float>(), &points);
+                          frames.groundtruth()->Interpolate(frame.time, 0.1)->cast<float>(),
+                          &points);
     std::vector<double> distances;
     std::vector<int> index(1);
     std::vector<float> squared(1);
     for (const Eigen::Vector3f& p : points.positions) {
       pcl::PointXYZ query;
       query.getVector3fMap() = p;
-      if (tree.nearestKSearch(query, 1, index, squared) == 1) distances.push_back(std::sqrt(squared[0]));
+      if (tree.nearestKSearch(query, 1, index, squared) == 1)
+        distances.push_back(std::sqrt(squared[0]));
     }
     // Parts of the frame the map never saw are left out: the overlap is within 5 cm.
     const size_t all = distances.size();
-    distances.erase(std::remove_if(distances.begin(), distances.end(),
-                                   [](double d) { return d > 0.05; }),
-                    distances.end());
+    distances.erase(
+        std::remove_if(distances.begin(), distances.end(), [](double d) { return d > 0.05; }),
+        distances.end());
     ASSERT_GT(distances.size(), 0.8 * all);
     std::sort(distances.begin(), distances.end());
     const double median = distances[distances.size() / 2];

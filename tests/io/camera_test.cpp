@@ -11,7 +11,7 @@ namespace {
 using testing::TempDir;
 using testing::WriteText;
 
-const char* kCameraYaml =
+constexpr const char kCameraYaml[] =
     "width: 640\nheight: 480\nfx: 542.8\nfy: 542.5\ncx: 315.5\ncy: 237.7\n"
     "distortion: [0.04, -0.1, -0.0007, -0.0001, 0.0]\ndepth_factor: 5000.0\n";
 
@@ -30,9 +30,9 @@ TEST(CameraTest, PresetsMatchPublishedCalibrations) {
 
 TEST(CameraTest, ReadsYamlWithBodyFromCamera) {
   TempDir dir;
-  WriteText(dir / "camera.yaml",
-            std::string(kCameraYaml) +
-                "groundtruth_body_from_camera: [0, -1, 0, 0.1, 1, 0, 0, 0.2, 0, 0, 1, 0.3, 0, 0, 0, 1]\n");
+  WriteText(dir / "camera.yaml", std::string(kCameraYaml) +
+                                     "groundtruth_body_from_camera: [0, -1, 0, 0.1, 1, 0, 0, 0.2, "
+                                     "0, 0, 1, 0.3, 0, 0, 0, 1]\n");
   const Camera camera = LoadCameraYaml(dir / "camera.yaml");
   EXPECT_EQ(camera.width, 640);
   EXPECT_DOUBLE_EQ(camera.fx, 542.8);
@@ -64,9 +64,10 @@ TEST(CameraTest, RejectsUnknownKeysAndImpossibleValues) {
   negative.replace(negative.find("fx: 542.8"), 9, "fx: -5");
   WriteText(dir / "b.yaml", negative);
   EXPECT_THROW(LoadCameraYaml(dir / "b.yaml"), InputError);
-  WriteText(dir / "c.yaml", std::string(kCameraYaml) +
-                                "groundtruth_body_from_camera: [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, "
-                                "0, 0, 0, 1]\n");
+  WriteText(dir / "c.yaml",
+            std::string(kCameraYaml) +
+                "groundtruth_body_from_camera: [2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, "
+                "0, 0, 0, 1]\n");
   EXPECT_THROW(LoadCameraYaml(dir / "c.yaml"), InputError);
   WriteText(dir / "d.yaml", "width: [\n");
   EXPECT_THROW(LoadCameraYaml(dir / "d.yaml"), InputError);

@@ -44,7 +44,8 @@ TEST(EvaluationTest, StatisticsMatchHandComputation) {
 TEST(EvaluationTest, RigidlyMovedTrajectoryHasZeroErrorAndTheAlignmentIsRecovered) {
   const Trajectory groundtruth(LoopTrajectory(300, 30.0));
   std::vector<StampedPose> moved = groundtruth.poses();
-  for (StampedPose& pose : moved) pose.world_from_camera = KnownTransform() * pose.world_from_camera;
+  for (StampedPose& pose : moved)
+    pose.world_from_camera = KnownTransform() * pose.world_from_camera;
   const Trajectory estimate(moved);
   const AteResult ate = ComputeAte(groundtruth, estimate);
   EXPECT_EQ(ate.translation.count, 300u);

@@ -77,9 +77,10 @@ TEST(SequenceTest, ImageSizeMustMatchTheCamera) {
 TEST(SequenceTest, GroundTruthOfABodyIsConvertedToTheCamera) {
   TempDir dir;
   testing::WritePlaneSequence(dir.path(), testing::SmallCamera(), {}, SlideAlongX(2));
-  WriteText(dir / "camera.yaml",
-            testing::ReadText(dir / "camera.yaml") +
-                "groundtruth_body_from_camera: [0, 0, 1, 0.5, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 0, 1]\n");
+  WriteText(
+      dir / "camera.yaml",
+      testing::ReadText(dir / "camera.yaml") +
+          "groundtruth_body_from_camera: [0, 0, 1, 0.5, -1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 0, 1]\n");
   const Camera camera = ResolveCamera(dir.path(), {});
   const Sequence sequence = Sequence::Open(dir.path(), camera);
   const Eigen::Isometry3d world_from_camera = sequence.groundtruth()->poses()[1].world_from_camera;

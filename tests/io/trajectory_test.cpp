@@ -43,8 +43,8 @@ TEST(TrajectoryTest, WriteThenReadIsIdentity) {
   ASSERT_EQ(read.size(), written.size());
   for (size_t i = 0; i < read.size(); ++i) {
     EXPECT_NEAR(read.poses()[i].time, written.poses()[i].time, 1e-6);
-    EXPECT_TRUE(read.poses()[i].world_from_camera.isApprox(written.poses()[i].world_from_camera,
-                                                           1e-8));
+    EXPECT_TRUE(
+        read.poses()[i].world_from_camera.isApprox(written.poses()[i].world_from_camera, 1e-8));
   }
 }
 

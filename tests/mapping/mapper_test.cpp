@@ -20,7 +20,8 @@ TEST(MapperTest, FusedCloudOfATiltedPlaneLiesOnThePlane) {
   std::vector<Eigen::Isometry3d> poses;
   for (int i = 0; i < 8; ++i) {
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.linear() = Eigen::AngleAxisd(0.05 * i, Eigen::Vector3d(0, 1, 0.3).normalized()).toRotationMatrix();
+    pose.linear() =
+        Eigen::AngleAxisd(0.05 * i, Eigen::Vector3d(0, 1, 0.3).normalized()).toRotationMatrix();
     pose.translation() = Eigen::Vector3d(0.1 * std::cos(i), 0.1 * std::sin(i), 0.02 * i);
     poses.push_back(pose);
   }

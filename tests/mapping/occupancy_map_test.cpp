@@ -25,10 +25,10 @@ TEST(OccupancyMapTest, RayCastingMarksHitsOccupiedAndTheWayFree) {
   for (int k = 0; k < 3; ++k) map.InsertScan(Wall(), Eigen::Vector3f::Zero());
   EXPECT_GT(map.Occupancy({0.0, 0.0, 2.0}), 0.5);
   EXPECT_GT(map.Occupancy({0.3, -0.3, 2.01}), 0.5);
-  EXPECT_LT(map.Occupancy({0.0, 0.0, 1.0}), 0.5);   // seen through: free
-  EXPECT_GE(map.Occupancy({0.0, 0.0, 1.0}), 0.0);   // and known
-  EXPECT_LT(map.Occupancy({0.0, 0.0, 3.0}), 0.0);   // behind the wall: unknown
-  EXPECT_LT(map.Occupancy({2.0, 0.0, 1.0}), 0.0);   // outside the view: unknown
+  EXPECT_LT(map.Occupancy({0.0, 0.0, 1.0}), 0.5);  // seen through: free
+  EXPECT_GE(map.Occupancy({0.0, 0.0, 1.0}), 0.0);  // and known
+  EXPECT_LT(map.Occupancy({0.0, 0.0, 3.0}), 0.0);  // behind the wall: unknown
+  EXPECT_LT(map.Occupancy({2.0, 0.0, 1.0}), 0.0);  // outside the view: unknown
   EXPECT_GT(map.OccupiedLeafCount(), 300u);
 }
 

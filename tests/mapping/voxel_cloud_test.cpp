@@ -50,6 +50,7 @@ TEST(VoxelCloudTest, MatchesAReferenceMapOnRandomPoints) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> coordinate(-3.0f, 3.0f);
   std::vector<Eigen::Vector3f> positions;
+  positions.reserve(300000);
   for (int i = 0; i < 300000; ++i) {
     positions.emplace_back(coordinate(rng), coordinate(rng), 0.5f * coordinate(rng));
   }

@@ -43,7 +43,7 @@ cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& op
   std::sort(axes.begin(), axes.end(), [&](int a, int b) { return extent[a] > extent[b]; });
   const int ax = std::min(axes[0], axes[1]);
   const int ay = std::max(axes[0], axes[1]);
-  const char* kAxisNames = "xyz";
+  constexpr char kAxisNames[] = "xyz";
 
   const int left = 90, right = 30, top = 60, bottom = 70;
   const int plot_w = options.width - left - right, plot_h = options.height - top - bottom;
@@ -78,8 +78,9 @@ cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& op
                 cv::FONT_HERSHEY_SIMPLEX, 0.45, kBlack, 1, cv::LINE_AA);
   }
   cv::rectangle(image, {left, top}, {left + plot_w, top + plot_h}, kBlack, 1);
-  cv::putText(image, fmt::format("{} [m]", kAxisNames[ax]), {left + plot_w / 2 - 20, options.height - 20},
-              cv::FONT_HERSHEY_SIMPLEX, 0.6, kBlack, 1, cv::LINE_AA);
+  cv::putText(image, fmt::format("{} [m]", kAxisNames[ax]),
+              {left + plot_w / 2 - 20, options.height - 20}, cv::FONT_HERSHEY_SIMPLEX, 0.6, kBlack,
+              1, cv::LINE_AA);
   cv::putText(image, fmt::format("{} [m]", kAxisNames[ay]), {10, top + plot_h / 2},
               cv::FONT_HERSHEY_SIMPLEX, 0.6, kBlack, 1, cv::LINE_AA);
 

@@ -13,14 +13,14 @@ namespace stillmap {
 // Intrinsics of a color camera whose depth images are registered to it (TUM/Bonn convention: a
 // depth pixel (u, v) belongs to color pixel (u, v)).
 struct Camera {
-  int width = 640;                                // image width [px]
-  int height = 480;                               // image height [px]
-  double fx = 0.0;                                // focal length along x [px]
-  double fy = 0.0;                                // focal length along y [px]
-  double cx = 0.0;                                // principal point x [px]
-  double cy = 0.0;                                // principal point y [px]
-  std::array<double, 5> distortion{};             // OpenCV k1 k2 p1 p2 k3
-  double depth_factor = 5000.0;                   // depth PNG value per metre
+  int width = 640;                     // image width [px]
+  int height = 480;                    // image height [px]
+  double fx = 0.0;                     // focal length along x [px]
+  double fy = 0.0;                     // focal length along y [px]
+  double cx = 0.0;                     // principal point x [px]
+  double cy = 0.0;                     // principal point y [px]
+  std::array<double, 5> distortion{};  // OpenCV k1 k2 p1 p2 k3
+  double depth_factor = 5000.0;        // depth PNG value per metre
   // When set, groundtruth.txt gives the pose of a motion-capture body, and
   // world_from_camera = world_from_body * body_from_camera (the Bonn sequences need it).
   std::optional<Eigen::Isometry3d> groundtruth_body_from_camera;

@@ -33,9 +33,9 @@ struct AteOptions {
 // closed form; computed with Eigen's Umeyama, which yields the same optimum), and the remaining
 // position differences are summarized.
 struct AteResult {
-  ErrorStatistics translation;  // [m]
+  ErrorStatistics translation;                                                  // [m]
   Eigen::Isometry3d groundtruth_from_estimate = Eigen::Isometry3d::Identity();  // the alignment
-  std::vector<double> times;                    // estimate times of the associated pairs [s]
+  std::vector<double> times;                           // estimate times of the associated pairs [s]
   std::vector<Eigen::Vector3d> groundtruth_positions;  // associated ground-truth positions
   std::vector<Eigen::Vector3d> aligned_positions;      // associated estimates after alignment
   std::vector<double> errors;                          // per pair [m]

@@ -43,10 +43,10 @@ struct FrameEntry {
 
 // A decoded frame, depth registered to color.
 struct Frame {
-  size_t index = 0;    // position in Sequence::frames()
-  double time = 0.0;   // [s]
-  cv::Mat color;       // CV_8UC3, BGR
-  cv::Mat depth_m;     // CV_32FC1 [m], 0 = no reading
+  size_t index = 0;   // position in Sequence::frames()
+  double time = 0.0;  // [s]
+  cv::Mat color;      // CV_8UC3, BGR
+  cv::Mat depth_m;    // CV_32FC1 [m], 0 = no reading
 };
 
 class Sequence {

@@ -10,7 +10,7 @@ namespace stillmap {
 
 // A pose at a time: the camera's (or body's) pose in the world frame.
 struct StampedPose {
-  double time = 0.0;                                            // [s]
+  double time = 0.0;  // [s]
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
 };
 

@@ -1,4 +1,5 @@
-// Point cloud files (PLY, PCD) through PCL, so that PCL, Open3D, MeshLab and CloudCompare read them.
+// Point cloud files (PLY, PCD) through PCL, so that PCL, Open3D, MeshLab and CloudCompare read
+// them.
 #pragma once
 
 #include <string>

@@ -39,8 +39,8 @@ struct MapperFrame {
 
 // Totals over all fused frames.
 struct MapperStatistics {
-  size_t frames = 0;            // frames fused
-  size_t points = 0;            // back-projected points fused
+  size_t frames = 0;  // frames fused
+  size_t points = 0;  // back-projected points fused
   double back_projection_ms = 0.0;
   double voxel_ms = 0.0;
   double occupancy_ms = 0.0;       // OctoMap insertion, on whichever thread ran it

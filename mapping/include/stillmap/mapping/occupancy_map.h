@@ -10,11 +10,11 @@
 namespace stillmap {
 
 struct OccupancyMapOptions {
-  double resolution = 0.05;        // leaf voxel edge [m]
-  double max_range = 4.0;          // rays are truncated here (free up to it, no hit) [m]; <= 0: none
-  double probability_hit = 0.7;    // OctoMap's default sensor model
+  double resolution = 0.05;      // leaf voxel edge [m]
+  double max_range = 4.0;        // rays are truncated here (free up to it, no hit) [m]; <= 0: none
+  double probability_hit = 0.7;  // OctoMap's default sensor model
   double probability_miss = 0.4;
-  double clamping_min = 0.1192;    // OctoMap's default clamping thresholds
+  double clamping_min = 0.1192;  // OctoMap's default clamping thresholds
   double clamping_max = 0.971;
 
   // Throws InputError naming the first impossible value.
