@@ -22,10 +22,17 @@ AteResult SquareLoop() {
   return ComputeAte(Trajectory(truth), Trajectory(estimate));
 }
 
-int CountPixels(const cv::Mat& image, const cv::Vec3b& color) {
+// Pixels whose hue is that of `kind`: anti-aliased lines blend with the white background.
+int CountPixels(const cv::Mat& image, char kind) {
   int count = 0;
   for (int v = 0; v < image.rows; ++v) {
-    for (int u = 0; u < image.cols; ++u) count += image.at<cv::Vec3b>(v, u) == color;
+    for (int u = 0; u < image.cols; ++u) {
+      const cv::Vec3b p = image.at<cv::Vec3b>(v, u);
+      const int b = p[0], g = p[1], r = p[2];
+      if (kind == 'k') count += r < 60 && g < 60 && b < 60;  // black
+      if (kind == 'b') count += b > r + 60 && b > g + 30;    // blue
+      if (kind == 'r') count += r > b + 60 && r > g + 60;    // red
+    }
   }
   return count;
 }

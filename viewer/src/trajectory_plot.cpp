@@ -45,7 +45,7 @@ cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& op
   const int ay = std::max(axes[0], axes[1]);
   constexpr char kAxisNames[] = "xyz";
 
-  const int left = 90, right = 30, top = 60, bottom = 70;
+  const int left = 90, right = 30, top = 90, bottom = 70;
   const int plot_w = options.width - left - right, plot_h = options.height - top - bottom;
   double span = std::max({extent[ax] / plot_w, extent[ay] / plot_h, 1e-6});  // metres per pixel
   span *= 1.1;
@@ -84,30 +84,31 @@ cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& op
   cv::putText(image, fmt::format("{} [m]", kAxisNames[ay]), {10, top + plot_h / 2},
               cv::FONT_HERSHEY_SIMPLEX, 0.6, kBlack, 1, cv::LINE_AA);
 
-  // Errors first, trajectories over them.
-  for (size_t i = 0; i < ate.groundtruth_positions.size(); ++i) {
-    cv::line(image, fixed(to_pixel(ate.groundtruth_positions[i])),
-             fixed(to_pixel(ate.aligned_positions[i])), kError, 1, cv::LINE_AA, kShift);
-  }
+  // Trajectories, then the differences over them, then a marker at the start.
   for (size_t i = 1; i < ate.groundtruth_positions.size(); ++i) {
     cv::line(image, fixed(to_pixel(ate.groundtruth_positions[i - 1])),
              fixed(to_pixel(ate.groundtruth_positions[i])), kBlack, 2, cv::LINE_AA, kShift);
     cv::line(image, fixed(to_pixel(ate.aligned_positions[i - 1])),
-             fixed(to_pixel(ate.aligned_positions[i])), kEstimate, 2, cv::LINE_AA, kShift);
+             fixed(to_pixel(ate.aligned_positions[i])), kEstimate, 1, cv::LINE_AA, kShift);
   }
+  for (size_t i = 0; i < ate.groundtruth_positions.size(); ++i) {
+    cv::line(image, fixed(to_pixel(ate.groundtruth_positions[i])),
+             fixed(to_pixel(ate.aligned_positions[i])), kError, 1, cv::LINE_AA, kShift);
+  }
+  cv::circle(image, fixed(to_pixel(ate.groundtruth_positions.front())), 6 << kShift, kBlack, 2,
+             cv::LINE_AA, kShift);
 
-  // Legend and title.
-  const int lx = left + 12, ly = top + 12;
-  cv::rectangle(image, {lx, ly}, {lx + 230, ly + 78}, kWhite, cv::FILLED);
-  cv::rectangle(image, {lx, ly}, {lx + 230, ly + 78}, kBlack, 1);
+  // Legend in a row between the title and the plot, so that it never hides data.
   const std::array<std::pair<cv::Scalar, const char*>, 3> entries = {
-      std::make_pair(kBlack, "ground truth"), std::make_pair(kEstimate, "estimate (aligned)"),
-      std::make_pair(kError, "difference")};
-  for (size_t i = 0; i < entries.size(); ++i) {
-    const int y = ly + 20 + static_cast<int>(i) * 22;
-    cv::line(image, {lx + 10, y}, {lx + 50, y}, entries[i].first, 2, cv::LINE_AA);
-    cv::putText(image, entries[i].second, {lx + 60, y + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.5, kBlack,
-                1, cv::LINE_AA);
+      std::make_pair(kBlack, "ground truth (o: start)"),
+      std::make_pair(kEstimate, "estimate (aligned)"), std::make_pair(kError, "difference")};
+  int x = left;
+  for (const auto& [color, label] : entries) {
+    cv::line(image, {x, top - 22}, {x + 36, top - 22}, color, 2, cv::LINE_AA);
+    cv::putText(image, label, {x + 44, top - 17}, cv::FONT_HERSHEY_SIMPLEX, 0.5, kBlack, 1,
+                cv::LINE_AA);
+    int baseline = 0;
+    x += 44 + cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, &baseline).width + 30;
   }
   const std::string title =
       options.title.empty()
