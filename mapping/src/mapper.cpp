@@ -78,9 +78,7 @@ void Mapper::Integrate(const MapperFrame& frame) {
 }
 
 void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {
-  const std::vector<VoxelPoint> points = cloud_.Points();
-  WritePly(ply_path, points);
-  WritePcd(pcd_path, points);
+  WriteCloudFiles(ply_path, pcd_path, cloud_);
 }
 
 void Mapper::WriteOccupancy(const std::string& bt_path, const std::string& ot_path) {

@@ -93,7 +93,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
         continue;
       }
       if (key != last_key) {
-        if (2 * (size_ + 1) > slots_.size()) Grow();  // load factor <= 0.5
+        if (4 * (size_ + 1) > 3 * slots_.size()) Grow();  // load factor <= 0.75
         last_slot = FindSlot(key);
         if (slots_[last_slot].key == kEmpty) {
           slots_[last_slot] = Slot{key, {}, {}, 0};
@@ -112,16 +112,17 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
   }
 }
 
-std::vector<VoxelPoint> VoxelCloud::Points() const {
-  std::vector<const Slot*> used;
+void VoxelCloud::ForEachPoint(const std::function<void(const VoxelPoint&)>& visit) const {
+  // Sorting (key, slot) pairs keeps the comparisons in cache; sorting pointers into the table made
+  // every comparison a cache miss (Bonn, 6 M voxels: 3.5 s to write the outputs).
+  std::vector<std::pair<std::uint64_t, size_t>> used;
   used.reserve(size_);
-  for (const Slot& slot : slots_) {
-    if (slot.key != kEmpty) used.push_back(&slot);
+  for (size_t i = 0; i < slots_.size(); ++i) {
+    if (slots_[i].key != kEmpty) used.emplace_back(slots_[i].key, i);
   }
-  std::sort(used.begin(), used.end(), [](const Slot* a, const Slot* b) { return a->key < b->key; });
-  std::vector<VoxelPoint> points;
-  points.reserve(used.size());
-  for (const Slot* slot : used) {
+  std::sort(used.begin(), used.end());
+  for (const auto& [key, index] : used) {
+    const Slot* slot = &slots_[index];
     const float n = static_cast<float>(slot->count);
     VoxelPoint point;
     for (int axis = 0; axis < 3; ++axis) {
@@ -131,8 +132,14 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
           static_cast<std::uint8_t>((slot->color_sum[axis] + slot->count / 2) / slot->count);
     }
     point.count = slot->count;
-    points.push_back(point);
+    visit(point);
   }
+}
+
+std::vector<VoxelPoint> VoxelCloud::Points() const {
+  std::vector<VoxelPoint> points;
+  points.reserve(size_);
+  ForEachPoint([&points](const VoxelPoint& point) { points.push_back(point); });
   return points;
 }
 
