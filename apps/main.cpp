@@ -11,6 +11,7 @@
 #include "stillmap/apps/commands.h"
 #include "stillmap/apps/progress.h"
 #include "stillmap/io/error.h"
+#include "stillmap/viewer/synthetic.h"
 
 namespace {
 
@@ -72,6 +73,25 @@ int Run(int argc, char** argv) {
                        "camera.yaml with groundtruth_body_from_camera (default: the one beside "
                        "GROUNDTRUTH, if any)");
 
+  // synth
+  stillmap::SynthOptions synth;
+  std::string synth_dir;
+  bool no_noise = false;
+  std::string scenarios;
+  for (const std::string& name : stillmap::SynthScenarioNames()) scenarios += " " + name;
+  CLI::App* synth_cmd = app.add_subcommand(
+      "synth",
+      "Render a synthetic dynamic RGB-D sequence with exact ground truth: TUM layout plus "
+      "masks/, static_gt.ply, objects.txt.");
+  synth_cmd->add_option("OUT_DIR", synth_dir, "output folder (new, or an earlier synth output)")
+      ->required();
+  synth_cmd->add_option("--scenario", synth.scenario, "one of:" + scenarios)->required();
+  synth_cmd->add_option("--frames", synth.frames, "frames at 30 Hz (default 300)");
+  synth_cmd->add_option("--seed", synth.seed, "textures, colors and noise (default 1)");
+  synth_cmd->add_flag("--motion-blur", synth.motion_blur, "blur color over a 16 ms exposure");
+  synth_cmd->add_flag("--no-noise", no_noise, "exact depth and color (no sensor model)");
+  synth_cmd->add_option("--threads", synth.threads, "frames rendered in parallel (default 2)");
+
   // info
   std::string info_dir;
   std::string info_preset;
@@ -112,6 +132,14 @@ int Run(int argc, char** argv) {
           summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
     } else if (*eval_cmd) {
       std::cout << stillmap::RunEval(eval);
+    } else if (*synth_cmd) {
+      synth.depth_noise = synth.color_noise = !no_noise;
+      const stillmap::SynthSummary summary = stillmap::WriteSyntheticSequence(synth_dir, synth);
+      spdlog::info(
+          "{} frames of '{}' in {:.1f} s; {} static ground-truth points; {:.1f} % of "
+          "pixels dynamic; written to {}",
+          summary.frames, synth.scenario, summary.seconds, summary.static_gt_points,
+          100.0 * summary.dynamic_pixel_share, synth_dir);
     } else if (*info_cmd) {
       std::cout << stillmap::DescribeSequence(info_dir, info_preset);
     }

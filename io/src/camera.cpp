@@ -3,7 +3,10 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <fstream>
+#include <iomanip>
 #include <set>
+#include <stdexcept>
 
 #include "stillmap/io/error.h"
 
@@ -150,6 +153,23 @@ Camera LoadCameraYaml(const std::string& path) {
   }
   camera.Validate(path);
   return camera;
+}
+
+void WriteCameraYaml(const std::string& path, const Camera& camera, const std::string& comment) {
+  std::ofstream out(path);
+  out << std::setprecision(10);
+  if (!comment.empty()) out << "# " << comment << "\n";
+  out << "width: " << camera.width << "\nheight: " << camera.height << "\nfx: " << camera.fx
+      << "\nfy: " << camera.fy << "\ncx: " << camera.cx << "\ncy: " << camera.cy
+      << "\ndistortion: [" << camera.distortion[0] << ", " << camera.distortion[1] << ", "
+      << camera.distortion[2] << ", " << camera.distortion[3] << ", " << camera.distortion[4]
+      << "]\n# depth PNG value per metre\ndepth_factor: " << camera.depth_factor << "\n";
+  if (camera.groundtruth_body_from_camera) {
+    const Eigen::Matrix4d m = camera.groundtruth_body_from_camera->matrix();
+    out << "groundtruth_body_from_camera: [";
+    for (int i = 0; i < 16; ++i) out << m(i / 4, i % 4) << (i < 15 ? ", " : "]\n");
+  }
+  if (!out.flush()) throw std::runtime_error(path + ": could not write the camera file");
 }
 
 }  // namespace stillmap

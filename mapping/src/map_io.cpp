@@ -7,53 +7,94 @@
 
 #include <cstdint>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
 
 namespace stillmap {
+namespace {
+
+// Streams points into a PLY and/or a PCD file (empty path: not written). Records are assembled
+// in blocks (the x86-64 / ARM byte order is the little-endian order both formats use here).
+class CloudFileWriter {
+ public:
+  CloudFileWriter(const std::string& ply_path, const std::string& pcd_path, size_t count,
+                  const std::string& comment)
+      : ply_path_(ply_path), pcd_path_(pcd_path) {
+    static_assert(sizeof(float) == 4, "PLY and PCD floats are 4 bytes");
+    static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "records are copied as little-endian");
+    if (!ply_path.empty()) {
+      ply_.open(ply_path, std::ios::binary);
+      if (!ply_) throw std::runtime_error(ply_path + ": cannot write the PLY cloud");
+      ply_ << "ply\nformat binary_little_endian 1.0\ncomment " << comment << "\nelement vertex "
+           << count
+           << "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n"
+              "property uchar green\nproperty uchar blue\nend_header\n";
+    }
+    if (!pcd_path.empty()) {
+      pcd_.open(pcd_path, std::ios::binary);
+      if (!pcd_) throw std::runtime_error(pcd_path + ": cannot write the PCD cloud");
+      pcd_ << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\n"
+              "SIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH "
+           << count << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << count << "\nDATA binary\n";
+    }
+  }
+
+  void Add(const VoxelPoint& p) {
+    const char* xyz = reinterpret_cast<const char*>(p.position.data());
+    if (ply_.is_open()) {
+      ply_buffer_.insert(ply_buffer_.end(), xyz, xyz + 12);
+      ply_buffer_.insert(ply_buffer_.end(), p.rgb.begin(), p.rgb.end());
+    }
+    if (pcd_.is_open()) {
+      const std::uint32_t rgb = (std::uint32_t{p.rgb[0]} << 16) | (std::uint32_t{p.rgb[1]} << 8) |
+                                std::uint32_t{p.rgb[2]};
+      const char* packed = reinterpret_cast<const char*>(&rgb);
+      pcd_buffer_.insert(pcd_buffer_.end(), xyz, xyz + 12);
+      pcd_buffer_.insert(pcd_buffer_.end(), packed, packed + 4);
+    }
+    if (ply_buffer_.size() + pcd_buffer_.size() >= (1u << 20)) Flush();
+  }
+
+  void Finish() {
+    Flush();
+    if (ply_.is_open() && !ply_.flush()) {
+      throw std::runtime_error(ply_path_ + ": could not write the PLY cloud");
+    }
+    if (pcd_.is_open() && !pcd_.flush()) {
+      throw std::runtime_error(pcd_path_ + ": could not write the PCD cloud");
+    }
+  }
+
+ private:
+  void Flush() {
+    ply_.write(ply_buffer_.data(), static_cast<std::streamsize>(ply_buffer_.size()));
+    pcd_.write(pcd_buffer_.data(), static_cast<std::streamsize>(pcd_buffer_.size()));
+    ply_buffer_.clear();
+    pcd_buffer_.clear();
+  }
+
+  std::string ply_path_, pcd_path_;
+  std::ofstream ply_, pcd_;
+  std::vector<char> ply_buffer_, pcd_buffer_;
+};
+
+}  // namespace
+
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const VoxelCloud& cloud) {
-  static_assert(sizeof(float) == 4, "PLY and PCD floats are 4 bytes");
-  static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "records are copied as little-endian");
-  std::ofstream ply(ply_path, std::ios::binary);
-  std::ofstream pcd(pcd_path, std::ios::binary);
-  if (!ply) throw std::runtime_error(ply_path + ": cannot write the PLY cloud");
-  if (!pcd) throw std::runtime_error(pcd_path + ": cannot write the PCD cloud");
-  const size_t n = cloud.size();
-  ply << "ply\nformat binary_little_endian 1.0\ncomment stillmap voxel cloud, leaf "
-      << cloud.leaf_size() << " m\nelement vertex " << n
-      << "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n"
-         "property uchar green\nproperty uchar blue\nend_header\n";
-  pcd << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\n"
-         "SIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH "
-      << n << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << n << "\nDATA binary\n";
-  // Records are assembled in buffers and written in blocks (the x86-64 / ARM byte order is the
-  // little-endian order both formats use here).
-  constexpr size_t kBlock = 1 << 16;
-  std::vector<char> ply_buffer, pcd_buffer;
-  ply_buffer.reserve(kBlock * 15);
-  pcd_buffer.reserve(kBlock * 16);
-  auto flush = [&] {
-    ply.write(ply_buffer.data(), static_cast<std::streamsize>(ply_buffer.size()));
-    pcd.write(pcd_buffer.data(), static_cast<std::streamsize>(pcd_buffer.size()));
-    ply_buffer.clear();
-    pcd_buffer.clear();
-  };
-  cloud.ForEachPoint([&](const VoxelPoint& p) {
-    const char* xyz = reinterpret_cast<const char*>(p.position.data());
-    ply_buffer.insert(ply_buffer.end(), xyz, xyz + 12);
-    ply_buffer.insert(ply_buffer.end(), p.rgb.begin(), p.rgb.end());
-    const std::uint32_t rgb =
-        (std::uint32_t{p.rgb[0]} << 16) | (std::uint32_t{p.rgb[1]} << 8) | std::uint32_t{p.rgb[2]};
-    pcd_buffer.insert(pcd_buffer.end(), xyz, xyz + 12);
-    const char* packed = reinterpret_cast<const char*>(&rgb);
-    pcd_buffer.insert(pcd_buffer.end(), packed, packed + 4);
-    if (ply_buffer.size() >= kBlock * 15) flush();
-  });
-  flush();
-  if (!ply.flush()) throw std::runtime_error(ply_path + ": could not write the PLY cloud");
-  if (!pcd.flush()) throw std::runtime_error(pcd_path + ": could not write the PCD cloud");
+  std::ostringstream comment;
+  comment << "stillmap voxel cloud, leaf " << cloud.leaf_size() << " m";
+  CloudFileWriter writer(ply_path, pcd_path, cloud.size(), comment.str());
+  cloud.ForEachPoint([&writer](const VoxelPoint& p) { writer.Add(p); });
+  writer.Finish();
+}
+
+void WritePly(const std::string& path, const std::vector<VoxelPoint>& points) {
+  CloudFileWriter writer(path, "", points.size(), "stillmap point cloud");
+  for (const VoxelPoint& p : points) writer.Add(p);
+  writer.Finish();
 }
 
 std::vector<VoxelPoint> ReadCloud(const std::string& path) {

@@ -44,4 +44,8 @@ Camera CameraPreset(const std::string& name);
 // one, is an InputError naming the file and the key.
 Camera LoadCameraYaml(const std::string& path);
 
+// Writes `camera` as a camera.yaml that LoadCameraYaml reads back. Throws std::runtime_error when
+// the file cannot be written.
+void WriteCameraYaml(const std::string& path, const Camera& camera, const std::string& comment);
+
 }  // namespace stillmap

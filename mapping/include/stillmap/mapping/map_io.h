@@ -17,6 +17,9 @@ namespace stillmap {
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const VoxelCloud& cloud);
 
+// Writes points as a binary little-endian PLY (float x, y, z; uchar red, green, blue).
+void WritePly(const std::string& path, const std::vector<VoxelPoint>& points);
+
 // Reads the vertices (and colors, when present) of a PLY or PCD file; count is set to 1. Throws
 // InputError when the file cannot be read.
 std::vector<VoxelPoint> ReadCloud(const std::string& path);

@@ -1,0 +1,431 @@
+#include "synthetic_scene.h"
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+namespace stillmap::synth {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+// --- Procedural textures: features for ORB the way real rooms give them. ---
+
+// Smooth value noise around `base` (BGR) plus fine grain.
+cv::Mat NoiseTexture(cv::RNG& rng, const cv::Scalar& base, double amplitude, int size, int cells,
+                     double grain) {
+  cv::Mat coarse(cells, cells, CV_32FC3);
+  rng.fill(coarse, cv::RNG::NORMAL, 0.0, amplitude);
+  cv::Mat smooth;
+  cv::resize(coarse, smooth, cv::Size(size, size), 0, 0, cv::INTER_CUBIC);
+  cv::Mat fine(size, size, CV_32FC3);
+  rng.fill(fine, cv::RNG::NORMAL, 0.0, grain);
+  cv::Mat texture = smooth + fine + base;
+  texture.convertTo(texture, CV_8UC3);
+  return texture;
+}
+
+cv::Scalar RandomColor(cv::RNG& rng, int lo, int hi) {
+  return cv::Scalar(rng.uniform(lo, hi), rng.uniform(lo, hi), rng.uniform(lo, hi));
+}
+
+// A painted wall with posters, frames and notes: high-contrast corners and edges.
+cv::Mat WallTexture(cv::RNG& rng, const cv::Scalar& paint) {
+  cv::Mat wall = NoiseTexture(rng, paint, 6.0, 1024, 12, 3.0);
+  const int posters = rng.uniform(5, 9);
+  for (int p = 0; p < posters; ++p) {
+    const int w = rng.uniform(90, 220), h = rng.uniform(90, 260);
+    const int x = rng.uniform(10, 1024 - w - 10), y = rng.uniform(40, 700 - h);
+    const cv::Rect rect(x, y, w, h);
+    cv::rectangle(wall, rect, RandomColor(rng, 20, 235), cv::FILLED);
+    for (int s = 0; s < 12; ++s) {
+      const cv::Point a(x + rng.uniform(0, w), y + rng.uniform(0, h));
+      const cv::Scalar color = RandomColor(rng, 0, 255);
+      switch (rng.uniform(0, 3)) {
+        case 0:
+          cv::circle(wall, a, rng.uniform(5, 30), color, cv::FILLED);
+          break;
+        case 1:
+          cv::rectangle(wall, a, cv::Point(a.x + rng.uniform(8, 40), a.y + rng.uniform(8, 40)),
+                        color, cv::FILLED);
+          break;
+        default:
+          cv::putText(wall, "STILL", a, cv::FONT_HERSHEY_DUPLEX, 0.6 + rng.uniform(0.0, 1.0), color,
+                      2);
+      }
+    }
+    cv::rectangle(wall, rect, cv::Scalar(20, 20, 20), 4);
+  }
+  cv::rectangle(wall, cv::Rect(0, 985, 1024, 39), cv::Scalar(60, 70, 80), cv::FILLED);  // skirting
+  return wall;
+}
+
+cv::Mat WoodTexture(cv::RNG& rng, const cv::Scalar& tone) {
+  cv::Mat wood(256, 256, CV_8UC3);
+  const double frequency = rng.uniform(0.15, 0.3);
+  cv::Mat warp = NoiseTexture(rng, cv::Scalar::all(0), 40.0, 256, 6, 0.0);
+  for (int y = 0; y < 256; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      const double grain =
+          0.5 + 0.5 * std::sin(frequency * (y + 0.3 * warp.at<cv::Vec3b>(y, x)[0]));
+      for (int c = 0; c < 3; ++c) {
+        wood.at<cv::Vec3b>(y, x)[c] =
+            cv::saturate_cast<uchar>(tone[c] * (0.7 + 0.45 * grain) + rng.gaussian(4.0));
+      }
+    }
+  }
+  return wood;
+}
+
+cv::Mat StripeTexture(cv::RNG& rng, const cv::Scalar& a, const cv::Scalar& b) {
+  cv::Mat cloth = NoiseTexture(rng, a, 5.0, 128, 8, 6.0);
+  const int period = rng.uniform(10, 26);
+  for (int y = 0; y < 128; y += period) {
+    cv::rectangle(cloth, cv::Rect(0, y, 128, period / 2), b, cv::FILLED);
+  }
+  cv::Mat grain(128, 128, CV_8UC3);
+  rng.fill(grain, cv::RNG::UNIFORM, 0, 12);
+  return cloth + grain;
+}
+
+cv::Mat ScreenTexture(cv::RNG& rng) {
+  cv::Mat screen(256, 384, CV_8UC3, cv::Scalar(40, 30, 25));
+  for (int w = 0; w < 6; ++w) {
+    const cv::Rect window(rng.uniform(0, 300), rng.uniform(0, 190), rng.uniform(60, 160),
+                          rng.uniform(40, 120));
+    cv::rectangle(screen, window, RandomColor(rng, 60, 250), cv::FILLED);
+    cv::rectangle(screen, window, cv::Scalar(10, 10, 10), 3);
+    for (int line = window.y + 14; line < window.y + window.height - 6; line += 12) {
+      cv::line(screen, {window.x + 8, line}, {window.x + rng.uniform(20, 150), line},
+               cv::Scalar(15, 15, 15), 2);
+    }
+  }
+  return screen;
+}
+
+// --- Geometry helpers ---
+
+Eigen::Isometry3f Translation(float x, float y, float z) {
+  Eigen::Isometry3f t = Eigen::Isometry3f::Identity();
+  t.translation() = Eigen::Vector3f(x, y, z);
+  return t;
+}
+
+Eigen::Isometry3f RotationZ(float angle) {
+  Eigen::Isometry3f r = Eigen::Isometry3f::Identity();
+  r.linear() = Eigen::AngleAxisf(angle, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  return r;
+}
+
+Eigen::Isometry3f RotationX(float angle) {
+  Eigen::Isometry3f r = Eigen::Isometry3f::Identity();
+  r.linear() = Eigen::AngleAxisf(angle, Eigen::Vector3f::UnitX()).toRotationMatrix();
+  return r;
+}
+
+TriangleMesh Box(float x, float y, float z, float sx, float sy, float sz, float tile = 0.5f) {
+  return MakeBox(Eigen::Vector3f(x, y, z), Eigen::Vector3f(sx, sy, sz), tile);
+}
+
+// A table: top at height `height`, legs at the corners.
+TriangleMesh Table(float x, float y, float width, float depth, float height) {
+  TriangleMesh table = Box(x, y, height - 0.02f, width, depth, 0.04f);
+  for (float sx : {-1.0f, 1.0f}) {
+    for (float sy : {-1.0f, 1.0f}) {
+      table.Append(Box(x + sx * (width / 2 - 0.05f), y + sy * (depth / 2 - 0.05f),
+                       (height - 0.04f) / 2, 0.05f, 0.05f, height - 0.04f));
+    }
+  }
+  return table;
+}
+
+// A chair facing `yaw` (its back behind the seat).
+TriangleMesh Chair(float x, float y, float yaw) {
+  TriangleMesh chair = Box(0, 0, 0.45f, 0.46f, 0.46f, 0.05f);
+  chair.Append(Box(0, -0.21f, 0.72f, 0.46f, 0.04f, 0.5f));
+  for (float sx : {-1.0f, 1.0f}) {
+    for (float sy : {-1.0f, 1.0f})
+      chair.Append(Box(sx * 0.2f, sy * 0.2f, 0.21f, 0.04f, 0.04f, 0.42f));
+  }
+  TriangleMesh placed;
+  placed.Append(chair, Translation(x, y, 0) * RotationZ(yaw));
+  return placed;
+}
+
+enum MaterialIndex : std::uint16_t {
+  kCarpet,
+  kCeiling,
+  kWallFar,
+  kWallLeft,
+  kWallRight,
+  kWallNear,
+  kWood,
+  kDarkWood,
+  kMetal,
+  kScreen,
+  kPlastic,
+  kSkin,
+  kBookFirst,  // kBookCount book colors follow, then per-person clothing
+};
+constexpr int kBookCount = 8;
+
+// Adds a person: shirt and trousers of their own colors.
+MovingObject MakePerson(Scene* scene, cv::RNG& rng, const std::string& name, std::uint16_t id) {
+  const auto shirt = static_cast<std::uint16_t>(scene->materials.size());
+  scene->materials.push_back(
+      {StripeTexture(rng, RandomColor(rng, 30, 220), RandomColor(rng, 30, 220)), 0.55f, 0.45f});
+  const auto trousers = static_cast<std::uint16_t>(scene->materials.size());
+  scene->materials.push_back(
+      {NoiseTexture(rng, RandomColor(rng, 30, 110), 12.0, 128, 10, 10.0), 0.55f, 0.45f});
+  MovingObject person;
+  person.name = name;
+  person.id = id;
+  // Parts in their own frames, pivots at the joints (body frame: feet on z = 0, facing +y).
+  person.parts = {
+      {"torso", Box(0, 0, 0.29f, 0.38f, 0.22f, 0.58f, 0.25f), shirt},
+      {"head", Box(0, 0, 0.13f, 0.19f, 0.22f, 0.25f, 0.25f), kSkin},
+      {"left_thigh", Box(0, 0, -0.22f, 0.15f, 0.16f, 0.45f, 0.25f), trousers},
+      {"left_shin", Box(0, 0, -0.22f, 0.12f, 0.13f, 0.45f, 0.25f), trousers},
+      {"right_thigh", Box(0, 0, -0.22f, 0.15f, 0.16f, 0.45f, 0.25f), trousers},
+      {"right_shin", Box(0, 0, -0.22f, 0.12f, 0.13f, 0.45f, 0.25f), trousers},
+      {"left_arm", Box(0, 0, -0.3f, 0.09f, 0.1f, 0.62f, 0.25f), shirt},
+      {"right_arm", Box(0, 0, -0.3f, 0.09f, 0.1f, 0.62f, 0.25f), shirt},
+  };
+  return person;
+}
+
+}  // namespace
+
+Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
+  cv::RNG rng(seed * 7919 + 17);
+  Scene scene;
+  scene.materials.resize(kBookFirst + kBookCount);
+  scene.materials[kCarpet] = {NoiseTexture(rng, cv::Scalar(70, 80, 95), 18.0, 256, 16, 16.0)};
+  scene.materials[kCeiling] = {NoiseTexture(rng, cv::Scalar(225, 228, 230), 4.0, 256, 8, 2.0)};
+  scene.materials[kWallFar] = {WallTexture(rng, cv::Scalar(200, 215, 222))};
+  scene.materials[kWallLeft] = {WallTexture(rng, cv::Scalar(190, 200, 170))};
+  scene.materials[kWallRight] = {WallTexture(rng, cv::Scalar(175, 195, 215))};
+  scene.materials[kWallNear] = {WallTexture(rng, cv::Scalar(205, 205, 205))};
+  scene.materials[kWood] = {WoodTexture(rng, cv::Scalar(70, 120, 170))};
+  scene.materials[kDarkWood] = {WoodTexture(rng, cv::Scalar(40, 60, 95))};
+  scene.materials[kMetal] = {NoiseTexture(rng, cv::Scalar(120, 120, 125), 8.0, 64, 4, 6.0)};
+  scene.materials[kScreen] = {ScreenTexture(rng)};
+  scene.materials[kPlastic] = {NoiseTexture(rng, cv::Scalar(35, 35, 38), 4.0, 64, 4, 5.0)};
+  scene.materials[kSkin] = {NoiseTexture(rng, cv::Scalar(120, 150, 200), 10.0, 64, 4, 4.0)};
+  for (int b = 0; b < kBookCount; ++b) {
+    scene.materials[kBookFirst + b] = {NoiseTexture(rng, RandomColor(rng, 20, 230), 10, 64, 4, 8)};
+  }
+
+  std::uint16_t id = 1;
+  auto add = [&](const std::string& name, TriangleMesh mesh, std::uint16_t material) {
+    scene.statics.push_back({name, std::move(mesh), material, id++});
+  };
+  // The room: x in [-2.5, 2.5], y in [-2, 3], z in [0, 2.7]; walls textured once over their area.
+  const float x0 = -2.5f, x1 = 2.5f, y0 = -2.0f, y1 = 3.0f, h = 2.7f;
+  TriangleMesh floor = MakeQuad({x0, y0, 0}, {x1 - x0, 0, 0}, {0, y1 - y0, 0});
+  for (auto& uv : floor.uvs) uv *= 5.0f;  // carpet repeats every metre
+  add("floor", floor, kCarpet);
+  TriangleMesh ceiling = MakeQuad({x0, y0, h}, {0, y1 - y0, 0}, {x1 - x0, 0, 0});
+  for (auto& uv : ceiling.uvs) uv *= 3.0f;
+  add("ceiling", ceiling, kCeiling);
+  // Wall quads: texture v runs downwards in the image, so v_edge points down the wall.
+  add("wall_far", MakeQuad({x0, y1, h}, {x1 - x0, 0, 0}, {0, 0, -h}), kWallFar);
+  add("wall_left", MakeQuad({x0, y0, h}, {0, y1 - y0, 0}, {0, 0, -h}), kWallLeft);
+  add("wall_right", MakeQuad({x1, y1, h}, {0, y0 - y1, 0}, {0, 0, -h}), kWallRight);
+  add("wall_near", MakeQuad({x1, y0, h}, {x0 - x1, 0, 0}, {0, 0, -h}), kWallNear);
+
+  // Furniture.
+  add("desk", Table(0.3f, 2.6f, 1.5f, 0.75f, 0.74f), kWood);
+  add("monitor_case", Box(0.25f, 2.75f, 1.05f, 0.6f, 0.05f, 0.38f), kPlastic);
+  add("monitor_stand", Box(0.25f, 2.8f, 0.82f, 0.08f, 0.08f, 0.16f), kPlastic);
+  add("monitor_screen", MakeQuad({-0.03f, 2.72f, 1.22f}, {0.56f, 0, 0}, {0, 0, -0.34f}), kScreen);
+  add("keyboard", Box(0.25f, 2.45f, 0.755f, 0.45f, 0.15f, 0.025f), kPlastic);
+  add("side_table", Table(1.95f, 1.2f, 0.7f, 1.2f, 0.72f), kDarkWood);
+  add("cabinet", Box(1.9f, 2.55f, 0.55f, 0.9f, 0.5f, 1.1f), kDarkWood);
+  add("box_on_cabinet", Box(1.75f, 2.5f, 1.22f, 0.35f, 0.3f, 0.24f), kBookFirst + 7);
+  add("chair_desk", Chair(0.3f, 1.95f, 0.0f), kMetal);
+  add("chair_side", Chair(1.45f, 1.2f, -kPi / 2), kMetal);
+  // Shelves along the left wall, filled with books.
+  TriangleMesh shelf = Box(-2.32f, 1.5f, 0.95f, 0.34f, 0.03f, 1.9f);
+  shelf.Append(Box(-2.32f, 2.7f, 0.95f, 0.34f, 0.03f, 1.9f));
+  for (int board = 0; board < 5; ++board) {
+    shelf.Append(Box(-2.32f, 2.1f, 0.05f + 0.45f * board, 0.34f, 1.2f, 0.03f));
+  }
+  add("shelf", shelf, kWood);
+  for (int board = 0; board < 4; ++board) {
+    TriangleMesh books;
+    float y = 1.54f;
+    while (y < 2.6f) {
+      const float thickness = static_cast<float>(rng.uniform(0.03, 0.08));
+      const float height = static_cast<float>(rng.uniform(0.22, 0.38));
+      books.Append(Box(-2.35f, y + thickness / 2, 0.065f + 0.45f * board + height / 2, 0.24f,
+                       thickness * 0.95f, height, 0.2f));
+      y += thickness + static_cast<float>(rng.uniform(0.0, 0.04));
+    }
+    add("books_" + std::to_string(board), books, static_cast<std::uint16_t>(kBookFirst + board));
+  }
+
+  // People and what they carry.
+  std::uint16_t dynamic_id = kFirstDynamicId;
+  if (scenario.rfind("walking", 0) == 0) {
+    MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
+    first.from = {-2.1f, 0.9f};  // across the view, clear of the side chair (x >= 1.22)
+    first.to = {1.0f, 0.9f};
+    first.speed = 1.1f;
+    scene.movers.push_back(first);
+    MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
+    second.from = {-1.2f, 2.2f};  // towards the camera and back
+    second.to = {-0.5f, 0.9f};
+    second.speed = 0.9f;
+    second.phase_offset = 1.0f;
+    scene.movers.push_back(second);
+  } else if (scenario == "sitting") {
+    MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
+    first.motion = Motion::kSit;
+    first.seat = {0.3f, 1.93f, 0.5f};
+    first.seat_yaw = 0.0f;
+    scene.movers.push_back(first);
+    MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
+    second.motion = Motion::kSit;
+    second.seat = {1.43f, 1.2f, 0.5f};
+    second.seat_yaw = -kPi / 2;
+    second.phase_offset = 2.0f;
+    scene.movers.push_back(second);
+  } else if (scenario == "carried_object") {
+    MovingObject person = MakePerson(&scene, rng, "person_0", dynamic_id++);
+    person.motion = Motion::kCarry;
+    person.from = {-1.8f, 0.3f};
+    person.to = {1.2f, 0.5f};
+    person.speed = 0.7f;
+    scene.movers.push_back(person);
+    MovingObject book;
+    book.name = "book";
+    book.id = dynamic_id++;
+    book.motion = Motion::kCarried;
+    book.carrier = 0;
+    book.parts = {{"book", Box(0, 0, 0, 0.26f, 0.05f, 0.2f, 0.2f), kBookFirst + 5}};
+    scene.movers.push_back(book);
+  }
+  return scene;
+}
+
+namespace {
+
+// Position along a back-and-forth path and the direction of travel.
+void WalkState(const MovingObject& object, double time, Eigen::Vector2f* position,
+               Eigen::Vector2f* direction, float* distance) {
+  const Eigen::Vector2f span = object.to - object.from;
+  const float length = span.norm();
+  const float travelled = object.speed * static_cast<float>(time + object.phase_offset);
+  const float cycle = std::fmod(travelled, 2.0f * length);
+  const bool outward = cycle < length;
+  const float along = outward ? cycle : 2.0f * length - cycle;
+  *position = object.from + span * (along / length);
+  *direction = (outward ? span : -span) / length;
+  *distance = travelled;
+}
+
+}  // namespace
+
+Eigen::Isometry3f BodyPose(const Scene& scene, const MovingObject& object, double time) {
+  if (object.motion == Motion::kCarried) {
+    const MovingObject& carrier = scene.movers.at(static_cast<size_t>(object.carrier));
+    // Held in both hands in front of the chest, tilted towards the carrier.
+    return BodyPose(scene, carrier, time) * Translation(0.0f, 0.42f, 1.08f) * RotationX(-0.3f);
+  }
+  if (object.motion == Motion::kSit) {
+    return Translation(object.seat.x(), object.seat.y(), object.seat.z() - 0.9f) *
+           RotationZ(object.seat_yaw);
+  }
+  Eigen::Vector2f position, direction;
+  float distance = 0.0f;
+  WalkState(object, time, &position, &direction, &distance);
+  const float yaw = std::atan2(-direction.x(), direction.y());
+  return Translation(position.x(), position.y(), 0.0f) * RotationZ(yaw);
+}
+
+std::vector<Eigen::Isometry3f> PartPoses(const MovingObject& object, double time) {
+  if (object.motion == Motion::kCarried) return {Eigen::Isometry3f::Identity()};
+  const float t = static_cast<float>(time + object.phase_offset);
+  float hip_left = 0.0f, hip_right = 0.0f, knee_left = 0.0f, knee_right = 0.0f;
+  float arm_left = 0.0f, arm_right = 0.0f, lean = 0.0f, head_yaw = 0.0f;
+  if (object.motion == Motion::kSit) {
+    // Mostly still: a slow lean, a turning head, one arm gesturing.
+    hip_left = hip_right = kPi / 2;
+    knee_left = knee_right = -kPi / 2;
+    lean = 0.06f * std::sin(0.7f * t);
+    head_yaw = 0.35f * std::sin(0.45f * t);
+    arm_left = 0.3f + 0.25f * std::sin(1.3f * t);
+    arm_right = 0.5f;
+  } else {
+    // Gait: 1.4 m per stride cycle; knees bend on the forward swing.
+    const float phase = 2.0f * kPi * object.speed * t / 1.4f;
+    hip_left = 0.45f * std::sin(phase);
+    hip_right = -hip_left;
+    knee_left = -0.5f * std::max(0.0f, std::sin(phase + kPi / 2));
+    knee_right = -0.5f * std::max(0.0f, std::sin(phase - kPi / 2));
+    arm_left = object.motion == Motion::kCarry ? 1.2f : -0.35f * std::sin(phase);
+    arm_right = object.motion == Motion::kCarry ? 1.2f : 0.35f * std::sin(phase);
+  }
+  const Eigen::Isometry3f upper = Translation(0, 0, 0.9f) * RotationX(lean);
+  const Eigen::Isometry3f left_hip = Translation(-0.1f, 0, 0.9f) * RotationX(hip_left);
+  const Eigen::Isometry3f right_hip = Translation(0.1f, 0, 0.9f) * RotationX(hip_right);
+  const Eigen::Isometry3f knee = Translation(0, 0, -0.45f);
+  return {
+      upper,                                                        // torso
+      upper * Translation(0, 0, 0.6f) * RotationZ(head_yaw),        // head
+      left_hip,                                                     // left thigh
+      left_hip * knee * RotationX(knee_left),                       // left shin
+      right_hip,                                                    // right thigh
+      right_hip * knee * RotationX(knee_right),                     // right shin
+      upper * Translation(-0.25f, 0, 0.52f) * RotationX(arm_left),  // left arm
+      upper * Translation(0.25f, 0, 0.52f) * RotationX(arm_right),  // right arm
+  };
+}
+
+Eigen::Isometry3f CameraPose(const std::string& scenario, double time) {
+  const float t = static_cast<float>(time);
+  Eigen::Vector3f position(0.0f, -0.9f, 1.35f);  // far wall within 4 m
+  Eigen::Vector3f target(0.0f, 2.0f, 1.0f);
+  float roll = 0.0f;
+  if (scenario == "static") {
+    // An empty room scanned by a hand-held camera: sideways sweep, bobbing, looking around.
+    position += Eigen::Vector3f(0.6f * std::sin(0.5f * t), 0.25f * std::sin(0.31f * t),
+                                0.12f * std::sin(0.9f * t));
+    target += Eigen::Vector3f(1.2f * std::sin(0.37f * t), 0.0f, 0.3f * std::sin(0.53f * t));
+    roll = 0.05f * std::sin(0.8f * t);
+  } else if (scenario == "walking_static" || scenario == "carried_object") {
+    // Nearly still, as a tripod-less camera held in place.
+    position += Eigen::Vector3f(0.004f * std::sin(1.7f * t), 0.003f * std::sin(2.3f * t),
+                                0.004f * std::sin(1.3f * t));
+    target += Eigen::Vector3f(0.02f * std::sin(0.9f * t), 0.0f, 0.015f * std::sin(1.1f * t));
+  } else if (scenario == "walking_xyz" || scenario == "sitting") {
+    const float a = scenario == "sitting" ? 0.5f : 1.0f;
+    position += a * Eigen::Vector3f(0.35f * std::sin(1.05f * t), 0.25f * std::sin(0.7f * t),
+                                    0.15f * std::sin(1.3f * t));
+    target += a * Eigen::Vector3f(0.35f * std::sin(1.05f * t), 0.0f, 0.15f * std::sin(1.3f * t));
+  } else if (scenario == "walking_rpy") {
+    // Fixed position; yaw, pitch and roll swing.
+    target += Eigen::Vector3f(1.2f * std::sin(0.8f * t), 0.0f, 0.6f * std::sin(1.1f * t));
+    roll = 0.18f * std::sin(1.3f * t);
+  } else if (scenario == "walking_halfsphere") {
+    // On a half sphere of 0.5 m radius, always looking at the room's middle.
+    const float azimuth = 1.0f * std::sin(0.35f * t);
+    const float elevation = 0.45f + 0.4f * std::sin(0.5f * t);
+    position =
+        Eigen::Vector3f(0.0f, -0.6f, 1.0f) +
+        0.5f * Eigen::Vector3f(std::sin(azimuth) * std::cos(elevation),
+                               -std::cos(azimuth) * std::cos(elevation), std::sin(elevation));
+  }
+  // Look-at: z towards the target, x right (horizontal), y down; then roll about z.
+  const Eigen::Vector3f z = (target - position).normalized();
+  const Eigen::Vector3f x = z.cross(Eigen::Vector3f::UnitZ()).normalized();
+  const Eigen::Vector3f y = z.cross(x);
+  Eigen::Isometry3f world_from_camera = Eigen::Isometry3f::Identity();
+  world_from_camera.linear() << x, y, z;
+  world_from_camera.linear() = world_from_camera.linear() *
+                               Eigen::AngleAxisf(roll, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  world_from_camera.translation() = position;
+  return world_from_camera;
+}
+
+}  // namespace stillmap::synth
