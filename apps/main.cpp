@@ -130,6 +130,13 @@ int Run(int argc, char** argv) {
           "outputs in {}",
           summary.frames_fused, summary.frames_paired, summary.map_points,
           summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
+      if (summary.map_quality) {
+        spdlog::info(
+            "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; completeness "
+            "{:.1f} %; ghost share {:.2f} %",
+            summary.map_quality->accuracy_median * 1e3, summary.map_quality->accuracy_mean * 1e3,
+            100.0 * summary.map_quality->completeness, 100.0 * summary.map_quality->ghost_share);
+      }
     } else if (*eval_cmd) {
       std::cout << stillmap::RunEval(eval);
     } else if (*synth_cmd) {

@@ -195,8 +195,26 @@ const std::vector<ConfigKey>& Keys() {
                  [](const BuildConfig& c) {
                    return std::to_string(c.mapping.back_projection.pixel_stride);
                  }});
+    k.push_back({"mapping.smoothing_radius",
+                 "edge-preserving depth smoothing radius [px] (0 = off)",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   c->mapping.back_projection.smoothing_radius =
+                       static_cast<int>(ToInteger("mapping.smoothing_radius", v, where));
+                 },
+                 [](const BuildConfig& c) {
+                   return std::to_string(c.mapping.back_projection.smoothing_radius);
+                 }});
     k.push_back(DoubleKey("mapping.voxel_leaf", "voxel edge of the colored cloud [m]",
                           [](BuildConfig& c) -> double& { return c.mapping.voxel.leaf_size; }));
+    k.push_back({"mapping.min_points_per_voxel",
+                 "voxels with fewer points are left out of map.ply/map.pcd",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   c->mapping.voxel.min_points_per_voxel =
+                       static_cast<int>(ToInteger("mapping.min_points_per_voxel", v, where));
+                 },
+                 [](const BuildConfig& c) {
+                   return std::to_string(c.mapping.voxel.min_points_per_voxel);
+                 }});
     k.push_back(BoolKey("octomap.enabled", "build the OctoMap (map.bt, map.ot)",
                         [](BuildConfig& c) -> bool& { return c.mapping.occupancy_enabled; }));
     k.push_back(

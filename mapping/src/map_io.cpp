@@ -86,7 +86,7 @@ void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const VoxelCloud& cloud) {
   std::ostringstream comment;
   comment << "stillmap voxel cloud, leaf " << cloud.leaf_size() << " m";
-  CloudFileWriter writer(ply_path, pcd_path, cloud.size(), comment.str());
+  CloudFileWriter writer(ply_path, pcd_path, cloud.OutputSize(), comment.str());
   cloud.ForEachPoint([&writer](const VoxelPoint& p) { writer.Add(p); });
   writer.Finish();
 }

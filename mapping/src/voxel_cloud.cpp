@@ -32,10 +32,13 @@ void VoxelCloudOptions::Validate() const {
   if (!(leaf_size >= 0.001 && leaf_size <= 10.0)) {
     throw InputError("mapping.voxel_leaf must be between 0.001 and 10 m");
   }
+  if (min_points_per_voxel < 1) throw InputError("mapping.min_points_per_voxel must be >= 1");
 }
 
 VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)
-    : leaf_size_(options.leaf_size), inverse_leaf_(1.0 / options.leaf_size) {
+    : leaf_size_(options.leaf_size),
+      inverse_leaf_(1.0 / options.leaf_size),
+      min_points_(static_cast<std::uint32_t>(std::max(1, options.min_points_per_voxel))) {
   options.Validate();
   slots_.assign(1 << 16, Slot{kEmpty, {}, {}, 0});
 }
@@ -118,7 +121,9 @@ void VoxelCloud::ForEachPoint(const std::function<void(const VoxelPoint&)>& visi
   std::vector<std::pair<std::uint64_t, size_t>> used;
   used.reserve(size_);
   for (size_t i = 0; i < slots_.size(); ++i) {
-    if (slots_[i].key != kEmpty) used.emplace_back(slots_[i].key, i);
+    if (slots_[i].key != kEmpty && slots_[i].count >= min_points_) {
+      used.emplace_back(slots_[i].key, i);
+    }
   }
   std::sort(used.begin(), used.end());
   for (const auto& [key, index] : used) {
@@ -141,6 +146,12 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
   points.reserve(size_);
   ForEachPoint([&points](const VoxelPoint& point) { points.push_back(point); });
   return points;
+}
+
+size_t VoxelCloud::OutputSize() const {
+  size_t count = 0;
+  for (const Slot& slot : slots_) count += slot.key != kEmpty && slot.count >= min_points_;
+  return count;
 }
 
 size_t VoxelCloud::MemoryBytes() const { return slots_.size() * sizeof(Slot); }

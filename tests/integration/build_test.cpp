@@ -77,7 +77,7 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
 
   const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "out/report.json"));
   EXPECT_EQ(report["frames"]["fused"], 6);
-  EXPECT_EQ(report["map"]["voxels"], cloud.size());
+  EXPECT_EQ(report["map"]["voxels_written"], cloud.size());
   EXPECT_GT(report["frames_per_second"].get<double>(), 0.0);
   EXPECT_GT(report["peak_memory_mib"].get<double>(), 0.0);
   EXPECT_NE(testing::ReadText(dir / "out/config.yaml").find("voxel_leaf: 0.02"), std::string::npos);

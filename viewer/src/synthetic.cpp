@@ -91,15 +91,9 @@ void Render(const synth::Scene& scene, const std::string& scenario, double time,
   }
 }
 
-struct View {
-  Eigen::Isometry3f camera_from_world;
-  cv::Mat static_depth;  // CV_32FC1 [m]
-};
-
 // Samples the static surfaces every `spacing` metres (a grid in each triangle's plane), colored by
-// their texture, keeping the points that some view sees within `max_range`.
-std::vector<VoxelPoint> StaticGroundTruth(const synth::Scene& scene, const std::vector<View>& views,
-                                          const Camera& camera, double spacing, double max_range) {
+// their texture.
+std::vector<VoxelPoint> SampleStaticSurfaces(const synth::Scene& scene, double spacing) {
   std::vector<VoxelPoint> points;
   const float s = static_cast<float>(spacing);
   for (const synth::StaticObject& object : scene.statics) {
@@ -138,33 +132,27 @@ std::vector<VoxelPoint> StaticGroundTruth(const synth::Scene& scene, const std::
       }
     }
   }
-  // Keep what a view sees: in the image, within range, and not behind another static surface.
-  std::vector<char> seen(points.size(), 0);
+  return points;
+}
+
+// Marks the surface points that a camera with this static-only depth sees: in the image, within
+// range, and not behind another static surface.
+void MarkVisible(const std::vector<VoxelPoint>& points, const Eigen::Isometry3f& camera_from_world,
+                 const cv::Mat& static_depth, const Camera& camera, double max_range,
+                 std::vector<std::atomic<std::uint8_t>>* seen) {
   const float max_z = static_cast<float>(max_range);
-  auto check = [&](size_t begin, size_t end) {
-    for (size_t i = begin; i < end; ++i) {
-      for (const View& view : views) {
-        const Eigen::Vector3f q = view.camera_from_world * points[i].position;
-        if (q.z() < 0.1f || q.z() > max_z) continue;
-        const int u = static_cast<int>(std::lround(camera.fx * q.x() / q.z() + camera.cx));
-        const int v = static_cast<int>(std::lround(camera.fy * q.y() / q.z() + camera.cy));
-        if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
-        const float surface = view.static_depth.at<float>(v, u);
-        if (surface > 0.0f && std::abs(surface - q.z()) < 0.01f + 0.01f * q.z()) {
-          seen[i] = 1;
-          break;
-        }
-      }
-    }
-  };
-  std::thread helper(check, 0, points.size() / 2);
-  check(points.size() / 2, points.size());
-  helper.join();
-  std::vector<VoxelPoint> visible;
   for (size_t i = 0; i < points.size(); ++i) {
-    if (seen[i]) visible.push_back(points[i]);
+    if ((*seen)[i].load(std::memory_order_relaxed) != 0) continue;
+    const Eigen::Vector3f q = camera_from_world * points[i].position;
+    if (q.z() < 0.1f || q.z() > max_z) continue;
+    const int u = static_cast<int>(std::lround(camera.fx * q.x() / q.z() + camera.cx));
+    const int v = static_cast<int>(std::lround(camera.fy * q.y() / q.z() + camera.cy));
+    if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
+    const float surface = static_depth.at<float>(v, u);
+    if (surface > 0.0f && std::abs(surface - q.z()) < 0.01f + 0.01f * q.z()) {
+      (*seen)[i].store(1, std::memory_order_relaxed);
+    }
   }
-  return visible;
 }
 
 void WriteTimestampList(const std::string& path, const std::string& what, const std::string& folder,
@@ -259,7 +247,10 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   }
 
   const Camera camera = SynthCamera();
-  std::vector<View> views((options.frames + kVisibilityStride - 1) / kVisibilityStride);
+  // The static ground truth: surface samples, kept when some frame sees them.
+  const std::vector<VoxelPoint> surface = SampleStaticSurfaces(scene, options.static_gt_spacing);
+  std::vector<std::atomic<std::uint8_t>> seen(surface.size());
+  for (auto& flag : seen) flag.store(0, std::memory_order_relaxed);
   std::vector<double> dynamic_share(options.frames, 0.0);
   std::atomic<size_t> next{0};
   std::mutex failure_mutex;
@@ -269,13 +260,10 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
     try {
       for (size_t i = next++; i < options.frames; i = next++) {
         const double time = static_cast<double>(i) / kFrameRate;
-        const bool keep_view = i % kVisibilityStride == 0;
         cv::Mat static_depth;
-        Render(scene, options.scenario, time, &raster, keep_view ? &static_depth : nullptr);
-        if (keep_view) {
-          views[i / kVisibilityStride] = {synth::CameraPose(options.scenario, time).inverse(),
-                                          static_depth};
-        }
+        Render(scene, options.scenario, time, &raster, &static_depth);
+        MarkVisible(surface, synth::CameraPose(options.scenario, time).inverse(), static_depth,
+                    camera, options.static_gt_max_range, &seen);
         cv::RNG rng(options.seed * 1000003ULL + i);
         const cv::Mat depth = DepthModel(raster.buffers(), camera, options.depth_noise, rng);
         const cv::Mat mask = raster.buffers().object_id >= kFirstDynamicId;
@@ -350,8 +338,10 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
                 "stillmap synth ground truth: camera-to-world, world z up");
   WriteCameraYaml((work / "camera.yaml").string(), camera,
                   "stillmap synth camera: ideal pinhole, depth registered to color");
-  const std::vector<VoxelPoint> static_gt = StaticGroundTruth(
-      scene, views, camera, options.static_gt_spacing, options.static_gt_max_range);
+  std::vector<VoxelPoint> static_gt;
+  for (size_t i = 0; i < surface.size(); ++i) {
+    if (seen[i].load(std::memory_order_relaxed) != 0) static_gt.push_back(surface[i]);
+  }
   WritePly((work / "static_gt.ply").string(), static_gt);
 
   SynthSummary summary;

@@ -2,9 +2,11 @@
 // exactly as the command line does.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "stillmap/apps/config.h"
+#include "stillmap/mapping/map_quality.h"
 
 namespace stillmap {
 
@@ -33,6 +35,8 @@ struct BuildSummary {
   double wall_time_s = 0.0;
   double frames_per_second = 0.0;  // frames_paired / wall time
   double peak_memory_mib = 0.0;
+  // Against the sequence's static_gt.ply, when it has one (synthetic sequences).
+  std::optional<MapQuality> map_quality;
 };
 
 // Runs the whole build. Throws InputError for bad input or options (before anything is written

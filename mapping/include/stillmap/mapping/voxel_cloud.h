@@ -14,6 +14,9 @@ namespace stillmap {
 
 struct VoxelCloudOptions {
   double leaf_size = 0.01;  // voxel edge [m]
+  // Voxels that received fewer points are left out of the output: isolated depth noise and
+  // transient objects hit few points, surfaces seen over many frames many.
+  int min_points_per_voxel = 1;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
@@ -49,6 +52,8 @@ class VoxelCloud {
   size_t size() const { return size_; }
   size_t rejected_count() const { return rejected_; }
   double leaf_size() const { return leaf_size_; }
+  // Voxels that reach min_points_per_voxel (what ForEachPoint and Points visit).
+  size_t OutputSize() const;
   // Bytes held by the table.
   size_t MemoryBytes() const;
 
@@ -67,6 +72,7 @@ class VoxelCloud {
 
   double leaf_size_;
   double inverse_leaf_;
+  std::uint32_t min_points_;
   std::vector<Slot> slots_;
   size_t size_ = 0;
   size_t rejected_ = 0;

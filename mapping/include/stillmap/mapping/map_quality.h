@@ -1,0 +1,31 @@
+// Map quality against a ground-truth static surface (DESIGN.md, "Map quality").
+#pragma once
+
+#include <vector>
+
+#include "stillmap/mapping/voxel_cloud.h"
+
+namespace stillmap {
+
+struct MapQualityOptions {
+  double ghost_distance = 0.05;         // map points farther than this from every static
+                                        // ground-truth point are ghosts [m] (DESIGN.md: 5 cm)
+  double completeness_distance = 0.05;  // a ground-truth point is covered by a map point within
+                                        // this distance [m] (DESIGN.md: 5 cm)
+};
+
+struct MapQuality {
+  size_t map_points = 0;
+  size_t groundtruth_points = 0;
+  double accuracy_mean = 0.0;    // mean distance of map points to the ground truth [m]
+  double accuracy_median = 0.0;  // median of the same [m]
+  double completeness = 0.0;     // share of ground-truth points with a map point within 5 cm
+  double ghost_share = 0.0;      // share of map points farther than 5 cm from every GT point
+};
+
+// Nearest-neighbour distances both ways (FLANN kd-trees through PCL). Both clouds in one frame.
+MapQuality EvaluateMap(const std::vector<VoxelPoint>& map,
+                       const std::vector<VoxelPoint>& static_groundtruth,
+                       const MapQualityOptions& options = {});
+
+}  // namespace stillmap
