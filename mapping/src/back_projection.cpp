@@ -59,31 +59,40 @@ void SmoothDepth(const cv::Mat& depth_m, int radius, cv::Mat* smoothed) {
   // separable row-then-column version is 2.5x faster at radius 2 but lets through 7x more ghost
   // points (1.5 % vs 0.2 % on the synthetic static scene); 25 vectorized whole-image passes are
   // memory-bound and slower than this loop.
+  // Inverse depth is affine in (u, v) on a plane, so the mean of 1/z over a symmetric window is
+  // exact on planes; the window shrinks symmetrically at the image border. Next to pixels without
+  // a reading the window is one-sided and the mean shifts by about the depth gradient per pixel
+  // (mm on slanted surfaces). Taking neighbours only in mirrored pairs removes that bias but
+  // averages fewer readings: measured on the synthetic static scene, median error 10.4 mm and
+  // 2.4 % ghosts against 5.0 mm and 0.2 % for this window.
   const int rows = depth_m.rows, cols = depth_m.cols;
   smoothed->create(depth_m.size(), CV_32FC1);
   for (int v = 0; v < rows; ++v) {
     const float* center_row = depth_m.ptr<float>(v);
     float* out = smoothed->ptr<float>(v);
-    const int v0 = std::max(0, v - radius), v1 = std::min(rows - 1, v + radius);
+    const int rv = std::min({radius, v, rows - 1 - v});
     for (int u = 0; u < cols; ++u) {
       const float z = center_row[u];
       if (z <= 0.0f) {
         out[u] = 0.0f;
         continue;
       }
+      // The 3-sigma band in inverse depth: sigma(z) / z^2.
       const float d = z - 0.4f;
-      const float limit = 3.0f * (0.0012f + 0.0019f * d * d);
-      const int u0 = std::max(0, u - radius), u1 = std::min(cols - 1, u + radius);
+      const float inverse_z = 1.0f / z;
+      const float limit = 3.0f * (0.0012f + 0.0019f * d * d) * inverse_z * inverse_z;
+      const int ru = std::min({radius, u, cols - 1 - u});
       float sum = 0.0f, count = 0.0f;
-      for (int y = v0; y <= v1; ++y) {
+      for (int y = v - rv; y <= v + rv; ++y) {
         const float* row = depth_m.ptr<float>(y);
-        for (int x = u0; x <= u1; ++x) {
-          const bool take = row[x] > 0.0f && std::abs(row[x] - z) < limit;
-          sum += take ? row[x] : 0.0f;
+        for (int x = u - ru; x <= u + ru; ++x) {
+          const float inverse_n = row[x] > 0.0f ? 1.0f / row[x] : 0.0f;
+          const bool take = row[x] > 0.0f && std::abs(inverse_n - inverse_z) < limit;
+          sum += take ? inverse_n : 0.0f;
           count += take ? 1.0f : 0.0f;
         }
       }
-      out[u] = sum / count;
+      out[u] = count / sum;
     }
   }
 }

@@ -17,7 +17,8 @@ struct BackProjectionOptions {
                            // with the square of depth; beyond 4 m it exceeds a 1 cm voxel)
   int pixel_stride = 1;    // back-project every n-th pixel along u and v (1 = all)
   // Edge-preserving depth smoothing before back-projection: each reading is replaced by the mean
-  // of the readings within this many pixels that lie within 3 sigma(z) of it, sigma(z) = 1.2 mm +
+  // (in inverse depth: exact on planes) of the readings within this many pixels that lie within
+  // 3 sigma(z) of it, sigma(z) = 1.2 mm +
   // 1.9 mm (z - 0.4 m)^2, the Kinect's axial noise (Nguyen et al., 3DIMPVT 2012). 0 = off.
   int smoothing_radius = 2;
 
