@@ -1,17 +1,29 @@
 #!/usr/bin/env bash
-# The main job: install what is missing, build stillmap, and build a map of a sequence.
-#   scripts/main_job.sh [SEQUENCE_DIR] [OUT_DIR] [extra stillmap build options...]
-# Without arguments it maps ../shared/data/tum_fr3_teddy_200 from its ground-truth poses.
+# The main job: install what is missing, build stillmap, and build the maps of a sequence.
+#   scripts/main_job.sh                      the bundled sample: 10 s of people walking past a
+#                                            moving camera, rendered by `stillmap synth` into
+#                                            data/sample/ (once), mapped into out/
+#   scripts/main_job.sh SEQUENCE_DIR OUT_DIR [more stillmap build options...]
+# Until tracking exists (issue 4) the maps are built from the sequence's ground-truth poses.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/scripts/setup.sh"
+stillmap="$root/build/apps/stillmap"
 
-sequence="${1:-$root/../shared/data/tum_fr3_teddy_200}"
-out="${2:-$root/out}"
-shift $(( $# > 2 ? 2 : $# ))
+if [ $# -ge 1 ]; then
+  sequence="$1"
+  out="${2:-$root/out}"
+  shift $(( $# > 2 ? 2 : $# ))
+else
+  sequence="$root/data/sample"
+  out="$root/out"
+  if [ ! -f "$sequence/synth.json" ]; then
+    "$stillmap" synth "$sequence" --scenario walking_xyz --frames 300 --seed 1
+  fi
+fi
 if [ ! -d "$sequence" ]; then
   echo "main_job: sequence folder '$sequence' not found; name one: scripts/main_job.sh SEQUENCE_DIR OUT_DIR" >&2
   exit 2
 fi
-"$root/build/apps/stillmap" build "$sequence" -o "$out" --poses groundtruth "$@"
+"$stillmap" build "$sequence" -o "$out" --poses groundtruth "$@"
 echo "main_job: outputs in $out"
