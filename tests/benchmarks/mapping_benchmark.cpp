@@ -22,7 +22,7 @@ struct Input {
 };
 
 const Input& GetInput() {
-  static const Input input = [] {
+  static const Input kInput = [] {
     Input in;
     if (const auto dir = testing::SharedSequence("tum_fr3_teddy_200")) {
       in.camera = ResolveCamera(*dir, {});
@@ -43,10 +43,10 @@ const Input& GetInput() {
     }
     return in;
   }();
-  return input;
+  return kInput;
 }
 
-void BM_SmoothDepth(benchmark::State& state) {
+void BM_SmoothDepth(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
   cv::Mat smoothed;
   for (auto _ : state) {
@@ -56,7 +56,7 @@ void BM_SmoothDepth(benchmark::State& state) {
 }
 BENCHMARK(BM_SmoothDepth)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
 
-void BM_BackProject(benchmark::State& state) {
+void BM_BackProject(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
   BackProjectionOptions options;
   options.smoothing_radius = static_cast<int>(state.range(0));
@@ -72,7 +72,7 @@ void BM_BackProject(benchmark::State& state) {
 BENCHMARK(BM_BackProject)->Arg(0)->Arg(2)->Unit(benchmark::kMillisecond);
 
 // Inserting the same frame again: the voxels exist already, as for most points of a sequence.
-void BM_VoxelInsert(benchmark::State& state) {
+void BM_VoxelInsert(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
   BackProjectionOptions options;
   options.smoothing_radius = 0;
@@ -85,7 +85,7 @@ void BM_VoxelInsert(benchmark::State& state) {
 }
 BENCHMARK(BM_VoxelInsert)->Unit(benchmark::kMillisecond);
 
-void BM_OctomapInsert(benchmark::State& state) {
+void BM_OctomapInsert(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
   ColoredPoints points;
   DepthBackProjector(in.camera, {})

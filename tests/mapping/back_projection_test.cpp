@@ -69,9 +69,9 @@ cv::Mat PlaneDepth(int width, int height, double noise_sigma, std::uint64_t seed
   cv::RNG rng(seed);
   for (int v = 0; v < height; ++v) {
     for (int u = 0; u < width; ++u) {
-      depth.at<float>(v, u) =
-          static_cast<float>(1.0 / (0.45 + 0.0004 * (u - width / 2) - 0.0003 * (v - height / 2)) +
-                             rng.gaussian(noise_sigma));
+      depth.at<float>(v, u) = static_cast<float>(
+          1.0 / (0.45 + 0.0004 * (u - width / 2.0) - 0.0003 * (v - height / 2.0)) +
+          rng.gaussian(noise_sigma));
     }
   }
   return depth;

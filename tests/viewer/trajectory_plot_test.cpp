@@ -27,7 +27,7 @@ int CountPixels(const cv::Mat& image, char kind) {
   int count = 0;
   for (int v = 0; v < image.rows; ++v) {
     for (int u = 0; u < image.cols; ++u) {
-      const cv::Vec3b p = image.at<cv::Vec3b>(v, u);
+      const cv::Vec3b& p = image.at<cv::Vec3b>(v, u);
       const int b = p[0], g = p[1], r = p[2];
       if (kind == 'k') count += r < 60 && g < 60 && b < 60;  // black
       if (kind == 'b') count += b > r + 60 && b > g + 30;    // blue

@@ -26,7 +26,6 @@ using synth::kFirstDynamicId;
 
 constexpr double kFrameRate = 30.0;    // [Hz]
 constexpr double kStartTime = 1000.0;  // timestamp of frame 0 [s]
-constexpr int kVisibilityStride = 10;  // static depth kept every n-th frame for static_gt.ply
 
 double FrameTime(size_t index) { return kStartTime + static_cast<double>(index) / kFrameRate; }
 
