@@ -4,6 +4,7 @@
 #include <assimp/scene.h>
 
 #include <assimp/Importer.hpp>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <stdexcept>
@@ -60,6 +61,56 @@ TriangleMesh MakeBox(const Eigen::Vector3f& center, const Eigen::Vector3f& size,
     }
   }
   return box;
+}
+
+TriangleMesh MakeRevolved(const std::vector<Eigen::Vector3f>& profile, int segments) {
+  TriangleMesh mesh;
+  const int rings = static_cast<int>(profile.size()) - 1;
+  for (int r = 0; r <= rings; ++r) {
+    for (int s = 0; s <= segments; ++s) {
+      const float angle = 2.0f * 3.14159265f * static_cast<float>(s) / static_cast<float>(segments);
+      const Eigen::Vector3f& p = profile[static_cast<size_t>(r)];
+      mesh.vertices.emplace_back(p[1] * std::sin(angle), p[2] * std::cos(angle), p[0]);
+      mesh.uvs.emplace_back(static_cast<float>(s) / static_cast<float>(segments),
+                            static_cast<float>(r) / static_cast<float>(rings));
+    }
+  }
+  const int row = segments + 1;
+  for (int r = 0; r < rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      const int a = r * row + s, b = a + 1, c = a + row, d = c + 1;
+      mesh.faces.push_back({a, b, c});  // outward for a profile listed from top to bottom
+      mesh.faces.push_back({b, d, c});
+    }
+  }
+  return mesh;
+}
+
+TriangleMesh MakeCapsule(float radius, float length, int segments) {
+  // Profile from the top cap (z = 0) down to the bottom cap (z = -length).
+  std::vector<Eigen::Vector3f> profile;
+  const int cap_rings = 4;
+  for (int i = 0; i <= cap_rings; ++i) {
+    const float a = 1.5707963f * static_cast<float>(i) / cap_rings;  // 0 .. 90 deg
+    const float r = radius * std::sin(a);
+    profile.emplace_back(-radius * (1.0f - std::cos(a)), r, r);
+  }
+  for (int i = cap_rings; i >= 0; --i) {
+    const float a = 1.5707963f * static_cast<float>(i) / cap_rings;
+    const float r = radius * std::sin(a);
+    profile.emplace_back(-length + radius * (1.0f - std::cos(a)), r, r);
+  }
+  return MakeRevolved(profile, segments);
+}
+
+TriangleMesh MakeEllipsoid(const Eigen::Vector3f& radii, int segments) {
+  std::vector<Eigen::Vector3f> profile;
+  const int rings = segments / 2;
+  for (int i = 0; i <= rings; ++i) {
+    const float a = 3.14159265f * static_cast<float>(i) / static_cast<float>(rings);  // top..bottom
+    profile.emplace_back(radii.z() * std::cos(a), radii.x() * std::sin(a), radii.y() * std::sin(a));
+  }
+  return MakeRevolved(profile, segments);
 }
 
 void WriteObj(const std::string& path, const TriangleMesh& mesh) {

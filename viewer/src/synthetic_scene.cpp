@@ -168,27 +168,71 @@ enum MaterialIndex : std::uint16_t {
 };
 constexpr int kBookCount = 8;
 
-// Adds a person: shirt and trousers of their own colors.
+// A face on skin, for the head's texture (u around from the front, v from the top): hair on top
+// and at the back, eyes, brows and a mouth at the front (u near 0 and 1).
+cv::Mat FaceTexture(cv::RNG& rng, const cv::Scalar& skin, const cv::Scalar& hair) {
+  cv::Mat face = NoiseTexture(rng, skin, 6.0, 128, 6, 3.0);
+  cv::rectangle(face, cv::Rect(0, 0, 128, 40), hair, cv::FILLED);  // top
+  cv::rectangle(face, cv::Rect(30, 0, 68, 80), hair, cv::FILLED);  // back of the head
+  for (int side : {-1, 1}) {
+    const int u = side < 0 ? 121 : 7;  // +-0.055 of a turn from the front
+    cv::ellipse(face, {u, 58}, {4, 3}, 0, 0, 360, cv::Scalar(245, 245, 245), cv::FILLED);
+    cv::circle(face, {u, 58}, 2, cv::Scalar(40, 30, 20), cv::FILLED);
+    cv::line(face, {u - 5, 51}, {u + 5, 51}, hair, 2);
+  }
+  cv::line(face, {0, 82}, {6, 82}, cv::Scalar(60, 60, 150), 2);  // mouth, across the seam
+  cv::line(face, {122, 82}, {127, 82}, cv::Scalar(60, 60, 150), 2);
+  return face;
+}
+
+// Adds a person with rounded limbs (capsules), a tapered torso and a head with a face; shirt,
+// trousers, skin and hair of their own colors.
 MovingObject MakePerson(Scene* scene, cv::RNG& rng, const std::string& name, std::uint16_t id) {
-  const auto shirt = static_cast<std::uint16_t>(scene->materials.size());
-  scene->materials.push_back(
-      {StripeTexture(rng, RandomColor(rng, 30, 220), RandomColor(rng, 30, 220)), 0.55f, 0.45f});
-  const auto trousers = static_cast<std::uint16_t>(scene->materials.size());
-  scene->materials.push_back(
-      {NoiseTexture(rng, RandomColor(rng, 30, 110), 12.0, 128, 10, 10.0), 0.55f, 0.45f});
+  auto add_material = [scene](const cv::Mat& texture) {
+    scene->materials.push_back({texture, 0.55f, 0.45f});
+    return static_cast<std::uint16_t>(scene->materials.size() - 1);
+  };
+  const std::uint16_t shirt =
+      add_material(StripeTexture(rng, RandomColor(rng, 30, 220), RandomColor(rng, 30, 220)));
+  const std::uint16_t trousers =
+      add_material(NoiseTexture(rng, RandomColor(rng, 30, 110), 12.0, 128, 10, 10.0));
+  const cv::Scalar skin = std::vector<cv::Scalar>{
+      {150, 180, 230}, {110, 150, 200}, {60, 90, 140}}[static_cast<size_t>(rng.uniform(0, 3))];
+  const std::uint16_t head = add_material(FaceTexture(rng, skin, RandomColor(rng, 10, 70)));
   MovingObject person;
   person.name = name;
   person.id = id;
+  // Torso from the hips (part origin) up to the neck, wider at the shoulders (z, rx, ry), top
+  // first.
+  TriangleMesh torso = MakeRevolved({{0.60f, 0.05f, 0.05f},
+                                     {0.58f, 0.12f, 0.08f},
+                                     {0.52f, 0.20f, 0.11f},
+                                     {0.42f, 0.19f, 0.12f},
+                                     {0.22f, 0.15f, 0.10f},
+                                     {0.05f, 0.17f, 0.11f},
+                                     {0.00f, 0.14f, 0.09f}},
+                                    16);
+  for (auto& uv : torso.uvs) uv = Eigen::Vector2f(uv.x() * 2.0f, uv.y() * 2.4f);
+  TriangleMesh head_mesh;
+  head_mesh.Append(MakeCapsule(0.05f, 0.1f, 10),
+                   Eigen::Isometry3f(Eigen::Translation3f(0, 0, 0.08f)));
+  head_mesh.Append(MakeEllipsoid({0.08f, 0.095f, 0.115f}),
+                   Eigen::Isometry3f(Eigen::Translation3f(0, 0.01f, 0.15f)));
+  TriangleMesh shin = MakeCapsule(0.055f, 0.42f);
+  shin.Append(Box(0, 0.04f, -0.42f, 0.1f, 0.25f, 0.07f, 0.25f));  // shoe
+  TriangleMesh arm = MakeCapsule(0.045f, 0.56f);
+  arm.Append(MakeEllipsoid({0.035f, 0.045f, 0.06f}, 10),
+             Eigen::Isometry3f(Eigen::Translation3f(0, 0, -0.6f)));  // hand
   // Parts in their own frames, pivots at the joints (body frame: feet on z = 0, facing +y).
   person.parts = {
-      {"torso", Box(0, 0, 0.29f, 0.38f, 0.22f, 0.58f, 0.25f), shirt},
-      {"head", Box(0, 0, 0.13f, 0.19f, 0.22f, 0.25f, 0.25f), kSkin},
-      {"left_thigh", Box(0, 0, -0.22f, 0.15f, 0.16f, 0.45f, 0.25f), trousers},
-      {"left_shin", Box(0, 0, -0.22f, 0.12f, 0.13f, 0.45f, 0.25f), trousers},
-      {"right_thigh", Box(0, 0, -0.22f, 0.15f, 0.16f, 0.45f, 0.25f), trousers},
-      {"right_shin", Box(0, 0, -0.22f, 0.12f, 0.13f, 0.45f, 0.25f), trousers},
-      {"left_arm", Box(0, 0, -0.3f, 0.09f, 0.1f, 0.62f, 0.25f), shirt},
-      {"right_arm", Box(0, 0, -0.3f, 0.09f, 0.1f, 0.62f, 0.25f), shirt},
+      {"torso", torso, shirt},
+      {"head", head_mesh, head},
+      {"left_thigh", MakeCapsule(0.075f, 0.46f), trousers},
+      {"left_shin", shin, trousers},
+      {"right_thigh", MakeCapsule(0.075f, 0.46f), trousers},
+      {"right_shin", shin, trousers},
+      {"left_arm", arm, shirt},
+      {"right_arm", arm, shirt},
   };
   return person;
 }

@@ -32,6 +32,17 @@ TriangleMesh MakeBox(const Eigen::Vector3f& center, const Eigen::Vector3f& size,
 TriangleMesh MakeQuad(const Eigen::Vector3f& origin, const Eigen::Vector3f& u_edge,
                       const Eigen::Vector3f& v_edge);
 
+// A surface of revolution about the z axis: at height z(t) the cross-section is an ellipse with
+// half-axes (rx(t), ry(t)) for t in [0, 1] sampled `rings` + 1 times, `segments` around. Texture
+// u runs around (from +y), v along t. Used for limbs, torsos and heads.
+TriangleMesh MakeRevolved(const std::vector<Eigen::Vector3f>& profile_z_rx_ry, int segments);
+
+// A capsule along -z from the origin: a cylinder of `radius` and `length` with rounded ends.
+TriangleMesh MakeCapsule(float radius, float length, int segments = 14);
+
+// An ellipsoid centred at the origin with half-axes `radii`.
+TriangleMesh MakeEllipsoid(const Eigen::Vector3f& radii, int segments = 16);
+
 // Writes a Wavefront OBJ (v, vt, f with v/vt). Throws std::runtime_error when it cannot write.
 void WriteObj(const std::string& path, const TriangleMesh& mesh);
 
