@@ -108,6 +108,18 @@ ConfigKey CountKey(const std::string& name, const std::string& help,
           }};
 }
 
+ConfigKey IntKey(const std::string& name, const std::string& help,
+                 const std::function<int&(BuildConfig&)>& field) {
+  return {name, help,
+          [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
+            field(*c) = static_cast<int>(ToInteger(name, v, where));
+          },
+          [field](const BuildConfig& c) {
+            BuildConfig copy = c;
+            return std::to_string(field(copy));
+          }};
+}
+
 ConfigKey BoolKey(const std::string& name, const std::string& help,
                   const std::function<bool&(BuildConfig&)>& field) {
   return {name, help,
@@ -187,34 +199,17 @@ const std::vector<ConfigKey>& Keys() {
     k.push_back(
         DoubleKey("mapping.max_depth", "depth readings farther are ignored [m]",
                   [](BuildConfig& c) -> double& { return c.mapping.back_projection.max_depth; }));
-    k.push_back({"mapping.pixel_stride", "back-project every n-th pixel along u and v",
-                 [](BuildConfig* c, const std::string& v, const std::string& where) {
-                   c->mapping.back_projection.pixel_stride =
-                       static_cast<int>(ToInteger("mapping.pixel_stride", v, where));
-                 },
-                 [](const BuildConfig& c) {
-                   return std::to_string(c.mapping.back_projection.pixel_stride);
-                 }});
-    k.push_back({"mapping.smoothing_radius",
-                 "edge-preserving depth smoothing radius [px] (0 = off)",
-                 [](BuildConfig* c, const std::string& v, const std::string& where) {
-                   c->mapping.back_projection.smoothing_radius =
-                       static_cast<int>(ToInteger("mapping.smoothing_radius", v, where));
-                 },
-                 [](const BuildConfig& c) {
-                   return std::to_string(c.mapping.back_projection.smoothing_radius);
-                 }});
+    k.push_back(
+        IntKey("mapping.pixel_stride", "back-project every n-th pixel along u and v",
+               [](BuildConfig& c) -> int& { return c.mapping.back_projection.pixel_stride; }));
+    k.push_back(
+        IntKey("mapping.smoothing_radius", "edge-preserving depth smoothing radius [px] (0 = off)",
+               [](BuildConfig& c) -> int& { return c.mapping.back_projection.smoothing_radius; }));
     k.push_back(DoubleKey("mapping.voxel_leaf", "voxel edge of the colored cloud [m]",
                           [](BuildConfig& c) -> double& { return c.mapping.voxel.leaf_size; }));
-    k.push_back({"mapping.min_points_per_voxel",
-                 "voxels with fewer points are left out of map.ply/map.pcd",
-                 [](BuildConfig* c, const std::string& v, const std::string& where) {
-                   c->mapping.voxel.min_points_per_voxel =
-                       static_cast<int>(ToInteger("mapping.min_points_per_voxel", v, where));
-                 },
-                 [](const BuildConfig& c) {
-                   return std::to_string(c.mapping.voxel.min_points_per_voxel);
-                 }});
+    k.push_back(IntKey(
+        "mapping.min_points_per_voxel", "voxels with fewer points are left out of map.ply/map.pcd",
+        [](BuildConfig& c) -> int& { return c.mapping.voxel.min_points_per_voxel; }));
     k.push_back(BoolKey("octomap.enabled", "build the OctoMap (map.bt, map.ot)",
                         [](BuildConfig& c) -> bool& { return c.mapping.occupancy_enabled; }));
     k.push_back(

@@ -318,7 +318,7 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
     scene.movers.push_back(first);
     MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
     second.from = {-1.2f, 2.2f};  // towards the camera and back
-    second.to = {-0.5f, 1.25f};  // stops short of person_0's line (y = 0.9)
+    second.to = {-0.5f, 1.25f};   // stops short of person_0's line (y = 0.9)
     second.speed = 0.9f;
     second.phase_offset = 1.0f;
     scene.movers.push_back(second);
