@@ -1,0 +1,108 @@
+// Features and poses on rendered frames of a synthetic scene with exact ground truth.
+#include "stillmap/tracking/features.h"
+
+#include <gtest/gtest.h>
+
+#include <iostream>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "stillmap/io/sequence.h"
+#include "stillmap/tracking/matching.h"
+#include "stillmap/tracking/pose_estimation.h"
+#include "stillmap/viewer/synthetic.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+// A noise-free static sequence, rendered once for the tests below.
+class RenderedFramesTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir;
+    SynthOptions options;
+    options.scenario = "static";
+    options.frames = 8;
+    options.depth_noise = false;
+    options.color_noise = false;
+    WriteSyntheticSequence(*dir_ / "seq", options);
+    sequence_ = new Sequence(Sequence::Open(*dir_ / "seq", ResolveCamera(*dir_ / "seq", {})));
+  }
+  static void TearDownTestSuite() {
+    delete sequence_;
+    delete dir_;
+  }
+  static FrameFeatures Features(size_t index) {
+    const Frame frame = sequence_->LoadFrame(index);
+    cv::Mat gray;
+    cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
+    return ExtractFeatures(gray, frame.depth_m, sequence_->camera(), cv::Mat(), FeatureOptions{});
+  }
+
+  static testing::TempDir* dir_;
+  static Sequence* sequence_;
+};
+testing::TempDir* RenderedFramesTest::dir_ = nullptr;
+Sequence* RenderedFramesTest::sequence_ = nullptr;
+
+TEST_F(RenderedFramesTest, FeaturesSpreadOverTheImageAndCarryDepth) {
+  const FrameFeatures features = Features(0);
+  ASSERT_GT(features.size(), 500u);
+  EXPECT_EQ(features.descriptors.rows, static_cast<int>(features.size()));
+  std::set<int> cells;
+  size_t with_depth = 0;
+  for (size_t i = 0; i < features.size(); ++i) {
+    cells.insert(static_cast<int>(features.keypoints[i].pt.y / 40) * 16 +
+                 static_cast<int>(features.keypoints[i].pt.x / 40));
+    with_depth += features.depth_m[i] > 0.0f;
+  }
+  // Over half of the 16 x 12 cells hold features (the rest see the plain ceiling or wall).
+  EXPECT_GT(cells.size(), 0.5 * 16 * 12);
+  EXPECT_GT(with_depth, 0.9 * features.size());
+}
+
+TEST_F(RenderedFramesTest, AFrameMatchesItselfOneToOne) {
+  const FrameFeatures features = Features(2);
+  const std::vector<cv::DMatch> matches =
+      MatchDescriptors(features.descriptors, features.descriptors);
+  ASSERT_GT(matches.size(), 0.8 * features.size());
+  for (const cv::DMatch& match : matches) EXPECT_EQ(match.queryIdx, match.trainIdx);
+}
+
+TEST_F(RenderedFramesTest, RelativePoseMatchesTheRenderingPose) {
+  // Frame 0's features with depth, placed in the world with frame 0's true pose; frame 6 located
+  // from their matches by PnP lands near its rendering pose. Measured: 6 mm. Frame 0 located from
+  // its own features lands within 1 mm, so the remainder is ORB corners shifting between views;
+  // issue 4's target (1 mm, 0.1 deg) needs the RGB-D refinement and local map still to come.
+  const size_t other = 6;
+  const FrameFeatures first = Features(0);
+  const FrameFeatures second = Features(other);
+  const Eigen::Isometry3d world_from_first = sequence_->groundtruth()->poses()[0].world_from_camera;
+  const Eigen::Isometry3d world_from_second =
+      sequence_->groundtruth()->poses()[other].world_from_camera;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> observations;
+  for (const cv::DMatch& match : MatchDescriptors(second.descriptors, first.descriptors)) {
+    const size_t i = static_cast<size_t>(match.trainIdx);
+    if (first.depth_m[i] <= 0.0f) continue;
+    if (first.keypoints[i].octave > 1 ||
+        second.keypoints[static_cast<size_t>(match.queryIdx)].octave > 1) {
+      continue;
+    }
+    points.push_back(world_from_first * first.PointInCamera(i));
+    observations.push_back(second.normalized[static_cast<size_t>(match.queryIdx)]);
+  }
+  ASSERT_GT(points.size(), 100u);
+  const PoseResult result = EstimatePosePnp(points, observations);
+  ASSERT_TRUE(result.ok());
+  const Eigen::Isometry3d error = result.camera_from_world * world_from_second;
+  const double rotation_deg = Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI;
+  std::cout << "PnP alone, frame 0 -> 6: " << error.translation().norm() * 1e3 << " mm, "
+            << rotation_deg << " deg, " << result.inliers.size() << " inliers\n";
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(rotation_deg, 0.3);
+}
+
+}  // namespace
+}  // namespace stillmap

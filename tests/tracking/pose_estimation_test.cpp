@@ -1,0 +1,56 @@
+#include "stillmap/tracking/pose_estimation.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace stillmap {
+namespace {
+
+Eigen::Isometry3d TruePose() {
+  Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+  camera_from_world.linear() =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.1, 1.0, 0.2).normalized()).toRotationMatrix();
+  camera_from_world.translation() = Eigen::Vector3d(0.2, -0.1, 0.5);
+  return camera_from_world;
+}
+
+TEST(PoseEstimationTest, PnpWithInjectedOutliersReturnsTheTruePose) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0), pixel(-0.6, 0.6);
+  const Eigen::Isometry3d camera_from_world = TruePose();
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector2d> observations;
+  std::vector<bool> outlier;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d in_camera(lateral(rng), lateral(rng), depth(rng));
+    points.push_back(camera_from_world.inverse() * in_camera);
+    const bool wrong = i % 10 < 3;  // 30 % outliers: random observations
+    observations.push_back(
+        wrong ? Eigen::Vector2d(pixel(rng), pixel(rng))
+              : Eigen::Vector2d(in_camera.x() / in_camera.z(), in_camera.y() / in_camera.z()));
+    outlier.push_back(wrong);
+  }
+  const PoseResult result = EstimatePosePnp(points, observations);
+  ASSERT_TRUE(result.ok());
+  EXPECT_LT((result.camera_from_world.translation() - camera_from_world.translation()).norm(),
+            1e-6);
+  EXPECT_LT(
+      Eigen::AngleAxisd(result.camera_from_world.linear().transpose() * camera_from_world.linear())
+          .angle(),
+      1e-6);
+  EXPECT_LT(result.reprojection_rmse, 1e-6);
+  int wrong_inliers = 0;
+  for (int i : result.inliers) wrong_inliers += outlier[static_cast<size_t>(i)];
+  EXPECT_EQ(result.inliers.size(), 210u);
+  EXPECT_EQ(wrong_inliers, 0);
+}
+
+TEST(PoseEstimationTest, TooFewPointsIsAStatusNotAPose) {
+  const PoseResult result = EstimatePosePnp({{0, 0, 1}, {1, 0, 1}}, {{0, 0}, {1, 0}});
+  EXPECT_FALSE(result.ok());
+  EXPECT_EQ(result.status, PoseStatus::kTooFewPoints);
+}
+
+}  // namespace
+}  // namespace stillmap

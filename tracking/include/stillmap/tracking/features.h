@@ -1,0 +1,46 @@
+// ORB features spread uniformly over the image, with undistorted coordinates and depth: what the
+// tracker matches and estimates poses from.
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+
+namespace stillmap {
+
+struct FeatureOptions {
+  int max_features = 1200;  // per frame (ORB-SLAM2's RGB-D setting for 640x480 is 1000)
+  int grid_columns = 16;    // the image is cut into cells; each keeps its strongest corners
+  int grid_rows = 12;
+  int pyramid_levels = 8;  // ORB scale pyramid
+  float scale_factor = 1.2f;
+  int fast_threshold = 12;  // FAST corner threshold (lower finds corners in low texture)
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+};
+
+// The features of one frame. Index i refers to the same feature in every vector.
+struct FrameFeatures {
+  std::vector<cv::KeyPoint> keypoints;      // distorted pixel coordinates, as detected
+  cv::Mat descriptors;                      // CV_8U, one 32-byte ORB row per keypoint
+  std::vector<Eigen::Vector2d> normalized;  // undistorted normalized coordinates (x/z, y/z)
+  std::vector<float> depth_m;               // depth at the keypoint [m], 0 = none
+
+  size_t size() const { return keypoints.size(); }
+  // The keypoint's point in the camera frame (requires depth_m[i] > 0).
+  Eigen::Vector3d PointInCamera(size_t i) const {
+    return depth_m[i] * Eigen::Vector3d(normalized[i].x(), normalized[i].y(), 1.0);
+  }
+};
+
+// Extracts ORB features from `gray` (CV_8UC1): corners are detected over the whole image, then
+// each grid cell keeps its strongest ones (so texture-rich regions cannot take every feature, as
+// ORB-SLAM's per-cell extraction intends), and descriptors are computed for the survivors.
+// Pixels where `ignore_mask` (CV_8UC1, or empty) is non-zero yield no features.
+FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const Camera& camera,
+                              const cv::Mat& ignore_mask, const FeatureOptions& options);
+
+}  // namespace stillmap

@@ -1,0 +1,35 @@
+// Camera pose from 3-D points and their observations (PnP with RANSAC).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <vector>
+
+namespace stillmap {
+
+struct PnpOptions {
+  double max_reprojection_error = 0.003;  // inlier threshold in normalized coordinates (about
+                                          // 1.6 px at fx = 525)
+  int iterations = 200;                   // RANSAC iterations
+  double confidence = 0.999;
+  int min_inliers = 12;  // fewer: the pose is not trusted
+};
+
+enum class PoseStatus { kOk, kTooFewPoints, kTooFewInliers };
+
+// Outcome of a pose estimate, with the figures that explain it.
+struct PoseResult {
+  PoseStatus status = PoseStatus::kTooFewPoints;
+  Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+  std::vector<int> inliers;        // indices into the input correspondences
+  double reprojection_rmse = 0.0;  // over the inliers, normalized coordinates
+  bool ok() const { return status == PoseStatus::kOk; }
+};
+
+// Estimates camera_from_world from world points and their undistorted normalized observations
+// (x/z, y/z): RANSAC over minimal sets (OpenCV's solvePnPRansac, EPnP), then an iterative
+// refinement on the inliers.
+PoseResult EstimatePosePnp(const std::vector<Eigen::Vector3d>& points_in_world,
+                           const std::vector<Eigen::Vector2d>& observations,
+                           const PnpOptions& options = {});
+
+}  // namespace stillmap

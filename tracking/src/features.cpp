@@ -1,0 +1,94 @@
+#include "stillmap/tracking/features.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+void FeatureOptions::Validate() const {
+  if (max_features < 50) throw InputError("tracking.max_features must be at least 50");
+  if (grid_columns < 1 || grid_rows < 1) throw InputError("tracking.grid must be at least 1x1");
+  if (pyramid_levels < 1 || !(scale_factor > 1.0f)) {
+    throw InputError("tracking.pyramid_levels must be >= 1 and scale_factor > 1");
+  }
+  if (fast_threshold < 1) throw InputError("tracking.fast_threshold must be positive");
+}
+
+namespace {
+
+// Depth at a sub-pixel position (depth is registered to the color image, so it is read at the
+// detected, distorted pixel): bilinear when the four neighbours have readings within 2 % of each
+// other (one surface), else the nearest reading; 0 when there is none.
+float DepthAt(const cv::Mat& depth_m, const cv::Point2f& pixel) {
+  const int u0 = static_cast<int>(std::floor(pixel.x)), v0 = static_cast<int>(std::floor(pixel.y));
+  if (u0 < 0 || v0 < 0 || u0 + 1 >= depth_m.cols || v0 + 1 >= depth_m.rows) return 0.0f;
+  const float d00 = depth_m.at<float>(v0, u0), d01 = depth_m.at<float>(v0, u0 + 1);
+  const float d10 = depth_m.at<float>(v0 + 1, u0), d11 = depth_m.at<float>(v0 + 1, u0 + 1);
+  const float lo = std::min({d00, d01, d10, d11}), hi = std::max({d00, d01, d10, d11});
+  if (lo > 0.0f && hi - lo < 0.02f * lo) {
+    const float fx = pixel.x - static_cast<float>(u0), fy = pixel.y - static_cast<float>(v0);
+    return (1 - fy) * ((1 - fx) * d00 + fx * d01) + fy * ((1 - fx) * d10 + fx * d11);
+  }
+  return depth_m.at<float>(static_cast<int>(std::lround(pixel.y)),
+                           static_cast<int>(std::lround(pixel.x)));
+}
+
+}  // namespace
+
+FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const Camera& camera,
+                              const cv::Mat& ignore_mask, const FeatureOptions& options) {
+  CV_Assert(gray.type() == CV_8UC1);
+  CV_Assert(depth_m.empty() || (depth_m.type() == CV_32FC1 && depth_m.size() == gray.size()));
+  // Over-detect, then keep the strongest per cell.
+  cv::Ptr<cv::ORB> orb =
+      cv::ORB::create(options.max_features * 3, options.scale_factor, options.pyramid_levels, 31, 0,
+                      2, cv::ORB::HARRIS_SCORE, 31, options.fast_threshold);
+  cv::Mat detect_mask;
+  if (!ignore_mask.empty()) detect_mask = ignore_mask == 0;
+  std::vector<cv::KeyPoint> candidates;
+  orb->detect(gray, candidates, detect_mask);
+
+  const int cells = options.grid_columns * options.grid_rows;
+  const size_t per_cell = static_cast<size_t>((options.max_features + cells - 1) / cells);
+  std::vector<std::vector<cv::KeyPoint>> grid(static_cast<size_t>(cells));
+  for (const cv::KeyPoint& keypoint : candidates) {
+    const int column = std::min(options.grid_columns - 1,
+                                static_cast<int>(keypoint.pt.x * options.grid_columns / gray.cols));
+    const int row = std::min(options.grid_rows - 1,
+                             static_cast<int>(keypoint.pt.y * options.grid_rows / gray.rows));
+    const size_t cell = static_cast<size_t>(row) * static_cast<size_t>(options.grid_columns) +
+                        static_cast<size_t>(column);
+    grid[cell].push_back(keypoint);
+  }
+  std::vector<cv::KeyPoint> kept;
+  for (std::vector<cv::KeyPoint>& cell : grid) {
+    std::sort(cell.begin(), cell.end(),
+              [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+    if (cell.size() > per_cell) cell.resize(per_cell);
+    kept.insert(kept.end(), cell.begin(), cell.end());
+  }
+
+  FrameFeatures features;
+  orb->compute(gray, kept, features.descriptors);  // may drop keypoints near the border
+  features.keypoints = std::move(kept);
+  if (features.keypoints.empty()) return features;
+
+  std::vector<cv::Point2f> pixels, rays;
+  for (const cv::KeyPoint& keypoint : features.keypoints) pixels.push_back(keypoint.pt);
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+  cv::undistortPoints(pixels, rays, k, distortion);
+  for (size_t i = 0; i < features.keypoints.size(); ++i) {
+    features.normalized.emplace_back(rays[i].x, rays[i].y);
+    float depth = 0.0f;
+    if (!depth_m.empty()) depth = DepthAt(depth_m, pixels[i]);
+    features.depth_m.push_back(depth);
+  }
+  return features;
+}
+
+}  // namespace stillmap
