@@ -4,6 +4,8 @@
 
 #include <random>
 
+#include "stillmap/tracking/pose_refinement.h"
+
 namespace stillmap {
 namespace {
 
@@ -44,6 +46,37 @@ TEST(PoseEstimationTest, PnpWithInjectedOutliersReturnsTheTruePose) {
   for (int i : result.inliers) wrong_inliers += outlier[static_cast<size_t>(i)];
   EXPECT_EQ(result.inliers.size(), 210u);
   EXPECT_EQ(wrong_inliers, 0);
+}
+
+TEST(PoseRefinementTest, ConvergesFromAPerturbedPoseAndFlagsOutliers) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0), wrong(-0.5, 0.5);
+  const Eigen::Isometry3d camera_from_world = TruePose();
+  std::vector<Eigen::Vector3d> points;
+  std::vector<RgbdObservation> observations;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d in_camera(lateral(rng), lateral(rng), depth(rng));
+    points.push_back(camera_from_world.inverse() * in_camera);
+    RgbdObservation observation;
+    observation.normalized = in_camera.head<2>() / in_camera.z();
+    observation.depth_m = i % 4 == 0 ? 0.0 : in_camera.z();  // a quarter without depth
+    if (i % 10 == 9) observation.normalized += Eigen::Vector2d(wrong(rng), wrong(rng));  // outlier
+    observations.push_back(observation);
+  }
+  Eigen::Isometry3d start = camera_from_world;
+  start.translation() += Eigen::Vector3d(0.02, -0.01, 0.015);
+  start.linear() =
+      Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, 0, 0)).toRotationMatrix() * start.linear();
+  const PoseResult result = RefinePose(start, points, observations);
+  ASSERT_TRUE(result.ok());
+  EXPECT_LT((result.camera_from_world.translation() - camera_from_world.translation()).norm(),
+            1e-6);
+  EXPECT_LT(
+      Eigen::AngleAxisd(result.camera_from_world.linear().transpose() * camera_from_world.linear())
+          .angle(),
+      1e-6);
+  EXPECT_EQ(result.inliers.size(), 180u);
+  for (int i : result.inliers) EXPECT_NE(i % 10, 9);
 }
 
 TEST(PoseEstimationTest, TooFewPointsIsAStatusNotAPose) {
