@@ -149,6 +149,7 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
 }
 
 size_t VoxelCloud::OutputSize() const {
+  if (min_points_ <= 1) return size_;  // every stored voxel is written: no scan of the table
   size_t count = 0;
   for (const Slot& slot : slots_) count += slot.key != kEmpty && slot.count >= min_points_;
   return count;

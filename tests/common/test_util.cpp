@@ -111,10 +111,7 @@ Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, cons
   }
   Trajectory trajectory(poses);
   trajectory.WriteTum(dir + "/groundtruth.txt");
-  std::ofstream yaml(dir + "/camera.yaml");
-  yaml << "width: " << camera.width << "\nheight: " << camera.height << "\nfx: " << camera.fx
-       << "\nfy: " << camera.fy << "\ncx: " << camera.cx << "\ncy: " << camera.cy
-       << "\ndistortion: [0, 0, 0, 0, 0]\ndepth_factor: " << camera.depth_factor << "\n";
+  WriteCameraYaml(dir + "/camera.yaml", camera, "test plane sequence");
   return trajectory;
 }
 

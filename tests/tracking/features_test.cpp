@@ -104,21 +104,21 @@ TEST_F(RenderedFramesTest, RelativePoseMatchesTheRenderingPose) {
   ASSERT_GT(points.size(), 100u);
   const PoseResult result = EstimatePosePnp(points, observations);
   ASSERT_TRUE(result.ok());
-  const Eigen::Isometry3d error = result.camera_from_world * world_from_second;
-  const double rotation_deg = Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI;
-  std::cout << "PnP alone, frame 0 -> 6: " << error.translation().norm() * 1e3 << " mm, "
-            << rotation_deg << " deg, " << result.inliers.size() << " inliers\n";
-  EXPECT_LT(error.translation().norm(), 0.01);
-  EXPECT_LT(rotation_deg, 0.3);
+  // Prints an estimate's distance from the rendering pose and checks it against the bounds.
+  auto expect_near_truth = [&](const char* label, const PoseResult& estimate, double max_m,
+                               double max_deg) {
+    const Eigen::Isometry3d error = estimate.camera_from_world * world_from_second;
+    const double error_deg = Eigen::AngleAxisd(error.linear()).angle() * 180.0 / M_PI;
+    std::cout << label << ": " << error.translation().norm() * 1e3 << " mm, " << error_deg
+              << " deg, " << estimate.inliers.size() << " inliers\n";
+    EXPECT_LT(error.translation().norm(), max_m);
+    EXPECT_LT(error_deg, max_deg);
+  };
+  expect_near_truth("PnP alone, frame 0 -> 6", result, 0.01, 0.3);
   // Then the RGB-D motion-only refinement, with frame 6's own depth at its keypoints.
   const PoseResult refined = RefinePose(result.camera_from_world, points, rgbd);
   ASSERT_TRUE(refined.ok());
-  const Eigen::Isometry3d refined_error = refined.camera_from_world * world_from_second;
-  const double refined_deg = Eigen::AngleAxisd(refined_error.linear()).angle() * 180.0 / M_PI;
-  std::cout << "PnP + RGB-D refinement: " << refined_error.translation().norm() * 1e3 << " mm, "
-            << refined_deg << " deg, " << refined.inliers.size() << " inliers\n";
-  EXPECT_LT(refined_error.translation().norm(), 0.005);
-  EXPECT_LT(refined_deg, 0.1);
+  expect_near_truth("PnP + RGB-D refinement", refined, 0.005, 0.1);
 }
 
 }  // namespace

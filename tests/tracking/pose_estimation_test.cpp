@@ -17,6 +17,13 @@ Eigen::Isometry3d TruePose() {
   return camera_from_world;
 }
 
+// Translation [m] and rotation angle [rad] of `estimate` within `tolerance` of `truth`.
+void ExpectSamePose(const Eigen::Isometry3d& estimate, const Eigen::Isometry3d& truth,
+                    double tolerance) {
+  EXPECT_LT((estimate.translation() - truth.translation()).norm(), tolerance);
+  EXPECT_LT(Eigen::AngleAxisd(estimate.linear().transpose() * truth.linear()).angle(), tolerance);
+}
+
 TEST(PoseEstimationTest, PnpWithInjectedOutliersReturnsTheTruePose) {
   std::mt19937 rng(4);
   std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0), pixel(-0.6, 0.6);
@@ -35,12 +42,7 @@ TEST(PoseEstimationTest, PnpWithInjectedOutliersReturnsTheTruePose) {
   }
   const PoseResult result = EstimatePosePnp(points, observations);
   ASSERT_TRUE(result.ok());
-  EXPECT_LT((result.camera_from_world.translation() - camera_from_world.translation()).norm(),
-            1e-6);
-  EXPECT_LT(
-      Eigen::AngleAxisd(result.camera_from_world.linear().transpose() * camera_from_world.linear())
-          .angle(),
-      1e-6);
+  ExpectSamePose(result.camera_from_world, camera_from_world, 1e-6);
   EXPECT_LT(result.reprojection_rmse, 1e-6);
   int wrong_inliers = 0;
   for (int i : result.inliers) wrong_inliers += outlier[static_cast<size_t>(i)];
@@ -69,12 +71,7 @@ TEST(PoseRefinementTest, ConvergesFromAPerturbedPoseAndFlagsOutliers) {
       Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, 0, 0)).toRotationMatrix() * start.linear();
   const PoseResult result = RefinePose(start, points, observations);
   ASSERT_TRUE(result.ok());
-  EXPECT_LT((result.camera_from_world.translation() - camera_from_world.translation()).norm(),
-            1e-6);
-  EXPECT_LT(
-      Eigen::AngleAxisd(result.camera_from_world.linear().transpose() * camera_from_world.linear())
-          .angle(),
-      1e-6);
+  ExpectSamePose(result.camera_from_world, camera_from_world, 1e-6);
   EXPECT_EQ(result.inliers.size(), 180u);
   for (int i : result.inliers) EXPECT_NE(i % 10, 9);
 }

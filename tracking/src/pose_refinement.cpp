@@ -55,6 +55,19 @@ class PoseManifold : public ceres::Manifold {
   }
 };
 
+// camera_from_world from the parameters [qx qy qz qw tx ty tz].
+Eigen::Isometry3d PoseFromParameters(const double* pose) {
+  Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+  camera_from_world.linear() = Eigen::Map<const Eigen::Quaterniond>(pose).toRotationMatrix();
+  camera_from_world.translation() = Eigen::Map<const Eigen::Vector3d>(pose + 4);
+  return camera_from_world;
+}
+
+// The chi-square threshold of an observation: 3 dof with a depth reading, 2 without.
+double ChiSquareThreshold(const RgbdObservation& observation, const RefinementOptions& options) {
+  return observation.depth_m > 0.0 ? options.chi2_with_depth : options.chi2_without_depth;
+}
+
 class RgbdCost : public ceres::SizedCostFunction<3, 7> {
  public:
   RgbdCost(Eigen::Vector3d point_in_world, RgbdObservation observation)
@@ -62,10 +75,7 @@ class RgbdCost : public ceres::SizedCostFunction<3, 7> {
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
-    Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
-    camera_from_world.linear() =
-        Eigen::Map<const Eigen::Quaterniond>(parameters[0]).toRotationMatrix();
-    camera_from_world.translation() = Eigen::Map<const Eigen::Vector3d>(parameters[0] + 4);
+    const Eigen::Isometry3d camera_from_world = PoseFromParameters(parameters[0]);
     Eigen::Vector3d r;
     Eigen::Matrix<double, 3, 6> j;
     if (!EvaluateRgbdResidual(camera_from_world, point_in_world_, observation_, &r,
@@ -112,10 +122,9 @@ PoseResult RefinePose(const Eigen::Isometry3d& initial,
     int used = 0;
     for (size_t i = 0; i < n; ++i) {
       if (!inlier[i]) continue;
-      const double threshold =
-          observations[i].depth_m > 0.0 ? options.chi2_with_depth : options.chi2_without_depth;
-      problem.AddResidualBlock(new RgbdCost(points_in_world[i], observations[i]),
-                               new ceres::HuberLoss(std::sqrt(threshold)), pose);
+      problem.AddResidualBlock(
+          new RgbdCost(points_in_world[i], observations[i]),
+          new ceres::HuberLoss(std::sqrt(ChiSquareThreshold(observations[i], options))), pose);
       ++used;
     }
     if (used < options.min_inliers) break;
@@ -126,20 +135,15 @@ PoseResult RefinePose(const Eigen::Isometry3d& initial,
     ceres::Solver::Summary summary;
     ceres::Solve(solver_options, &problem, &summary);
     // Reclassify every observation against the refined pose (outliers may come back).
-    Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
-    camera_from_world.linear() = Eigen::Map<const Eigen::Quaterniond>(pose).toRotationMatrix();
-    camera_from_world.translation() = Eigen::Map<const Eigen::Vector3d>(pose + 4);
+    const Eigen::Isometry3d camera_from_world = PoseFromParameters(pose);
     for (size_t i = 0; i < n; ++i) {
       Eigen::Vector3d r;
-      const double threshold =
-          observations[i].depth_m > 0.0 ? options.chi2_with_depth : options.chi2_without_depth;
       inlier[i] = EvaluateRgbdResidual(camera_from_world, points_in_world[i], observations[i], &r,
                                        nullptr) &&
-                  r.squaredNorm() < threshold;
+                  r.squaredNorm() < ChiSquareThreshold(observations[i], options);
     }
   }
-  result.camera_from_world.linear() = Eigen::Map<const Eigen::Quaterniond>(pose).toRotationMatrix();
-  result.camera_from_world.translation() = Eigen::Map<const Eigen::Vector3d>(pose + 4);
+  result.camera_from_world = PoseFromParameters(pose);
   double sum = 0.0;
   for (size_t i = 0; i < n; ++i) {
     if (!inlier[i]) continue;
