@@ -49,8 +49,21 @@ int Run(int argc, char** argv) {
   build_cmd->add_option("--config", config_file, "YAML configuration file");
   build_cmd->add_option("--set", set_arguments, "key=value; overrides --config (repeatable)");
   build_cmd
-      ->add_option("--poses", poses, "'groundtruth': map from the sequence's ground-truth poses")
+      ->add_option("--poses", poses,
+                   "'groundtruth': map from the sequence's ground-truth poses instead of tracking")
       ->check(CLI::IsMember({"groundtruth"}));
+  std::string detector = "none";
+  build_cmd
+      ->add_option("--detector", detector,
+                   "dynamic-object detector: 'none' (the only one in this build; the tracker "
+                   "uses every pixel)")
+      ->check([](const std::string& value) {
+        return value == "none" ? std::string()
+                               : "'" + value +
+                                     "' is not available in this build: the detectors (yolox, "
+                                     "deeplab, both) come with dynamic rejection; use --detector "
+                                     "none";
+      });
   build_cmd->add_option("--threads", build.threads, "worker threads (1: no read-ahead)")
       ->check(CLI::Range(1, 64));
   build_cmd->add_flag("--quiet", quiet, "no progress line, warnings only");
@@ -126,10 +139,14 @@ int Run(int argc, char** argv) {
       if (quiet) spdlog::set_level(spdlog::level::warn);
       const stillmap::BuildSummary summary = stillmap::RunBuild(build);
       spdlog::info(
-          "{} frames fused of {}, {} map points, {:.1f} frames/s, peak memory {:.0f} MiB; "
-          "outputs in {}",
-          summary.frames_fused, summary.frames_paired, summary.map_points,
+          "{} of {} frames tracked, {} fused, {} map points, {:.1f} frames/s, peak memory "
+          "{:.0f} MiB; outputs in {}",
+          summary.frames_tracked, summary.frames_paired, summary.frames_fused, summary.map_points,
           summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
+      if (summary.ate_rmse) {
+        spdlog::info("trajectory vs ground truth: ATE RMSE {:.1f} mm (report.json has RPE)",
+                     *summary.ate_rmse * 1e3);
+      }
       if (summary.map_quality) {
         spdlog::info(
             "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; completeness "

@@ -8,16 +8,20 @@
 #include <fstream>
 #include <future>
 #include <nlohmann/json.hpp>
+#include <map>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 
 #include "stillmap/apps/progress.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/evaluation.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/map_io.h"
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
 namespace {
@@ -65,6 +69,74 @@ nlohmann::json CameraJson(const Camera& camera) {
   return json;
 }
 
+// Decodes frames in order, the next one ahead on another thread when threads > 1.
+class FrameReader {
+ public:
+  FrameReader(const Sequence& sequence, std::vector<size_t> indices, bool read_ahead)
+      : sequence_(sequence), indices_(std::move(indices)), read_ahead_(read_ahead) {
+    if (read_ahead_ && !indices_.empty()) Schedule(0);
+  }
+  size_t size() const { return indices_.size(); }
+  // The k-th frame (k counts up from 0 by one on each call).
+  Frame Get(size_t k) {
+    const Clock::time_point start = Clock::now();
+    Frame frame = read_ahead_ ? next_.get() : sequence_.LoadFrame(indices_[k]);
+    wait_s_ += Seconds(start);
+    if (read_ahead_ && k + 1 < indices_.size()) Schedule(k + 1);
+    return frame;
+  }
+  double wait_s() const { return wait_s_; }
+
+ private:
+  void Schedule(size_t k) {
+    next_ = std::async(std::launch::async,
+                       [this, index = indices_[k]] { return sequence_.LoadFrame(index); });
+  }
+  const Sequence& sequence_;
+  std::vector<size_t> indices_;
+  bool read_ahead_;
+  std::future<Frame> next_;
+  double wait_s_ = 0.0;
+};
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t middle = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + static_cast<long>(middle), values.end());
+  return values[middle];
+}
+
+nlohmann::json StatisticsJson(const ErrorStatistics& statistics, double scale) {
+  return {{"count", statistics.count},          {"rmse", statistics.rmse * scale},
+          {"mean", statistics.mean * scale},    {"median", statistics.median * scale},
+          {"std_dev", statistics.std_dev * scale}, {"min", statistics.min * scale},
+          {"max", statistics.max * scale}};
+}
+
+MapperFrame ToMapperFrame(const Frame& frame, const Eigen::Isometry3d& world_from_camera) {
+  MapperFrame input;
+  input.time = frame.time;
+  input.color = frame.color;
+  input.depth_m = frame.depth_m;
+  input.world_from_camera = world_from_camera;
+  return input;
+}
+
+// Per-frame tracking figures, summarized for the report.
+struct TrackingRecord {
+  std::vector<double> extract_ms, match_ms, pose_ms, keyframe_ms, total_ms;
+  std::map<std::string, size_t> status_counts;
+  double fuse_ms = 0.0;  // fusing final keyframes into the map, on the main thread
+};
+
+nlohmann::json TimingJson(const std::vector<double>& values) {
+  double total = 0.0;
+  for (double value : values) total += value;
+  return {{"median", Median(values)},
+          {"mean", values.empty() ? 0.0 : total / static_cast<double>(values.size())},
+          {"total", total}};
+}
+
 }  // namespace
 
 BuildSummary RunBuild(const BuildRequest& request) {
@@ -77,16 +149,12 @@ BuildSummary RunBuild(const BuildRequest& request) {
                      ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
                      "depth.txt)");
   }
-  if (request.poses == PoseSource::kTracking) {
-    throw InputError(
-        "camera tracking is not part of this stillmap build yet; map from known poses with "
-        "--poses groundtruth");
-  }
+  const bool tracking = request.poses == PoseSource::kTracking;
 
   // Inputs are checked before anything is written.
   const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
   const Sequence sequence = Sequence::Open(request.sequence_dir, camera, config.sequence);
-  if (!sequence.groundtruth()) {
+  if (!tracking && !sequence.groundtruth()) {
     throw InputError(request.sequence_dir +
                      ": no groundtruth.txt; --poses groundtruth needs the sequence's ground truth");
   }
@@ -99,16 +167,20 @@ BuildSummary RunBuild(const BuildRequest& request) {
                          ? total_pairs
                          : std::min(total_pairs, config.first_frame + config.max_frames);
 
-  // Poses first: frames without one are not decoded at all.
+  // With ground-truth poses, frames without one are not decoded at all.
   std::vector<size_t> frame_indices;
-  std::vector<StampedPose> poses;
+  std::vector<StampedPose> groundtruth_poses;
   for (size_t i = config.first_frame; i < end; ++i) {
+    if (tracking) {
+      frame_indices.push_back(i);
+      continue;
+    }
     const double time = sequence.frames()[i].time;
     const std::optional<Eigen::Isometry3d> world_from_camera =
         sequence.groundtruth()->Interpolate(time, config.sequence.max_groundtruth_gap);
     if (!world_from_camera) continue;
     frame_indices.push_back(i);
-    poses.push_back({time, *world_from_camera});
+    groundtruth_poses.push_back({time, *world_from_camera});
   }
   BuildSummary summary;
   summary.frames_paired = end - config.first_frame;
@@ -133,24 +205,60 @@ BuildSummary RunBuild(const BuildRequest& request) {
   mapper_options.occupancy_in_background = request.threads > 1;
   Mapper mapper(camera, mapper_options);
   ProgressLine progress("stillmap build", frame_indices.size(), request.show_progress);
-  double load_s = 0.0;
-  auto load = [&sequence](size_t index) { return sequence.LoadFrame(index); };
-  std::future<Frame> next;
-  if (request.threads > 1) next = std::async(std::launch::async, load, frame_indices[0]);
-  for (size_t k = 0; k < frame_indices.size(); ++k) {
-    const Clock::time_point load_start = Clock::now();
-    Frame frame = request.threads > 1 ? next.get() : load(frame_indices[k]);
-    load_s += Seconds(load_start);
-    if (request.threads > 1 && k + 1 < frame_indices.size()) {
-      next = std::async(std::launch::async, load, frame_indices[k + 1]);
+  FrameReader reader(sequence, frame_indices, request.threads > 1);
+
+  std::vector<StampedPose> keyframe_poses;  // the frames fused, with the poses they were fused at
+  Trajectory trajectory;
+  TrackingRecord record;
+  std::optional<TrackerStatistics> tracker_statistics;
+  if (!tracking) {
+    for (size_t k = 0; k < reader.size(); ++k) {
+      const Frame frame = reader.Get(k);
+      mapper.Integrate(ToMapperFrame(frame, groundtruth_poses[k].world_from_camera));
+      progress.Update(k + 1);
     }
-    MapperFrame input;
-    input.time = frame.time;
-    input.color = frame.color;
-    input.depth_m = frame.depth_m;
-    input.world_from_camera = poses[k].world_from_camera;
-    mapper.Integrate(input);
-    progress.Update(k + 1);
+    trajectory = Trajectory(groundtruth_poses);
+    keyframe_poses = groundtruth_poses;
+  } else {
+    // Keyframes are fused once their pose is final (they left the bundle adjustment window);
+    // their images wait here until then.
+    Tracker tracker(camera, config.tracking);
+    std::map<int, Frame> waiting;
+    auto fuse = [&](const std::vector<FinalKeyframe>& finals) {
+      const Clock::time_point fuse_start = Clock::now();
+      for (const FinalKeyframe& keyframe : finals) {
+        const auto it = waiting.find(keyframe.id);
+        if (it == waiting.end()) continue;
+        mapper.Integrate(ToMapperFrame(it->second, keyframe.world_from_camera));
+        keyframe_poses.push_back({keyframe.time, keyframe.world_from_camera});
+        waiting.erase(it);
+      }
+      record.fuse_ms += Seconds(fuse_start) * 1000.0;
+    };
+    cv::Mat gray;
+    for (size_t k = 0; k < reader.size(); ++k) {
+      Frame frame = reader.Get(k);
+      cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
+      const TrackResult result = tracker.Track(frame.index, frame.time, gray, frame.depth_m);
+      record.extract_ms.push_back(result.timings.extract_ms);
+      record.match_ms.push_back(result.timings.match_ms);
+      record.pose_ms.push_back(result.timings.pose_ms);
+      record.keyframe_ms.push_back(result.timings.keyframe_ms);
+      record.total_ms.push_back(result.timings.total_ms);
+      ++record.status_counts[TrackStatusName(result.status)];
+      if (result.keyframe_id >= 0) waiting.emplace(result.keyframe_id, std::move(frame));
+      fuse(tracker.TakeFinalKeyframes());
+      progress.Update(k + 1);
+    }
+    tracker.Finish();
+    fuse(tracker.TakeFinalKeyframes());
+    trajectory = tracker.TrackedTrajectory();
+    tracker_statistics = tracker.statistics();
+    if (trajectory.empty()) {
+      throw std::runtime_error(
+          "no frame could be tracked (too few ORB features with depth: is the depth scale right? "
+          "see camera.depth_factor)");
+    }
   }
   mapper.Finish();
   progress.Finish();
@@ -162,11 +270,13 @@ BuildSummary RunBuild(const BuildRequest& request) {
   if (mapper.occupancy() != nullptr) {
     mapper.WriteOccupancy(outputs.TemporaryPath("map.bt"), outputs.TemporaryPath("map.ot"));
   }
-  const Trajectory trajectory(poses);
   trajectory.WriteTum(outputs.TemporaryPath("trajectory.txt"),
-                      "stillmap trajectory (camera-to-world, ground-truth poses)");
-  trajectory.WriteTum(outputs.TemporaryPath("keyframes.txt"),
-                      "stillmap keyframes fused into the map (every frame with a pose)");
+                      tracking ? "stillmap trajectory (camera-to-world, every tracked frame)"
+                               : "stillmap trajectory (camera-to-world, ground-truth poses)");
+  Trajectory(keyframe_poses)
+      .WriteTum(outputs.TemporaryPath("keyframes.txt"),
+                tracking ? "stillmap keyframes fused into the map (camera-to-world, final poses)"
+                         : "stillmap keyframes fused into the map (every frame with a pose)");
   {
     std::ofstream out(outputs.TemporaryPath("config.yaml"));
     out << ConfigToYaml(config);
@@ -176,29 +286,35 @@ BuildSummary RunBuild(const BuildRequest& request) {
 
   const MapperStatistics& stats = mapper.statistics();
   summary.frames_fused = stats.frames;
+  summary.frames_tracked = trajectory.size();
   summary.map_points = mapper.cloud().OutputSize();
   summary.octomap_leaves = mapper.occupancy() ? mapper.occupancy()->LeafCount() : 0;
   summary.wall_time_s = Seconds(start);
   summary.frames_per_second = static_cast<double>(summary.frames_paired) / summary.wall_time_s;
   summary.peak_memory_mib = PeakMemoryMib();
 
-  const double n = static_cast<double>(stats.frames);
+  const double n = static_cast<double>(std::max<size_t>(stats.frames, 1));
+  const double frames = static_cast<double>(frame_indices.size());
   nlohmann::json report;
   report["stillmap_version"] = STILLMAP_VERSION;
   report["sequence"] = request.sequence_dir;
-  report["poses"] = "groundtruth";
-  report["world_frame"] = "the ground truth's world frame";
+  report["poses"] = tracking ? "tracking" : "groundtruth";
+  report["world_frame"] =
+      tracking ? "the first tracked camera frame" : "the ground truth's world frame";
   report["camera"] = CameraJson(camera);
   report["frames"] = {{"color_images", sequence.color_count()},
                       {"depth_images", sequence.depth_count()},
                       {"pairs_in_sequence", total_pairs},
                       {"pairs_used", summary.frames_paired},
                       {"without_pose", summary.frames_without_pose},
+                      {"tracked", summary.frames_tracked},
                       {"fused", summary.frames_fused}};
-  report["keyframes"] = {{"fused", summary.frames_fused},
-                         {"rejected_invalid", 0},
-                         {"rejected_redundant", 0},
-                         {"selection", "none: with known poses every frame is fused"}};
+  report["keyframes"] = {
+      {"fused", summary.frames_fused},
+      {"rejected_invalid", 0},
+      {"rejected_redundant", 0},
+      {"selection", tracking ? "none yet: every tracking keyframe is fused"
+                             : "none: with known poses every frame is fused"}};
   report["dynamic_share"] = 0.0;
   report["masking"] = "none";
   report["map"] = {{"voxel_leaf_m", config.mapping.voxel.leaf_size},
@@ -213,19 +329,53 @@ BuildSummary RunBuild(const BuildRequest& request) {
                    {"octomap_leaves", summary.octomap_leaves},
                    {"octomap_occupied_leaves",
                     mapper.occupancy() ? mapper.occupancy()->OccupiedLeafCount() : 0}};
-  report["timing_ms"] = {{"load_wait_total", load_s * 1000.0},
-                         {"back_projection_total", stats.back_projection_ms},
-                         {"voxel_total", stats.voxel_ms},
-                         {"octomap_total", stats.occupancy_ms},
-                         {"octomap_wait_total", stats.occupancy_wait_ms},
-                         {"write_outputs", write_s * 1000.0},
-                         {"per_frame",
-                          {{"load_wait", load_s * 1000.0 / n},
-                           {"back_projection", stats.back_projection_ms / n},
-                           {"voxel", stats.voxel_ms / n},
-                           {"octomap", stats.occupancy_ms / n},
-                           {"octomap_wait", stats.occupancy_wait_ms / n},
-                           {"total", processing_s * 1000.0 / n}}}};
+  nlohmann::json timing = {{"load_wait_total", reader.wait_s() * 1000.0},
+                           {"back_projection_total", stats.back_projection_ms},
+                           {"voxel_total", stats.voxel_ms},
+                           {"octomap_total", stats.occupancy_ms},
+                           {"octomap_wait_total", stats.occupancy_wait_ms},
+                           {"write_outputs", write_s * 1000.0},
+                           {"per_fused_frame",
+                            {{"back_projection", stats.back_projection_ms / n},
+                             {"voxel", stats.voxel_ms / n},
+                             {"octomap", stats.occupancy_ms / n},
+                             {"octomap_wait", stats.occupancy_wait_ms / n}}},
+                           {"per_frame",
+                            {{"load_wait", reader.wait_s() * 1000.0 / frames},
+                             {"total", processing_s * 1000.0 / frames}}}};
+  if (tracking) {
+    const TrackerStatistics& t = *tracker_statistics;
+    const double median_track_ms = Median(record.total_ms);
+    report["tracking"] = {
+        {"frames", t.frames},
+        {"tracked", t.tracked},
+        {"lost", t.lost},
+        {"relocalized", t.relocalized},
+        {"new_maps", t.new_maps},
+        {"status_counts", record.status_counts},
+        {"keyframes", t.keyframes},
+        {"landmarks_alive", t.landmarks},
+        {"landmarks_created", t.landmarks_created},
+        {"landmarks_culled", t.landmarks_culled},
+        {"bundle_adjustments", t.bundle_adjustments},
+        {"bundle_adjustment_observations_rejected", t.observations_rejected},
+        {"tracking_frames_per_second_median", median_track_ms > 0 ? 1000.0 / median_track_ms : 0},
+        {"bundle_adjustment_thread", config.tracking.background_bundle_adjustment}};
+    timing["tracking_ms"] = {
+        {"extract", TimingJson(record.extract_ms)},
+        {"match", TimingJson(record.match_ms)},
+        {"pose", TimingJson(record.pose_ms)},
+        {"keyframe", TimingJson(record.keyframe_ms)},
+        {"track_total", TimingJson(record.total_ms)},
+        {"local_bundle_adjustment",
+         {{"runs", t.bundle_adjustments},
+          {"mean", t.bundle_adjustments > 0
+                       ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
+                       : 0.0},
+          {"total", t.bundle_adjustment_ms}}},
+        {"fuse_keyframes_total", record.fuse_ms}};
+  }
+  report["timing_ms"] = timing;
   report["wall_time_s"] = summary.wall_time_s;
   report["frames_per_second"] = summary.frames_per_second;
   report["peak_memory_mib"] = summary.peak_memory_mib;
@@ -233,7 +383,12 @@ BuildSummary RunBuild(const BuildRequest& request) {
   // Map quality against the static ground truth of synthetic sequences (not counted in the
   // frames per second above).
   const fs::path static_groundtruth = fs::path(request.sequence_dir) / "static_gt.ply";
-  if (fs::exists(static_groundtruth)) {
+  if (fs::exists(static_groundtruth) && tracking) {
+    report["map_quality"] = nullptr;
+    report["map_quality_note"] =
+        "not evaluated: the map is in the first camera's frame, static_gt.ply in the world frame";
+  }
+  if (fs::exists(static_groundtruth) && !tracking) {
     const Clock::time_point evaluation_start = Clock::now();
     const MapQuality quality =
         EvaluateMap(mapper.cloud().Points(), ReadCloud(static_groundtruth.string()));
@@ -248,7 +403,29 @@ BuildSummary RunBuild(const BuildRequest& request) {
                              {"evaluation_s", Seconds(evaluation_start)}};
   }
   report["trajectory_error"] = nullptr;
-  report["trajectory_error_note"] = "not evaluated: the poses are the ground truth";
+  if (!tracking) {
+    report["trajectory_error_note"] = "not evaluated: the poses are the ground truth";
+  } else if (!sequence.groundtruth()) {
+    report["trajectory_error_note"] = "not evaluated: the sequence has no groundtruth.txt";
+  } else {
+    try {
+      const AteResult ate = ComputeAte(*sequence.groundtruth(), trajectory, config.ate);
+      summary.ate_rmse = ate.translation.rmse;
+      nlohmann::json error = {{"ate_m", StatisticsJson(ate.translation, 1.0)},
+                              {"ate_max_time_difference_s", config.ate.max_time_difference}};
+      try {
+        const RpeResult rpe = ComputeRpe(*sequence.groundtruth(), trajectory, config.rpe);
+        error["rpe_delta_s"] = config.rpe.delta;
+        error["rpe_translation_m"] = StatisticsJson(rpe.translation, 1.0);
+        error["rpe_rotation_deg"] = StatisticsJson(rpe.rotation, 1.0);
+      } catch (const InputError& e) {
+        error["rpe_note"] = std::string("not evaluated: ") + e.what();
+      }
+      report["trajectory_error"] = error;
+    } catch (const InputError& e) {
+      report["trajectory_error_note"] = std::string("not evaluated: ") + e.what();
+    }
+  }
   {
     std::ofstream out(outputs.TemporaryPath("report.json"));
     out << report.dump(2) << "\n";

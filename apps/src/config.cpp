@@ -229,6 +229,52 @@ const std::vector<ConfigKey>& Keys() {
     k.push_back(
         DoubleKey("octomap.clamping_max", "upper probability clamp",
                   [](BuildConfig& c) -> double& { return c.mapping.occupancy.clamping_max; }));
+    auto tracking_int = [&k](const std::string& name, const std::string& help,
+                             int TrackerOptions::*field) {
+      k.push_back(IntKey("tracking." + name, help,
+                         [field](BuildConfig& c) -> int& { return c.tracking.*field; }));
+    };
+    auto tracking_double = [&k](const std::string& name, const std::string& help,
+                                double TrackerOptions::*field) {
+      k.push_back(DoubleKey("tracking." + name, help,
+                            [field](BuildConfig& c) -> double& { return c.tracking.*field; }));
+    };
+    k.push_back(IntKey("tracking.max_features", "ORB features per frame",
+                       [](BuildConfig& c) -> int& { return c.tracking.features.max_features; }));
+    k.push_back(IntKey("tracking.fast_threshold", "FAST corner threshold (lower: more corners)",
+                       [](BuildConfig& c) -> int& { return c.tracking.features.fast_threshold; }));
+    tracking_double("search_radius", "projection search radius around the prediction [px]",
+                    &TrackerOptions::search_radius_px);
+    tracking_double("wide_search_radius", "second, wider projection search radius [px]",
+                    &TrackerOptions::wide_search_radius_px);
+    tracking_int("max_descriptor_distance", "largest Hamming distance of a match (of 256)",
+                 &TrackerOptions::max_descriptor_distance);
+    tracking_double("sigma_px", "keypoint noise at pyramid level 0 [px]",
+                    &TrackerOptions::sigma_px);
+    tracking_double("sigma_inverse_depth", "keypoint depth noise, in inverse depth [1/m]",
+                    &TrackerOptions::sigma_inverse_depth);
+    tracking_double("max_landmark_depth", "landmarks are made from depth up to this [m]",
+                    &TrackerOptions::max_landmark_depth);
+    tracking_double("keyframe_ratio",
+                    "new keyframe when inliers fall below this share of the reference's landmarks",
+                    &TrackerOptions::keyframe_ratio);
+    tracking_int("max_keyframe_interval", "a keyframe at least every this many frames",
+                 &TrackerOptions::max_keyframe_interval);
+    tracking_int("local_map_keyframes", "keyframes whose landmarks are searched for per frame",
+                 &TrackerOptions::local_map_keyframes);
+    tracking_int("local_window", "keyframes optimized by the local bundle adjustment",
+                 &TrackerOptions::local_window);
+    k.push_back(BoolKey("tracking.background_bundle_adjustment",
+                        "run the local bundle adjustment on its own thread (false: inline, "
+                        "deterministic)",
+                        [](BuildConfig& c) -> bool& {
+                          return c.tracking.background_bundle_adjustment;
+                        }));
+    tracking_int("min_tracked", "inliers for a frame to count as tracked",
+                 &TrackerOptions::min_tracked);
+    tracking_int("new_map_after_lost",
+                 "consecutive lost frames before a new local map starts at the last good pose",
+                 &TrackerOptions::new_map_after_lost);
     k.push_back(DoubleKey("eval.max_time_difference", "ATE association window [s]",
                           [](BuildConfig& c) -> double& { return c.ate.max_time_difference; }));
     k.push_back(DoubleKey("eval.rpe_delta", "RPE pose-pair time delta [s]",
@@ -272,6 +318,7 @@ void BuildConfig::Validate() const {
   if (!(ate.max_time_difference > 0.0)) throw InputError("eval.max_time_difference must be > 0");
   if (!(rpe.delta > 0.0)) throw InputError("eval.rpe_delta must be > 0");
   mapping.Validate();
+  tracking.Validate();
 }
 
 std::vector<ConfigKeyInfo> ListConfigKeys() {

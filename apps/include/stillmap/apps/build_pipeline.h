@@ -13,7 +13,7 @@ namespace stillmap {
 // Where the camera poses come from.
 enum class PoseSource {
   kGroundTruth,  // the sequence's groundtruth.txt, interpolated to each frame's time
-  kTracking,     // the tracker (not part of this build yet: rejected with a clear message)
+  kTracking,     // the tracker of tracking/ (the default)
 };
 
 struct BuildRequest {
@@ -29,6 +29,7 @@ struct BuildRequest {
 struct BuildSummary {
   size_t frames_paired = 0;        // color/depth pairs in the range used
   size_t frames_fused = 0;         // frames back-projected into the map
+  size_t frames_tracked = 0;       // frames with a pose in trajectory.txt
   size_t frames_without_pose = 0;  // frames outside the ground truth (or across a gap in it)
   size_t map_points = 0;           // voxels in map.ply
   size_t octomap_leaves = 0;
@@ -37,6 +38,8 @@ struct BuildSummary {
   double peak_memory_mib = 0.0;
   // Against the sequence's static_gt.ply, when it has one (synthetic sequences).
   std::optional<MapQuality> map_quality;
+  // ATE RMSE [m] of the tracked trajectory, when the sequence has ground truth.
+  std::optional<double> ate_rmse;
 };
 
 // Runs the whole build. Throws InputError for bad input or options (before anything is written

@@ -9,6 +9,7 @@
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
 
@@ -18,6 +19,7 @@ struct BuildConfig {
   size_t first_frame = 0;  // index of the first color/depth pair to use
   size_t max_frames = 0;   // pairs to use from first_frame; 0 = all
   MapperOptions mapping;
+  TrackerOptions tracking;
   AteOptions ate;
   RpeOptions rpe;
 

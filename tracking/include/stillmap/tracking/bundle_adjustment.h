@@ -1,0 +1,54 @@
+// Bundle adjustment of keyframe poses and landmark positions with RGB-D observations (the
+// residual of rgbd_residual.h), solved with Ceres. Some keyframes may be held fixed: the local
+// bundle adjustment of the tracker optimizes a window of recent keyframes and the landmarks they
+// see, holding the older keyframes that also see those landmarks fixed.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "stillmap/tracking/rgbd_residual.h"
+
+namespace stillmap {
+
+struct BundleAdjustmentOptions {
+  int iterations_first = 5;    // Levenberg-Marquardt iterations before outliers are removed
+  int iterations_second = 10;  // and after (ORB-SLAM2's local BA: 5 + 10)
+  // Chi-square thresholds at 95 % for whitened residuals (2 dof without depth, 3 with).
+  double chi2_without_depth = 5.991;
+  double chi2_with_depth = 7.815;
+};
+
+struct BundleAdjustmentKeyframe {
+  Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+  bool fixed = false;
+};
+
+struct BundleAdjustmentObservation {
+  int keyframe = 0;  // index into BundleAdjustmentProblem::keyframes
+  int landmark = 0;  // index into BundleAdjustmentProblem::landmarks
+  RgbdObservation observation;
+};
+
+struct BundleAdjustmentProblem {
+  std::vector<BundleAdjustmentKeyframe> keyframes;
+  std::vector<Eigen::Vector3d> landmarks;  // world frame
+  std::vector<BundleAdjustmentObservation> observations;
+};
+
+struct BundleAdjustmentResult {
+  std::vector<Eigen::Isometry3d> camera_from_world;  // per keyframe (fixed ones unchanged)
+  std::vector<Eigen::Vector3d> landmarks;
+  std::vector<bool> outlier;  // per observation: failed the chi-square test at the end
+  double initial_cost = 0.0;  // Ceres cost (robustified) before and after
+  double final_cost = 0.0;
+  int iterations = 0;
+};
+
+// Solves, removes the observations that fail the chi-square test, and solves again. Landmarks
+// and keyframes without observations are returned unchanged. With no fixed keyframe, the gauge
+// is free: callers hold at least one keyframe fixed.
+BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& problem,
+                                             const BundleAdjustmentOptions& options = {});
+
+}  // namespace stillmap

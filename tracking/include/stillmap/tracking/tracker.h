@@ -1,0 +1,149 @@
+// The RGB-D camera tracker: ORB features matched by projection against a local map of landmarks
+// (constant-velocity prediction), PnP-RANSAC and Ceres motion-only refinement per frame,
+// keyframes in the spirit of ORB-SLAM2, and a local bundle adjustment over a sliding window of
+// keyframes that runs on its own thread so that it never stalls tracking.
+//
+// World frame: the first tracked camera frame. When tracking is lost and relocalization against
+// recent keyframes fails for a while, a new local map starts, chained to the last good pose (the
+// camera is assumed to be where it was last seen); the report counts these new maps.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/trajectory.h"
+#include "stillmap/tracking/bundle_adjustment.h"
+#include "stillmap/tracking/features.h"
+#include "stillmap/tracking/pose_estimation.h"
+#include "stillmap/tracking/pose_refinement.h"
+
+namespace stillmap {
+
+struct TrackerOptions {
+  FeatureOptions features;
+  PnpOptions pnp;
+  RefinementOptions refinement;
+  BundleAdjustmentOptions bundle_adjustment;
+
+  // Data association by projection.
+  double search_radius_px = 15.0;        // around the predicted position (constant velocity)
+  double wide_search_radius_px = 50.0;   // second try when the first finds too few matches
+  double refine_search_radius_px = 4.0;  // after the first pose, for landmarks not matched yet
+  int max_descriptor_distance = 80;      // Hamming, of 256 bits
+  float match_ratio = 0.9f;              // best / second-best distance within the search window
+  int min_matches = 30;                  // fewer after the wide search: relocalize
+
+  // Observation noise for the RGB-D residual (pixels are scaled by the keypoint's octave).
+  double sigma_px = 1.0;
+  double sigma_inverse_depth = 0.003;  // [1/m]: 3 mm at 1 m, 12 mm at 2 m
+
+  // Landmarks are created from keyframe depth within this range [m].
+  double min_landmark_depth = 0.1;
+  double max_landmark_depth = 4.0;
+
+  // Keyframes (ORB-SLAM2, RGB-D): a new keyframe when the inliers fall below keyframe_ratio of
+  // the landmarks the reference keyframe tracks well, when few near points are tracked while many
+  // are not, or at the latest every max_keyframe_interval frames; never with fewer than 15.
+  double keyframe_ratio = 0.75;
+  int max_keyframe_interval = 30;
+  double close_depth = 3.0;  // [m] "near" for the near-point rule
+
+  int local_map_keyframes = 12;  // keyframes whose landmarks are searched for in each frame
+  int local_window = 8;          // keyframes optimized by the local bundle adjustment
+  bool background_bundle_adjustment = true;  // false: run it inline (deterministic)
+
+  int min_tracked = 20;          // inliers for a frame to count as tracked
+  int min_relocalized = 30;      // inliers for a relocalization to be accepted
+  int relocalization_keyframes = 5;
+  int new_map_after_lost = 15;   // consecutive lost frames before a new local map is started
+  int min_initial_points = 100;  // features with depth needed to start a map
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+};
+
+enum class TrackStatus {
+  kInitialized,  // first frame of the first local map (identity pose)
+  kTracked,
+  kRelocalized,  // tracked again after being lost, against a recent keyframe
+  kNewMap,       // a new local map chained to the last good pose
+  kLost,         // no pose: nothing is written for this frame
+};
+const char* TrackStatusName(TrackStatus status);
+
+struct TrackTimings {
+  double extract_ms = 0.0;
+  double match_ms = 0.0;
+  double pose_ms = 0.0;
+  double keyframe_ms = 0.0;  // keyframe insertion, culling and (inline) bundle adjustment
+  double total_ms = 0.0;
+};
+
+struct TrackResult {
+  TrackStatus status = TrackStatus::kLost;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();  // valid when tracked()
+  int features = 0;
+  int matches = 0;
+  int inliers = 0;
+  double reprojection_rmse_px = 0.0;
+  int keyframe_id = -1;  // >= 0 when this frame became a keyframe
+  TrackTimings timings;
+  bool tracked() const { return status != TrackStatus::kLost; }
+};
+
+// A keyframe whose pose will not change any more (it left the bundle adjustment window).
+struct FinalKeyframe {
+  int id = 0;
+  size_t frame_index = 0;
+  double time = 0.0;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+
+struct TrackerStatistics {
+  size_t frames = 0;
+  size_t tracked = 0;
+  size_t lost = 0;
+  size_t relocalized = 0;
+  size_t new_maps = 0;  // local maps started after the first
+  size_t keyframes = 0;
+  size_t landmarks = 0;  // alive now
+  size_t landmarks_created = 0;
+  size_t landmarks_culled = 0;
+  size_t bundle_adjustments = 0;
+  double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
+  size_t observations_rejected = 0;   // by the bundle adjustment's chi-square test
+};
+
+class Tracker {
+ public:
+  Tracker(const Camera& camera, const TrackerOptions& options);
+  ~Tracker();
+  Tracker(const Tracker&) = delete;
+  Tracker& operator=(const Tracker&) = delete;
+
+  // Tracks one frame: gray is CV_8UC1, depth_m CV_32FC1 in metres (0 = none), ignore_mask
+  // (optional) CV_8UC1, non-zero where pixels must not be used (moving objects).
+  TrackResult Track(size_t frame_index, double time, const cv::Mat& gray, const cv::Mat& depth_m,
+                    const cv::Mat& ignore_mask = cv::Mat());
+
+  // Keyframes whose pose became final since the last call, oldest first.
+  std::vector<FinalKeyframe> TakeFinalKeyframes();
+
+  // Waits for the bundle adjustment, runs a last one inline, and makes every keyframe final.
+  void Finish();
+
+  // Every tracked frame, camera-to-world, each expressed relative to its reference keyframe so
+  // that keyframe corrections carry over. Call after Finish() for the final trajectory.
+  Trajectory TrackedTrajectory() const;
+
+  TrackerStatistics statistics() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace stillmap
