@@ -64,12 +64,25 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
                         static_cast<size_t>(column);
     grid[cell].push_back(keypoint);
   }
-  std::vector<cv::KeyPoint> kept;
+  // Each cell keeps its strongest corners up to an equal share; the share that weakly textured
+  // cells leave unused goes to the strongest remaining corners anywhere (ORB-SLAM2's quadtree
+  // reaches its feature count the same way).
+  auto stronger = [](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    return a.response > b.response;
+  };
+  std::vector<cv::KeyPoint> kept, spare;
   for (std::vector<cv::KeyPoint>& cell : grid) {
-    std::sort(cell.begin(), cell.end(),
-              [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
-    if (cell.size() > per_cell) cell.resize(per_cell);
-    kept.insert(kept.end(), cell.begin(), cell.end());
+    std::sort(cell.begin(), cell.end(), stronger);
+    const size_t take = std::min(cell.size(), per_cell);
+    kept.insert(kept.end(), cell.begin(), cell.begin() + static_cast<long>(take));
+    spare.insert(spare.end(), cell.begin() + static_cast<long>(take), cell.end());
+  }
+  const size_t wanted = static_cast<size_t>(options.max_features);
+  if (kept.size() < wanted && !spare.empty()) {
+    const size_t extra = std::min(wanted - kept.size(), spare.size());
+    std::partial_sort(spare.begin(), spare.begin() + static_cast<long>(extra), spare.end(),
+                      stronger);
+    kept.insert(kept.end(), spare.begin(), spare.begin() + static_cast<long>(extra));
   }
 
   FrameFeatures features;

@@ -24,7 +24,7 @@ PoseResult EstimatePosePnp(const std::vector<Eigen::Vector3d>& points_in_world,
   const bool found =
       cv::solvePnPRansac(object, image, identity, cv::noArray(), rvec, tvec, false,
                          options.iterations, static_cast<float>(options.max_reprojection_error),
-                         options.confidence, inliers, cv::SOLVEPNP_EPNP);
+                         options.confidence, inliers, cv::SOLVEPNP_AP3P);
   if (!found || static_cast<int>(inliers.size()) < options.min_inliers) {
     result.status = PoseStatus::kTooFewInliers;
     result.inliers = inliers;

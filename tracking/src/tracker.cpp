@@ -321,7 +321,7 @@ struct Tracker::Impl {
 
   // Motion-only refinement over the associations; drops the outliers from `association`.
   PoseEstimate Refine(const Eigen::Isometry3d& initial, const FrameData& frame,
-                      Association* association) {
+                      Association* association, const RefinementOptions& refinement) {
     std::vector<Eigen::Vector3d> points;
     std::vector<RgbdObservation> observations;
     std::vector<size_t> feature_of;
@@ -333,15 +333,11 @@ struct Tracker::Impl {
     }
     PoseEstimate estimate;
     estimate.matches = static_cast<int>(points.size());
-    const PoseResult refined = RefinePose(initial, points, observations, options.refinement);
+    const PoseResult refined = RefinePose(initial, points, observations, refinement);
     std::vector<bool> inlier(points.size(), false);
     for (int k : refined.inliers) inlier[static_cast<size_t>(k)] = true;
     for (size_t k = 0; k < points.size(); ++k) {
-      if (inlier[k]) continue;
-      const size_t i = feature_of[k];
-      landmarks.at(association->landmark[i]).matched_stamp = 0;
-      association->landmark[i] = -1;
-      association->distance[i] = INT_MAX;
+      if (!inlier[k]) Unmatch(feature_of[k], association);
     }
     estimate.ok = refined.ok() && static_cast<int>(refined.inliers.size()) >= options.min_tracked;
     estimate.camera_from_world = refined.camera_from_world;
@@ -350,8 +346,9 @@ struct Tracker::Impl {
     return estimate;
   }
 
-  // PnP-RANSAC on the associations (falling back to `guess` when allowed), refinement, a second
-  // projection search around the refined pose, and a last refinement.
+  // PnP-RANSAC on the associations (falling back to `guess` when allowed), a short refinement, a
+  // second projection search around that pose for landmarks not matched yet, and the full
+  // refinement over all associations.
   PoseEstimate EstimatePose(const Eigen::Isometry3d& guess, bool guess_usable,
                             const LocalSet& local, const FrameData& frame,
                             Association* association) {
@@ -368,14 +365,25 @@ struct Tracker::Impl {
     failed.matches = static_cast<int>(points.size());
     const PoseResult pnp = EstimatePosePnp(points, normalized, options.pnp);
     if (!pnp.ok() && !guess_usable) return failed;
+    RefinementOptions quick = options.refinement;
+    quick.rounds = 2;  // a first pose for the second search; the last refinement does all rounds
     const PoseEstimate first =
-        Refine(pnp.ok() ? pnp.camera_from_world : guess, frame, association);
+        Refine(pnp.ok() ? pnp.camera_from_world : guess, frame, association, quick);
     if (!first.ok) return failed;
     SearchByProjection(first.camera_from_world, local, options.refine_search_radius_px, frame,
                        association);
-    PoseEstimate second = Refine(first.camera_from_world, frame, association);
-    second.matches = std::max(second.matches, failed.matches);
-    return second;
+    PoseEstimate estimate =
+        Refine(first.camera_from_world, frame, association, options.refinement);
+    estimate.matches = std::max(estimate.matches, failed.matches);
+    return estimate;
+  }
+
+  void Unmatch(size_t feature, Association* association) {
+    const int id = association->landmark[feature];
+    if (id < 0) return;
+    landmarks.at(id).matched_stamp = 0;
+    association->landmark[feature] = -1;
+    association->distance[feature] = INT_MAX;
   }
 
   // Descriptor matching against the landmarks of recent keyframes, newest first.

@@ -7,7 +7,7 @@
 namespace stillmap {
 
 struct PnpOptions {
-  double max_reprojection_error = 0.003;  // inlier threshold in normalized coordinates (about
+  double max_reprojection_error = 0.006;  // inlier threshold in normalized coordinates (about
                                           // 1.6 px at fx = 525)
   int iterations = 200;                   // RANSAC iterations
   double confidence = 0.999;

@@ -42,7 +42,7 @@ struct TrackerOptions {
 
   // Landmarks are created from keyframe depth within this range [m].
   double min_landmark_depth = 0.1;
-  double max_landmark_depth = 4.0;
+  double max_landmark_depth = 12.0;  // far points pin the rotation down (teddy: 4 m gave 9 mm ATE, 12 m 5 mm)
 
   // Keyframes (ORB-SLAM2, RGB-D): a new keyframe when the inliers fall below keyframe_ratio of
   // the landmarks the reference keyframe tracks well, when few near points are tracked while many
