@@ -243,6 +243,9 @@ const std::vector<ConfigKey>& Keys() {
                        [](BuildConfig& c) -> int& { return c.tracking.features.max_features; }));
     k.push_back(IntKey("tracking.fast_threshold", "FAST corner threshold (lower: more corners)",
                        [](BuildConfig& c) -> int& { return c.tracking.features.fast_threshold; }));
+    k.push_back(DoubleKey("tracking.max_depth_spread",
+                          "keypoints on a depth edge (3x3 spread above this share) get no depth",
+                          [](BuildConfig& c) -> double& { return c.tracking.features.max_depth_spread; }));
     tracking_double("search_radius", "projection search radius around the prediction [px]",
                     &TrackerOptions::search_radius_px);
     tracking_double("wide_search_radius", "second, wider projection search radius [px]",

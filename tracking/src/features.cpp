@@ -16,25 +16,33 @@ void FeatureOptions::Validate() const {
     throw InputError("tracking.pyramid_levels must be >= 1 and scale_factor > 1");
   }
   if (fast_threshold < 1) throw InputError("tracking.fast_threshold must be positive");
+  if (!(max_depth_spread > 0.0)) throw InputError("tracking.max_depth_spread must be positive");
 }
 
 namespace {
 
 // Depth at a sub-pixel position (depth is registered to the color image, so it is read at the
-// detected, distorted pixel): bilinear when the four neighbours have readings within 2 % of each
-// other (one surface), else the nearest reading; 0 when there is none.
-float DepthAt(const cv::Mat& depth_m, const cv::Point2f& pixel) {
+// detected, distorted pixel), bilinear over the four neighbours. Corners often sit on a depth
+// edge, where a reading may belong to either surface (and registration errors of real sensors
+// are largest): when the 3x3 neighbourhood is not one smooth surface (a missing reading, or a
+// spread beyond `max_spread` of the depth), the keypoint gets no depth and is used as a 2-D
+// observation only.
+float DepthAt(const cv::Mat& depth_m, const cv::Point2f& pixel, float max_spread) {
   const int u0 = static_cast<int>(std::floor(pixel.x)), v0 = static_cast<int>(std::floor(pixel.y));
-  if (u0 < 0 || v0 < 0 || u0 + 1 >= depth_m.cols || v0 + 1 >= depth_m.rows) return 0.0f;
+  if (u0 < 1 || v0 < 1 || u0 + 2 >= depth_m.cols || v0 + 2 >= depth_m.rows) return 0.0f;
+  float lo = depth_m.at<float>(v0, u0), hi = lo;
+  for (int v = v0 - 1; v <= v0 + 2; ++v) {
+    const float* row = depth_m.ptr<float>(v);
+    for (int u = u0 - 1; u <= u0 + 2; ++u) {
+      lo = std::min(lo, row[u]);
+      hi = std::max(hi, row[u]);
+    }
+  }
+  if (!(lo > 0.0f) || hi - lo > max_spread * lo) return 0.0f;
   const float d00 = depth_m.at<float>(v0, u0), d01 = depth_m.at<float>(v0, u0 + 1);
   const float d10 = depth_m.at<float>(v0 + 1, u0), d11 = depth_m.at<float>(v0 + 1, u0 + 1);
-  const float lo = std::min({d00, d01, d10, d11}), hi = std::max({d00, d01, d10, d11});
-  if (lo > 0.0f && hi - lo < 0.02f * lo) {
-    const float fx = pixel.x - static_cast<float>(u0), fy = pixel.y - static_cast<float>(v0);
-    return (1 - fy) * ((1 - fx) * d00 + fx * d01) + fy * ((1 - fx) * d10 + fx * d11);
-  }
-  return depth_m.at<float>(static_cast<int>(std::lround(pixel.y)),
-                           static_cast<int>(std::lround(pixel.x)));
+  const float fx = pixel.x - static_cast<float>(u0), fy = pixel.y - static_cast<float>(v0);
+  return (1 - fy) * ((1 - fx) * d00 + fx * d01) + fy * ((1 - fx) * d10 + fx * d11);
 }
 
 }  // namespace
@@ -98,7 +106,7 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   for (size_t i = 0; i < features.keypoints.size(); ++i) {
     features.normalized.emplace_back(rays[i].x, rays[i].y);
     float depth = 0.0f;
-    if (!depth_m.empty()) depth = DepthAt(depth_m, pixels[i]);
+    if (!depth_m.empty()) depth = DepthAt(depth_m, pixels[i], static_cast<float>(options.max_depth_spread));
     features.depth_m.push_back(depth);
   }
   return features;

@@ -17,6 +17,9 @@ struct FeatureOptions {
   int pyramid_levels = 8;  // ORB scale pyramid
   float scale_factor = 1.2f;
   int fast_threshold = 12;  // FAST corner threshold (lower finds corners in low texture)
+  // A keypoint gets no depth when its 4x4 depth neighbourhood spreads more than this share of the
+  // depth (a depth edge) or has a missing reading.
+  double max_depth_spread = 0.03;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;

@@ -38,7 +38,7 @@ struct TrackerOptions {
 
   // Observation noise for the RGB-D residual (pixels are scaled by the keypoint's octave).
   double sigma_px = 1.0;
-  double sigma_inverse_depth = 0.003;  // [1/m]: 3 mm at 1 m, 12 mm at 2 m
+  double sigma_inverse_depth = 0.0025;  // [1/m]: 2.5 mm at 1 m, 10 mm at 2 m
 
   // Landmarks are created from keyframe depth within this range [m].
   double min_landmark_depth = 0.1;
@@ -48,10 +48,10 @@ struct TrackerOptions {
   // the landmarks the reference keyframe tracks well, when few near points are tracked while many
   // are not, or at the latest every max_keyframe_interval frames; never with fewer than 15.
   double keyframe_ratio = 0.75;
-  int max_keyframe_interval = 30;
+  int max_keyframe_interval = 15;
   double close_depth = 3.0;  // [m] "near" for the near-point rule
 
-  int local_map_keyframes = 12;  // keyframes whose landmarks are searched for in each frame
+  int local_map_keyframes = 25;  // keyframes whose landmarks are searched for in each frame
   int local_window = 8;          // keyframes optimized by the local bundle adjustment
   bool background_bundle_adjustment = true;  // false: run it inline (deterministic)
 
