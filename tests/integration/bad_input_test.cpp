@@ -152,10 +152,14 @@ TEST_F(BadInputTest, OutputFolderThatCannotBeWritten) {
   ExpectRefused("cannot create the output folder");
 }
 
-TEST_F(BadInputTest, TrackingIsNotAvailableYet) {
+TEST_F(BadInputTest, DetectorsOtherThanNoneAreRefusedByName) {
   std::string output;
-  EXPECT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ + " --quiet", &output), 2);
-  EXPECT_NE(output.find("--poses groundtruth"), std::string::npos) << output;
+  EXPECT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ + " --detector yolox --quiet",
+                        &output),
+            2);
+  EXPECT_NE(output.find("'yolox' is not available"), std::string::npos) << output;
+  EXPECT_NE(output.find("--detector none"), std::string::npos) << output;
+  EXPECT_FALSE(std::filesystem::exists(output_));
 }
 
 TEST(CommandLineTest, UsageErrorsExitWithTwoAndHelpWithZero) {

@@ -60,7 +60,8 @@ TEST_F(RenderedFramesTest, FeaturesSpreadOverTheImageAndCarryDepth) {
   }
   // Over half of the 16 x 12 cells hold features (the rest see the plain ceiling or wall).
   EXPECT_GT(cells.size(), 0.5 * 16 * 12);
-  EXPECT_GT(with_depth, 0.9 * features.size());
+  // Keypoints on depth edges get no depth (by design): most still have one.
+  EXPECT_GT(with_depth, 0.8 * features.size());
 }
 
 TEST_F(RenderedFramesTest, AFrameMatchesItselfOneToOne) {
@@ -73,10 +74,10 @@ TEST_F(RenderedFramesTest, AFrameMatchesItselfOneToOne) {
 
 TEST_F(RenderedFramesTest, RelativePoseMatchesTheRenderingPose) {
   // Frame 0's features with depth, placed in the world with frame 0's true pose; frame 6 located
-  // from their matches by PnP lands near its rendering pose. Measured: 6.3 mm, 0.09 deg by PnP
-  // alone, 2.2 mm, 0.05 deg after the RGB-D refinement. Frame 0 located from its own features
-  // lands within 1 mm, so the remainder is ORB corners shifting between views; issue 4's target
-  // (1 mm, 0.1 deg) needs the local map (many views per point) still to come.
+  // from their matches by PnP lands near its rendering pose. Measured: 8.9 mm, 0.13 deg by PnP
+  // alone (2-D only: lateral translation trades against rotation), 2.3 mm, 0.03 deg after the
+  // RGB-D refinement with the default Kinect depth noise. The tracker, with a local map and a
+  // depth noise matching this exact depth, reaches 1 mm (tracker_test.cpp).
   const size_t other = 6;
   const FrameFeatures first = Features(0);
   const FrameFeatures second = Features(other);

@@ -30,7 +30,28 @@ PoseResult EstimatePosePnp(const std::vector<Eigen::Vector3d>& points_in_world,
     result.inliers = inliers;
     return result;
   }
-  // Refine on the inliers (Levenberg-Marquardt on the reprojection error).
+  // The RANSAC threshold is loose so that sampling ends early; the least-squares refinement
+  // (Levenberg-Marquardt on the reprojection error) uses only the correspondences within the
+  // tighter refinement threshold of the RANSAC pose, when enough are.
+  {
+    cv::Mat rotation;
+    cv::Rodrigues(rvec, rotation);
+    const cv::Matx33d r(rotation);
+    const cv::Vec3d t(tvec);
+    std::vector<int> tight;
+    const double limit = options.refine_reprojection_error * options.refine_reprojection_error;
+    for (int i : inliers) {
+      const cv::Vec3d q = r * cv::Vec3d(object[static_cast<size_t>(i)].x,
+                                        object[static_cast<size_t>(i)].y,
+                                        object[static_cast<size_t>(i)].z) +
+                          t;
+      if (q[2] <= 0.0) continue;
+      const double du = q[0] / q[2] - image[static_cast<size_t>(i)].x;
+      const double dv = q[1] / q[2] - image[static_cast<size_t>(i)].y;
+      if (du * du + dv * dv < limit) tight.push_back(i);
+    }
+    if (static_cast<int>(tight.size()) >= options.min_inliers) inliers = std::move(tight);
+  }
   std::vector<cv::Point3d> inlier_object;
   std::vector<cv::Point2d> inlier_image;
   for (int i : inliers) {

@@ -7,8 +7,11 @@
 namespace stillmap {
 
 struct PnpOptions {
-  double max_reprojection_error = 0.006;  // inlier threshold in normalized coordinates (about
-                                          // 1.6 px at fx = 525)
+  // RANSAC inlier threshold in normalized coordinates (about 3.2 px at fx = 525): loose, so that
+  // sampling ends early (AP3P minimal sets); the final least-squares fit uses the tighter
+  // refine_reprojection_error (about 1.6 px).
+  double max_reprojection_error = 0.006;
+  double refine_reprojection_error = 0.003;
   int iterations = 200;                   // RANSAC iterations
   double confidence = 0.999;
   int min_inliers = 12;  // fewer: the pose is not trusted
