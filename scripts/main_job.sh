@@ -4,7 +4,8 @@
 #                                            moving camera, rendered by `stillmap synth` into
 #                                            data/sample/ (once), mapped into out/
 #   scripts/main_job.sh SEQUENCE_DIR OUT_DIR [more stillmap build options...]
-# Until tracking exists (issue 4) the maps are built from the sequence's ground-truth poses.
+# The camera is tracked (stillmap build's default); pass --poses groundtruth to map from the
+# sequence's ground-truth poses instead.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$root/scripts/setup.sh"
@@ -25,5 +26,5 @@ if [ ! -d "$sequence" ]; then
   echo "main_job: sequence folder '$sequence' not found; name one: scripts/main_job.sh SEQUENCE_DIR OUT_DIR" >&2
   exit 2
 fi
-"$stillmap" build "$sequence" -o "$out" --poses groundtruth "$@"
+"$stillmap" build "$sequence" -o "$out" "$@"
 echo "main_job: outputs in $out"

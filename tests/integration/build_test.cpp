@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "stillmap/apps/build_pipeline.h"
+#include "stillmap/io/evaluation.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/back_projection.h"
@@ -202,6 +203,73 @@ TEST(BuildTest, SyntheticWalkingPeopleLeaveGhostsWithoutMasking) {
   const MapQuality quality = BuildSynthetic("walking_xyz", dir.path());
   EXPECT_GT(quality.ghost_share, 0.05);  // the problem the dynamic rejection solves
   EXPECT_GT(quality.completeness, 0.9);
+}
+
+
+// Tracking (issue 4), the default of `stillmap build`, through the binary: a synthetic static room
+// with exact ground truth. Every frame is tracked, every output is written, keyframes are the
+// fused frames, and report.json holds ATE/RPE against the rendering poses.
+TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
+  testing::TempDir dir;
+  SynthOptions options;
+  options.scenario = "static";
+  options.frames = 90;
+  WriteSyntheticSequence(dir / "seq", options);
+  std::string output;
+  ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" +
+                                     " --detector none --quiet --set octomap.resolution=0.1",
+                                 &output),
+            0)
+      << output;
+  for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
+  const Trajectory trajectory = Trajectory::ReadTum(dir / "out/trajectory.txt");
+  const Trajectory keyframes = Trajectory::ReadTum(dir / "out/keyframes.txt");
+  EXPECT_EQ(trajectory.size(), 90u);
+  ASSERT_GE(keyframes.size(), 3u);
+  EXPECT_LT(keyframes.size(), trajectory.size());
+  // World = the first camera.
+  EXPECT_LT(trajectory.poses()[0].world_from_camera.translation().norm(), 1e-9);
+
+  const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "out/report.json"));
+  EXPECT_EQ(report["poses"], "tracking");
+  EXPECT_EQ(report["tracking"]["tracked"], 90);
+  EXPECT_EQ(report["tracking"]["lost"], 0);
+  EXPECT_EQ(report["tracking"]["keyframes"], keyframes.size());
+  EXPECT_EQ(report["frames"]["fused"], keyframes.size());
+  for (const char* stage : {"extract", "match", "pose", "local_bundle_adjustment"}) {
+    EXPECT_TRUE(report["timing_ms"]["tracking_ms"].contains(stage)) << stage;
+  }
+  // The report's ATE agrees with one recomputed here from the written trajectory.
+  const Trajectory truth = Trajectory::ReadTum(dir / "seq/groundtruth.txt");
+  const AteResult ate = ComputeAte(truth, trajectory);
+  const double reported = report["trajectory_error"]["ate_m"]["rmse"];
+  EXPECT_NEAR(reported, ate.translation.rmse, 1e-9);
+  std::cout << "synthetic static room, 90 frames tracked: ATE RMSE " << ate.translation.rmse * 1e3
+            << " mm, " << keyframes.size() << " keyframes\n";
+  EXPECT_LT(ate.translation.rmse, 0.005);
+  EXPECT_EQ(report["trajectory_error"]["rpe_translation_m"]["count"].get<size_t>() > 0, true);
+}
+
+// Real data: TUM fr3/teddy tracked against its motion-capture trajectory. The issue's target is
+// an ATE RMSE of at most 6 mm with every frame tracked (ORB-SLAM2 RGB-D: 5.9 to 6.9 mm here). The
+// bundle adjustment runs inline, so the figure does not depend on thread timing.
+TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
+  const auto sequence = testing::SharedSequence("tum_fr3_teddy_200");
+  if (!sequence) {
+    GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
+  }
+  testing::TempDir dir;
+  BuildRequest request;
+  request.sequence_dir = *sequence;
+  request.output_dir = dir / "out";
+  ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
+  ApplySetArgument(&request.config, "octomap.enabled=false");
+  const BuildSummary summary = RunBuild(request);
+  EXPECT_EQ(summary.frames_tracked, summary.frames_paired);
+  ASSERT_TRUE(summary.ate_rmse.has_value());
+  std::cout << "teddy tracked: " << summary.frames_tracked << " of " << summary.frames_paired
+            << " frames, ATE RMSE " << *summary.ate_rmse * 1e3 << " mm\n";
+  EXPECT_LT(*summary.ate_rmse, 0.006);
 }
 
 }  // namespace
