@@ -263,6 +263,9 @@ const std::vector<ConfigKey>& Keys() {
                     &TrackerOptions::keyframe_ratio);
     tracking_int("max_keyframe_interval", "a keyframe at least every this many frames",
                  &TrackerOptions::max_keyframe_interval);
+    tracking_int("min_keyframe_interval",
+                 "keyframes at least this many frames apart unless tracking is weak",
+                 &TrackerOptions::min_keyframe_interval);
     tracking_int("local_map_keyframes", "keyframes whose landmarks are searched for per frame",
                  &TrackerOptions::local_map_keyframes);
     tracking_int("local_window", "keyframes optimized by the local bundle adjustment",

@@ -38,7 +38,9 @@ void TrackerOptions::Validate() const {
           "tracking.max_landmark_depth must exceed tracking.min_landmark_depth (> 0)");
   require(keyframe_ratio > 0.0 && keyframe_ratio <= 1.0,
           "tracking.keyframe_ratio must lie in (0, 1]");
-  require(max_keyframe_interval >= 1, "tracking.max_keyframe_interval must be at least 1");
+  require(max_keyframe_interval >= 1 && min_keyframe_interval >= 1 &&
+              min_keyframe_interval <= max_keyframe_interval,
+          "tracking.min_keyframe_interval must lie in 1..tracking.max_keyframe_interval");
   require(local_window >= 2 && local_map_keyframes >= 1,
           "tracking.local_window must be at least 2 and tracking.local_map_keyframes at least 1");
   require(min_tracked >= 6 && min_relocalized >= min_tracked,
@@ -440,6 +442,10 @@ struct Tracker::Impl {
   bool NeedKeyframe(const FrameData& frame, const Association& association, int inliers) const {
     if (inliers <= 15) return false;
     if (frames_since_keyframe >= options.max_keyframe_interval) return true;
+    // Weak tracking asks for a keyframe at once; otherwise not within min_keyframe_interval.
+    const bool weak = inliers < options.weak_tracking_inliers;
+    if (!weak && frames_since_keyframe < options.min_keyframe_interval) return false;
+    if (weak) return true;
     const Keyframe& reference = keyframes.at(map_keyframes.back());
     const size_t min_observations = map_keyframes.size() <= 2 ? 1 : 2;
     int reference_tracked = 0;
