@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <future>
-#include <nlohmann/json.hpp>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
@@ -107,9 +107,12 @@ double Median(std::vector<double> values) {
 }
 
 nlohmann::json StatisticsJson(const ErrorStatistics& statistics, double scale) {
-  return {{"count", statistics.count},          {"rmse", statistics.rmse * scale},
-          {"mean", statistics.mean * scale},    {"median", statistics.median * scale},
-          {"std_dev", statistics.std_dev * scale}, {"min", statistics.min * scale},
+  return {{"count", statistics.count},
+          {"rmse", statistics.rmse * scale},
+          {"mean", statistics.mean * scale},
+          {"median", statistics.median * scale},
+          {"std_dev", statistics.std_dev * scale},
+          {"min", statistics.min * scale},
           {"max", statistics.max * scale}};
 }
 
@@ -309,12 +312,11 @@ BuildSummary RunBuild(const BuildRequest& request) {
                       {"without_pose", summary.frames_without_pose},
                       {"tracked", summary.frames_tracked},
                       {"fused", summary.frames_fused}};
-  report["keyframes"] = {
-      {"fused", summary.frames_fused},
-      {"rejected_invalid", 0},
-      {"rejected_redundant", 0},
-      {"selection", tracking ? "none yet: every tracking keyframe is fused"
-                             : "none: with known poses every frame is fused"}};
+  report["keyframes"] = {{"fused", summary.frames_fused},
+                         {"rejected_invalid", 0},
+                         {"rejected_redundant", 0},
+                         {"selection", tracking ? "none yet: every tracking keyframe is fused"
+                                                : "none: with known poses every frame is fused"}};
   report["dynamic_share"] = 0.0;
   report["masking"] = "none";
   report["map"] = {{"voxel_leaf_m", config.mapping.voxel.leaf_size},

@@ -243,9 +243,10 @@ const std::vector<ConfigKey>& Keys() {
                        [](BuildConfig& c) -> int& { return c.tracking.features.max_features; }));
     k.push_back(IntKey("tracking.fast_threshold", "FAST corner threshold (lower: more corners)",
                        [](BuildConfig& c) -> int& { return c.tracking.features.fast_threshold; }));
-    k.push_back(DoubleKey("tracking.max_depth_spread",
-                          "keypoints on a depth edge (3x3 spread above this share) get no depth",
-                          [](BuildConfig& c) -> double& { return c.tracking.features.max_depth_spread; }));
+    k.push_back(
+        DoubleKey("tracking.max_depth_spread",
+                  "keypoints on a depth edge (3x3 spread above this share) get no depth",
+                  [](BuildConfig& c) -> double& { return c.tracking.features.max_depth_spread; }));
     tracking_double("search_radius", "projection search radius around the prediction [px]",
                     &TrackerOptions::search_radius_px);
     tracking_double("wide_search_radius", "second, wider projection search radius [px]",
@@ -270,12 +271,11 @@ const std::vector<ConfigKey>& Keys() {
                  &TrackerOptions::local_map_keyframes);
     tracking_int("local_window", "keyframes optimized by the local bundle adjustment",
                  &TrackerOptions::local_window);
-    k.push_back(BoolKey("tracking.background_bundle_adjustment",
-                        "run the local bundle adjustment on its own thread (false: inline, "
-                        "deterministic)",
-                        [](BuildConfig& c) -> bool& {
-                          return c.tracking.background_bundle_adjustment;
-                        }));
+    k.push_back(
+        BoolKey("tracking.background_bundle_adjustment",
+                "run the local bundle adjustment on its own thread (false: inline, "
+                "deterministic)",
+                [](BuildConfig& c) -> bool& { return c.tracking.background_bundle_adjustment; }));
     tracking_int("min_tracked", "inliers for a frame to count as tracked",
                  &TrackerOptions::min_tracked);
     tracking_int("new_map_after_lost",

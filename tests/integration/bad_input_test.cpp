@@ -154,9 +154,9 @@ TEST_F(BadInputTest, OutputFolderThatCannotBeWritten) {
 
 TEST_F(BadInputTest, DetectorsOtherThanNoneAreRefusedByName) {
   std::string output;
-  EXPECT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ + " --detector yolox --quiet",
-                        &output),
-            2);
+  EXPECT_EQ(
+      RunStillmap("build " + sequence_ + " -o " + output_ + " --detector yolox --quiet", &output),
+      2);
   EXPECT_NE(output.find("'yolox' is not available"), std::string::npos) << output;
   EXPECT_NE(output.find("--detector none"), std::string::npos) << output;
   EXPECT_FALSE(std::filesystem::exists(output_));

@@ -205,7 +205,6 @@ TEST(BuildTest, SyntheticWalkingPeopleLeaveGhostsWithoutMasking) {
   EXPECT_GT(quality.completeness, 0.9);
 }
 
-
 // Tracking (issue 4), the default of `stillmap build`, through the binary: a synthetic static room
 // with exact ground truth. Every frame is tracked, every output is written, keyframes are the
 // fused frames, and report.json holds ATE/RPE against the rendering poses.

@@ -83,8 +83,7 @@ TEST_F(TrackerTest, RelativePosesMatchTheRenderingPoses) {
   const Trajectory trajectory = tracker.TrackedTrajectory();
   ASSERT_EQ(trajectory.size(), frames_.size());
   // World = the first camera: frame 0 is the identity.
-  EXPECT_LT((trajectory.poses()[0].world_from_camera.matrix() -
-             Eigen::Matrix4d::Identity()).norm(),
+  EXPECT_LT((trajectory.poses()[0].world_from_camera.matrix() - Eigen::Matrix4d::Identity()).norm(),
             1e-9);
   // Each frame's pose relative to the one before (the 1 mm / 0.1 deg), and relative to
   // the first frame, against the rendering poses. Measured: frame to frame 0.46 mm median,
@@ -93,9 +92,8 @@ TEST_F(TrackerTest, RelativePosesMatchTheRenderingPoses) {
   double worst_step_deg = 0.0, worst_m = 0.0, worst_deg = 0.0;
   for (size_t i = 1; i < frames_.size(); ++i) {
     const Eigen::Isometry3d truth_step = Truth(i - 1).inverse() * Truth(i);
-    const Eigen::Isometry3d estimate_step =
-        trajectory.poses()[i - 1].world_from_camera.inverse() *
-        trajectory.poses()[i].world_from_camera;
+    const Eigen::Isometry3d estimate_step = trajectory.poses()[i - 1].world_from_camera.inverse() *
+                                            trajectory.poses()[i].world_from_camera;
     const Eigen::Isometry3d step_error = truth_step.inverse() * estimate_step;
     step_m.push_back(step_error.translation().norm());
     worst_step_deg = std::max(worst_step_deg, AngleDeg(step_error.linear()));
@@ -107,8 +105,8 @@ TEST_F(TrackerTest, RelativePosesMatchTheRenderingPoses) {
   std::sort(step_m.begin(), step_m.end());
   const double median_step_m = step_m[step_m.size() / 2];
   std::cout << "frame to frame: median " << median_step_m * 1e3 << " mm, largest "
-            << step_m.back() * 1e3 << " mm, " << worst_step_deg << " deg; relative to frame 0: "
-            << worst_m * 1e3 << " mm, " << worst_deg << " deg\n";
+            << step_m.back() * 1e3 << " mm, " << worst_step_deg
+            << " deg; relative to frame 0: " << worst_m * 1e3 << " mm, " << worst_deg << " deg\n";
   EXPECT_LT(median_step_m, 0.001);
   EXPECT_LT(step_m.back(), 0.002);
   EXPECT_LT(worst_step_deg, 0.1);
@@ -137,7 +135,7 @@ TEST_F(TrackerTest, EveryKeyframeBecomesFinalOnceInOrder) {
   tracker.Finish();
   for (const FinalKeyframe& keyframe : tracker.TakeFinalKeyframes()) finals.push_back(keyframe);
   ASSERT_GE(keyframes.size(), 8u);
-  EXPECT_GT(before_finish, 0u);               // final while tracking went on
+  EXPECT_GT(before_finish, 0u);                // final while tracking went on
   EXPECT_LT(before_finish, keyframes.size());  // the last window only at the end
   ASSERT_EQ(finals.size(), keyframes.size());
   for (size_t k = 0; k < finals.size(); ++k) {
@@ -171,8 +169,9 @@ TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
     EXPECT_TRUE(pose.time < frames_[10].time || pose.time > frames_[12].time);
   }
   const Eigen::Isometry3d truth = Truth(0).inverse() * Truth(19);
-  EXPECT_LT((trajectory.poses().back().world_from_camera.translation() - truth.translation()).norm(),
-            0.002);
+  EXPECT_LT(
+      (trajectory.poses().back().world_from_camera.translation() - truth.translation()).norm(),
+      0.002);
   const TrackerStatistics stats = tracker.statistics();
   EXPECT_EQ(stats.lost, 3u);
   EXPECT_EQ(stats.relocalized, 1u);

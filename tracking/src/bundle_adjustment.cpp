@@ -84,10 +84,9 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
       double* pose = &poses[7 * static_cast<size_t>(observation.keyframe)];
       double* point = &points[3 * static_cast<size_t>(observation.landmark)];
       // Round one is robust (Huber); round two runs on the inliers only, like ORB-SLAM2.
-      ceres::LossFunction* loss =
-          round == 0
-              ? new ceres::HuberLoss(std::sqrt(ChiSquareThreshold(observation.observation, options)))
-              : nullptr;
+      ceres::LossFunction* loss = round == 0 ? new ceres::HuberLoss(std::sqrt(ChiSquareThreshold(
+                                                   observation.observation, options)))
+                                             : nullptr;
       ceres_problem.AddResidualBlock(new BundleCost(observation.observation), loss, pose, point);
       ++residual_count;
     }

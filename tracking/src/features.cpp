@@ -106,7 +106,8 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   for (size_t i = 0; i < features.keypoints.size(); ++i) {
     features.normalized.emplace_back(rays[i].x, rays[i].y);
     float depth = 0.0f;
-    if (!depth_m.empty()) depth = DepthAt(depth_m, pixels[i], static_cast<float>(options.max_depth_spread));
+    if (!depth_m.empty())
+      depth = DepthAt(depth_m, pixels[i], static_cast<float>(options.max_depth_spread));
     features.depth_m.push_back(depth);
   }
   return features;

@@ -41,10 +41,10 @@ PoseResult EstimatePosePnp(const std::vector<Eigen::Vector3d>& points_in_world,
     std::vector<int> tight;
     const double limit = options.refine_reprojection_error * options.refine_reprojection_error;
     for (int i : inliers) {
-      const cv::Vec3d q = r * cv::Vec3d(object[static_cast<size_t>(i)].x,
-                                        object[static_cast<size_t>(i)].y,
-                                        object[static_cast<size_t>(i)].z) +
-                          t;
+      const cv::Vec3d q =
+          r * cv::Vec3d(object[static_cast<size_t>(i)].x, object[static_cast<size_t>(i)].y,
+                        object[static_cast<size_t>(i)].z) +
+          t;
       if (q[2] <= 0.0) continue;
       const double du = q[0] / q[2] - image[static_cast<size_t>(i)].x;
       const double dv = q[1] / q[2] - image[static_cast<size_t>(i)].y;

@@ -87,9 +87,9 @@ PoseResult RefinePose(const Eigen::Isometry3d& initial,
   problem.AddParameterBlock(pose, 7, &manifold);
   for (size_t i = 0; i < n; ++i) {
     costs.emplace_back(points_in_world[i], observations[i]);
-    problem.AddResidualBlock(
-        &costs.back(), observations[i].depth_m > 0.0 ? &loss_with_depth : &loss_without_depth,
-        pose);
+    problem.AddResidualBlock(&costs.back(),
+                             observations[i].depth_m > 0.0 ? &loss_with_depth : &loss_without_depth,
+                             pose);
   }
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;  // 6 unknowns

@@ -94,10 +94,10 @@ struct Landmark {
   int octave = 0;
   int created_keyframe = 0;
   std::vector<std::pair<int, int>> observations;  // (keyframe id, feature index)
-  int visible = 0;           // frames in which it projected into the image
-  int found = 0;             // frames in which it was an inlier
-  size_t local_stamp = 0;    // serial of the last local set it was put into
-  size_t matched_stamp = 0;  // frame serial when last matched
+  int visible = 0;                                // frames in which it projected into the image
+  int found = 0;                                  // frames in which it was an inlier
+  size_t local_stamp = 0;                         // serial of the last local set it was put into
+  size_t matched_stamp = 0;                       // frame serial when last matched
 };
 
 struct Keyframe {
@@ -122,7 +122,7 @@ class FrameData {
     pixels_.reserve(n);
     columns_ = (width_ + 2 * kMargin) / kCell + 1;
     rows_ = (height_ + 2 * kMargin) / kCell + 1;
-    cells_.assign(static_cast<size_t>(columns_ * rows_), {});
+    cells_.assign(static_cast<size_t>(columns_) * static_cast<size_t>(rows_), {});
     for (size_t i = 0; i < n; ++i) {
       descriptors_.push_back(DescriptorOf(features_.descriptors, static_cast<int>(i)));
       const Eigen::Vector2d pixel(camera.fx * features_.normalized[i].x() + camera.cx,
@@ -189,8 +189,8 @@ struct Association {
   std::vector<int> distance;  // Hamming distance of the association
   explicit Association(size_t n) : landmark(n, -1), distance(n, INT_MAX) {}
   int count() const {
-    return static_cast<int>(std::count_if(landmark.begin(), landmark.end(),
-                                          [](int id) { return id >= 0; }));
+    return static_cast<int>(
+        std::count_if(landmark.begin(), landmark.end(), [](int id) { return id >= 0; }));
   }
 };
 
@@ -223,7 +223,8 @@ struct Tracker::Impl {
   Impl& operator=(const Impl&) = delete;
 
   double OctaveScale(int octave) const {
-    return octave_scale[static_cast<size_t>(std::clamp(octave, 0, static_cast<int>(octave_scale.size()) - 1))];
+    return octave_scale[static_cast<size_t>(
+        std::clamp(octave, 0, static_cast<int>(octave_scale.size()) - 1))];
   }
 
   RgbdObservation Observation(const FrameFeatures& features, size_t i) const {
@@ -246,10 +247,9 @@ struct Tracker::Impl {
     LocalSet local;
     const size_t stamp = ++collect_serial;
     const size_t count = map_keyframes.size();
-    const size_t first =
-        count > static_cast<size_t>(options.local_map_keyframes)
-            ? count - static_cast<size_t>(options.local_map_keyframes)
-            : 0;
+    const size_t first = count > static_cast<size_t>(options.local_map_keyframes)
+                             ? count - static_cast<size_t>(options.local_map_keyframes)
+                             : 0;
     auto add = [&](int id) {
       if (id < 0) return;
       const auto it = landmarks.find(id);
@@ -271,7 +271,9 @@ struct Tracker::Impl {
                           double radius_px, const FrameData& frame, Association* association) {
     const Eigen::Matrix3d rotation = camera_from_world.linear();
     const Eigen::Vector3d translation = camera_from_world.translation();
-    for (const auto& [id, landmark] : local) {
+    for (const auto& entry : local) {
+      const int id = entry.first;
+      Landmark* const landmark = entry.second;
       if (landmark->matched_stamp == frame_serial) continue;
       const Eigen::Vector3d p = rotation * landmark->position + translation;
       if (p.z() < options.min_landmark_depth) continue;
@@ -374,8 +376,7 @@ struct Tracker::Impl {
     if (!first.ok) return failed;
     SearchByProjection(first.camera_from_world, local, options.refine_search_radius_px, frame,
                        association);
-    PoseEstimate estimate =
-        Refine(first.camera_from_world, frame, association, options.refinement);
+    PoseEstimate estimate = Refine(first.camera_from_world, frame, association, options.refinement);
     estimate.matches = std::max(estimate.matches, failed.matches);
     return estimate;
   }
@@ -526,9 +527,9 @@ struct Tracker::Impl {
       if (it == landmarks.end()) continue;
       const Landmark& landmark = it->second;
       const int age = current_keyframe - landmark.created_keyframe;
-      if (landmark.visible >= 4 && 4 * landmark.found < landmark.visible) {
-        EraseLandmark(id);
-      } else if (age >= 2 && landmark.observations.size() < 2) {
+      const bool rarely_found = landmark.visible >= 4 && 4 * landmark.found < landmark.visible;
+      const bool seen_once = age >= 2 && landmark.observations.size() < 2;
+      if (rarely_found || seen_once) {
         EraseLandmark(id);
       } else if (age < 3) {
         kept.push_back(id);
@@ -554,10 +555,9 @@ struct Tracker::Impl {
   // final.
   void UpdateFinal(bool all = false) {
     const size_t count = map_keyframes.size();
-    const size_t window_first =
-        count > static_cast<size_t>(options.local_window)
-            ? count - static_cast<size_t>(options.local_window)
-            : 0;
+    const size_t window_first = count > static_cast<size_t>(options.local_window)
+                                    ? count - static_cast<size_t>(options.local_window)
+                                    : 0;
     int boundary = all ? INT_MAX : (count > 0 ? map_keyframes[window_first] : INT_MAX);
     boundary = std::min(boundary, all ? INT_MAX : running_window_first);
     while (next_final < count && map_keyframes[next_final] < boundary) {
@@ -618,10 +618,9 @@ struct Tracker::Impl {
   void RunBundleAdjustment(std::unique_lock<std::mutex>& lock) {
     const size_t count = map_keyframes.size();
     if (count < 2) return;
-    const size_t window_first =
-        count > static_cast<size_t>(options.local_window)
-            ? count - static_cast<size_t>(options.local_window)
-            : 0;
+    const size_t window_first = count > static_cast<size_t>(options.local_window)
+                                    ? count - static_cast<size_t>(options.local_window)
+                                    : 0;
     BundleAdjustmentProblem problem;
     std::vector<int> keyframe_ids, landmark_ids;
     std::unordered_map<int, int> keyframe_index, landmark_index;
@@ -648,8 +647,8 @@ struct Tracker::Impl {
       for (const auto& [keyframe_id, feature] : landmarks.at(landmark_ids[l]).observations) {
         auto it = keyframe_index.find(keyframe_id);
         if (it == keyframe_index.end()) {
-          it = keyframe_index.emplace(keyframe_id, static_cast<int>(problem.keyframes.size()))
-                   .first;
+          it =
+              keyframe_index.emplace(keyframe_id, static_cast<int>(problem.keyframes.size())).first;
           keyframe_ids.push_back(keyframe_id);
           problem.keyframes.push_back({keyframes.at(keyframe_id).camera_from_world, true});
           any_fixed = true;
@@ -783,8 +782,8 @@ struct Tracker::Impl {
       CountVisibility(estimate.camera_from_world, local, association);
       ++frames_since_keyframe;
       if (NeedKeyframe(frame, association, estimate.inliers)) {
-        result.keyframe_id = InsertKeyframe(estimate.camera_from_world, frame, association,
-                                            frame_index, time, lock);
+        result.keyframe_id =
+            InsertKeyframe(estimate.camera_from_world, frame, association, frame_index, time, lock);
       }
       Accept(estimate.camera_from_world, time, association.landmark, &result);
     } else {

@@ -12,7 +12,7 @@ struct PnpOptions {
   // refine_reprojection_error (about 1.6 px).
   double max_reprojection_error = 0.006;
   double refine_reprojection_error = 0.003;
-  int iterations = 200;                   // RANSAC iterations
+  int iterations = 200;  // RANSAC iterations
   double confidence = 0.999;
   int min_inliers = 12;  // fewer: the pose is not trusted
 };

@@ -42,7 +42,8 @@ struct TrackerOptions {
 
   // Landmarks are created from keyframe depth within this range [m].
   double min_landmark_depth = 0.1;
-  double max_landmark_depth = 12.0;  // far points pin the rotation down (teddy: 4 m gave 9 mm ATE, 12 m 5 mm)
+  double max_landmark_depth =
+      12.0;  // far points pin the rotation down (teddy: 4 m gave 9 mm ATE, 12 m 5 mm)
 
   // Keyframes (ORB-SLAM2, RGB-D): a new keyframe when the inliers fall below keyframe_ratio of
   // the landmarks the reference keyframe tracks well, when few near points are tracked while many
@@ -60,8 +61,8 @@ struct TrackerOptions {
   int local_window = 8;          // keyframes optimized by the local bundle adjustment
   bool background_bundle_adjustment = true;  // false: run it inline (deterministic)
 
-  int min_tracked = 20;          // inliers for a frame to count as tracked
-  int min_relocalized = 30;      // inliers for a relocalization to be accepted
+  int min_tracked = 20;      // inliers for a frame to count as tracked
+  int min_relocalized = 30;  // inliers for a relocalization to be accepted
   int relocalization_keyframes = 5;
   int new_map_after_lost = 15;   // consecutive lost frames before a new local map is started
   int min_initial_points = 100;  // features with depth needed to start a map
