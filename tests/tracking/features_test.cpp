@@ -7,11 +7,11 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "rendered_sequence.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/tracking/matching.h"
 #include "stillmap/tracking/pose_estimation.h"
 #include "stillmap/tracking/pose_refinement.h"
-#include "stillmap/viewer/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -22,13 +22,7 @@ class RenderedFramesTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    SynthOptions options;
-    options.scenario = "static";
-    options.frames = 8;
-    options.depth_noise = false;
-    options.color_noise = false;
-    WriteSyntheticSequence(*dir_ / "seq", options);
-    sequence_ = new Sequence(Sequence::Open(*dir_ / "seq", ResolveCamera(*dir_ / "seq", {})));
+    sequence_ = new Sequence(testing::RenderNoiseFreeSequence(*dir_ / "seq", "static", 8));
   }
   static void TearDownTestSuite() {
     delete sequence_;

@@ -10,10 +10,10 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "rendered_sequence.h"
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/tracking/bundle_adjustment.h"
-#include "stillmap/viewer/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -28,13 +28,7 @@ class TrackerTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new testing::TempDir;
-    SynthOptions options;
-    options.scenario = "static";
-    options.frames = 40;
-    options.depth_noise = false;
-    options.color_noise = false;
-    WriteSyntheticSequence(*dir_ / "seq", options);
-    sequence_ = new Sequence(Sequence::Open(*dir_ / "seq", ResolveCamera(*dir_ / "seq", {})));
+    sequence_ = new Sequence(testing::RenderNoiseFreeSequence(*dir_ / "seq", "static", 40));
     for (size_t i = 0; i < sequence_->frames().size(); ++i) {
       frames_.push_back(sequence_->LoadFrame(i));
       cv::Mat gray;
