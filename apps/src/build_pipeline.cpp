@@ -129,7 +129,8 @@ MapperFrame ToMapperFrame(const Frame& frame, const Eigen::Isometry3d& world_fro
 struct TrackingRecord {
   std::vector<double> extract_ms, match_ms, pose_ms, keyframe_ms, total_ms;
   std::map<std::string, size_t> status_counts;
-  double fuse_ms = 0.0;  // fusing final keyframes into the map, on the main thread
+  std::vector<double> lost_times;  // frames without a pose [s]
+  double fuse_ms = 0.0;            // fusing final keyframes into the map, on the main thread
 };
 
 nlohmann::json TimingJson(const std::vector<double>& values) {
@@ -249,6 +250,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
       record.keyframe_ms.push_back(result.timings.keyframe_ms);
       record.total_ms.push_back(result.timings.total_ms);
       ++record.status_counts[TrackStatusName(result.status)];
+      if (!result.tracked()) record.lost_times.push_back(frame.time);
       if (result.keyframe_id >= 0) waiting.emplace(result.keyframe_id, std::move(frame));
       fuse(tracker.TakeFinalKeyframes());
       progress.Update(k + 1);
@@ -355,6 +357,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
         {"relocalized", t.relocalized},
         {"new_maps", t.new_maps},
         {"status_counts", record.status_counts},
+        {"lost_frame_times", record.lost_times},
         {"keyframes", t.keyframes},
         {"landmarks_alive", t.landmarks},
         {"landmarks_created", t.landmarks_created},

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/apps/build_pipeline.h"
 #include "stillmap/io/evaluation.h"
@@ -247,6 +248,37 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
             << " mm, " << keyframes.size() << " keyframes\n";
   EXPECT_LT(ate.translation.rmse, 0.005);
   EXPECT_EQ(report["trajectory_error"]["rpe_translation_m"]["count"].get<size_t>() > 0, true);
+}
+
+// A covered lens: frames whose images are black and depth empty get no pose (the trajectory skips
+// them and the report names them), tracking resumes after them, and the run succeeds.
+TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
+  testing::TempDir dir;
+  SynthOptions options;
+  options.scenario = "static";
+  options.frames = 30;
+  WriteSyntheticSequence(dir / "seq", options);
+  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  std::vector<double> covered;
+  for (size_t i = 12; i < 15; ++i) {
+    const FrameEntry& pair = sequence.frames()[i];
+    cv::imwrite(pair.color_path, cv::Mat(480, 640, CV_8UC3, cv::Scalar(0, 0, 0)));
+    cv::imwrite(pair.depth_path, cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
+    covered.push_back(pair.time);
+  }
+  std::string output;
+  ASSERT_EQ(
+      testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" + " --quiet", &output), 0)
+      << output;
+  const Trajectory trajectory = Trajectory::ReadTum(dir / "out/trajectory.txt");
+  EXPECT_EQ(trajectory.size(), 27u);
+  for (const StampedPose& pose : trajectory.poses()) {
+    for (double time : covered) EXPECT_NE(pose.time, time);
+  }
+  const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "out/report.json"));
+  EXPECT_EQ(report["tracking"]["lost"], 3);
+  EXPECT_EQ(report["tracking"]["relocalized"], 1);
+  EXPECT_EQ(report["tracking"]["lost_frame_times"].get<std::vector<double>>(), covered);
 }
 
 // Real data: TUM fr3/teddy tracked against its motion-capture trajectory. The target is
