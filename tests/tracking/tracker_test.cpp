@@ -198,6 +198,33 @@ TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {
   EXPECT_EQ(tracker.statistics().new_maps, 1u);
 }
 
+// The bundle adjustment on its own thread (the default): the same frames, tracked while the
+// adjustment runs concurrently; results depend on timing, so the bounds are looser.
+TEST_F(TrackerTest, BackgroundBundleAdjustmentKeepsTrackingAccurate) {
+  TrackerOptions options = Deterministic();
+  options.background_bundle_adjustment = true;
+  options.max_keyframe_interval = 5;  // adjustments while frames keep coming
+  Tracker tracker(sequence_->camera(), options);
+  size_t finals = 0;
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    ASSERT_TRUE(tracker.Track(i, frames_[i].time, grays_[i], frames_[i].depth_m).tracked());
+    finals += tracker.TakeFinalKeyframes().size();
+  }
+  tracker.Finish();
+  finals += tracker.TakeFinalKeyframes().size();
+  const TrackerStatistics stats = tracker.statistics();
+  EXPECT_EQ(finals, stats.keyframes);
+  EXPECT_GE(stats.bundle_adjustments, 2u);
+  const Trajectory trajectory = tracker.TrackedTrajectory();
+  ASSERT_EQ(trajectory.size(), frames_.size());
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    const Eigen::Isometry3d truth = Truth(0).inverse() * Truth(i);
+    EXPECT_LT((truth.translation() - trajectory.poses()[i].world_from_camera.translation()).norm(),
+              0.004)
+        << "frame " << i;
+  }
+}
+
 TEST_F(TrackerTest, IgnoredPixelsYieldNoFeatures) {
   // The mask of the next issue: the left half ignored, no keypoint may come from it.
   cv::Mat mask(grays_[0].size(), CV_8UC1, cv::Scalar(0));
