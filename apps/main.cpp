@@ -64,7 +64,9 @@ int Run(int argc, char** argv) {
                                      "deeplab, both) come with dynamic rejection; use --detector "
                                      "none";
       });
-  build_cmd->add_option("--threads", build.threads, "worker threads (1: no read-ahead)")
+  build_cmd
+      ->add_option("--threads", build.threads,
+                   "threads (1: no read-ahead, bundle adjustment inline)")
       ->check(CLI::Range(1, 64));
   build_cmd->add_flag("--quiet", quiet, "no progress line, warnings only");
   build_cmd->footer(ConfigKeysHelp());

@@ -226,7 +226,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
   } else {
     // Keyframes are fused once their pose is final (they left the bundle adjustment window);
     // their images wait here until then.
-    Tracker tracker(camera, config.tracking);
+    TrackerOptions tracker_options = config.tracking;
+    if (request.threads == 1) tracker_options.background_bundle_adjustment = false;
+    Tracker tracker(camera, tracker_options);
     std::map<int, Frame> waiting;
     auto fuse = [&](const std::vector<FinalKeyframe>& finals) {
       const Clock::time_point fuse_start = Clock::now();
@@ -365,7 +367,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
         {"bundle_adjustments", t.bundle_adjustments},
         {"bundle_adjustment_observations_rejected", t.observations_rejected},
         {"tracking_frames_per_second_median", median_track_ms > 0 ? 1000.0 / median_track_ms : 0},
-        {"bundle_adjustment_thread", config.tracking.background_bundle_adjustment}};
+        {"bundle_adjustment_thread",
+         config.tracking.background_bundle_adjustment && request.threads > 1}};
     timing["tracking_ms"] = {
         {"extract", TimingJson(record.extract_ms)},
         {"match", TimingJson(record.match_ms)},
@@ -385,28 +388,10 @@ BuildSummary RunBuild(const BuildRequest& request) {
   report["frames_per_second"] = summary.frames_per_second;
   report["peak_memory_mib"] = summary.peak_memory_mib;
   report["threads"] = request.threads;
-  // Map quality against the static ground truth of synthetic sequences (not counted in the
-  // frames per second above).
-  const fs::path static_groundtruth = fs::path(request.sequence_dir) / "static_gt.ply";
-  if (fs::exists(static_groundtruth) && tracking) {
-    report["map_quality"] = nullptr;
-    report["map_quality_note"] =
-        "not evaluated: the map is in the first camera's frame, static_gt.ply in the world frame";
-  }
-  if (fs::exists(static_groundtruth) && !tracking) {
-    const Clock::time_point evaluation_start = Clock::now();
-    const MapQuality quality =
-        EvaluateMap(mapper.cloud().Points(), ReadCloud(static_groundtruth.string()));
-    summary.map_quality = quality;
-    report["map_quality"] = {{"groundtruth", static_groundtruth.string()},
-                             {"map_points", quality.map_points},
-                             {"groundtruth_points", quality.groundtruth_points},
-                             {"accuracy_mean_m", quality.accuracy_mean},
-                             {"accuracy_median_m", quality.accuracy_median},
-                             {"completeness", quality.completeness},
-                             {"ghost_share", quality.ghost_share},
-                             {"evaluation_s", Seconds(evaluation_start)}};
-  }
+  // With ground-truth poses the map is in the ground truth's frame; a tracked map gets there by
+  // the ATE alignment, when the sequence has ground truth.
+  std::optional<Eigen::Isometry3d> groundtruth_from_map;
+  if (!tracking) groundtruth_from_map = Eigen::Isometry3d::Identity();
   report["trajectory_error"] = nullptr;
   if (!tracking) {
     report["trajectory_error_note"] = "not evaluated: the poses are the ground truth";
@@ -415,6 +400,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
   } else {
     try {
       const AteResult ate = ComputeAte(*sequence.groundtruth(), trajectory, config.ate);
+      groundtruth_from_map = ate.groundtruth_from_estimate;
       summary.ate_rmse = ate.translation.rmse;
       nlohmann::json error = {{"ate_m", StatisticsJson(ate.translation, 1.0)},
                               {"ate_max_time_difference_s", config.ate.max_time_difference}};
@@ -430,6 +416,33 @@ BuildSummary RunBuild(const BuildRequest& request) {
     } catch (const InputError& e) {
       report["trajectory_error_note"] = std::string("not evaluated: ") + e.what();
     }
+  }
+  // Map quality against the static ground truth of synthetic sequences (not counted in the
+  // frames per second above). A tracked map is first moved into the ground truth's frame by the
+  // ATE alignment.
+  const fs::path static_groundtruth = fs::path(request.sequence_dir) / "static_gt.ply";
+  if (fs::exists(static_groundtruth) && !groundtruth_from_map) {
+    report["map_quality"] = nullptr;
+    report["map_quality_note"] =
+        "not evaluated: no alignment of the tracked map to the ground truth (see "
+        "trajectory_error_note)";
+  } else if (fs::exists(static_groundtruth)) {
+    const Clock::time_point evaluation_start = Clock::now();
+    std::vector<VoxelPoint> points = mapper.cloud().Points();
+    const Eigen::Isometry3f transform = groundtruth_from_map->cast<float>();
+    for (VoxelPoint& point : points) point.position = transform * point.position;
+    const MapQuality quality = EvaluateMap(points, ReadCloud(static_groundtruth.string()));
+    summary.map_quality = quality;
+    report["map_quality"] = {{"groundtruth", static_groundtruth.string()},
+                             {"aligned_by", tracking ? "the ATE alignment of the trajectory"
+                                                     : "nothing: the poses are the ground truth"},
+                             {"map_points", quality.map_points},
+                             {"groundtruth_points", quality.groundtruth_points},
+                             {"accuracy_mean_m", quality.accuracy_mean},
+                             {"accuracy_median_m", quality.accuracy_median},
+                             {"completeness", quality.completeness},
+                             {"ghost_share", quality.ghost_share},
+                             {"evaluation_s", Seconds(evaluation_start)}};
   }
   {
     std::ofstream out(outputs.TemporaryPath("report.json"));
