@@ -1,6 +1,6 @@
 // Per-stage timings of the tracker on a real sequence (tum_fr3_teddy_200 from ../shared/data, or
 // $STILLMAP_DATA): ORB extraction, descriptor matching (brute force against FLANN LSH), PnP-RANSAC,
-// motion-only refinement, one local bundle adjustment, and whole-sequence tracking. Skips with a
+// motion-only refinement, YOLOX-Nano detection, and whole-sequence tracking. Skips with a
 // message when the sequence is absent.
 //   build/tests/benchmarks/stillmap_tracking_benchmark
 #include <benchmark/benchmark.h>
@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "stillmap/io/sequence.h"
+#include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/features.h"
 #include "stillmap/tracking/matching.h"
 #include "stillmap/tracking/pose_estimation.h"
@@ -150,6 +151,26 @@ void BM_RefinePose(benchmark::State& state) {  // NOLINT(readability-identifier-
   state.counters["correspondences"] = static_cast<double>(in.points.size());
 }
 BENCHMARK(BM_RefinePose)->Unit(benchmark::kMillisecond);
+
+// YOLOX-Nano at its 416x320 letterbox on a teddy frame: pre-processing, forward, decoding, NMS.
+void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
+  const Input& in = GetInput();
+  if (Skip(state, in)) return;
+  const auto models = testing::SharedModels("yolox_nano");
+  if (!models) {
+    state.SkipWithError("yolox_nano not found in ../shared/models or $STILLMAP_MODELS");
+    return;
+  }
+  const std::unique_ptr<Detector> detector =
+      MakeYoloxDetector(*models, MotionLevelTable::Default());
+  size_t count = 0;
+  for (auto _ : state) {
+    count = detector->Detect(in.frames[10].color).size();
+    benchmark::DoNotOptimize(count);
+  }
+  state.counters["detections"] = static_cast<double>(count);
+}
+BENCHMARK(BM_YoloxDetect)->Unit(benchmark::kMillisecond);
 
 // The tracker over the first frames (bundle adjustment inline, so its cost is included):
 // the time per frame is the tracking speed.

@@ -45,6 +45,14 @@ std::optional<std::string> SharedSequence(const std::string& name) {
   return dir.string();
 }
 
+std::optional<std::string> SharedModels(const std::string& name) {
+  const char* env = std::getenv("STILLMAP_MODELS");
+  const fs::path root =
+      env != nullptr ? fs::path(env) : fs::path(STILLMAP_SHARED_DATA) / ".." / "models";
+  if (!fs::is_directory(root / name)) return std::nullopt;
+  return root.lexically_normal().string();
+}
+
 Camera SmallCamera(int width, int height) {
   Camera camera;
   camera.width = width;

@@ -42,6 +42,10 @@ struct PlaneScene {
 Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, const PlaneScene& scene,
                               const std::vector<Eigen::Isometry3d>& world_from_camera);
 
+// The folder of the detector models ($STILLMAP_MODELS, else ../shared/models), or nullopt when
+// it has no subfolder `name` (e.g. "yolox_nano").
+std::optional<std::string> SharedModels(const std::string& name);
+
 // A camera without distortion, 64x48 by default (tests stay fast).
 Camera SmallCamera(int width = 64, int height = 48);
 

@@ -1,0 +1,91 @@
+// The semantic prior: motion levels (paper 002) and the YOLOX-Nano detector, checked against the
+// ground-truth masks of rendered people. The model is read from ../shared/models (or
+// $STILLMAP_MODELS); those tests skip when it is absent.
+#include "stillmap/tracking/detector.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "stillmap/io/error.h"
+#include "stillmap/io/sequence.h"
+#include "stillmap/viewer/synthetic.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(MotionLevelTest, PaperLevelsAndOverrides) {
+  MotionLevelTable table = MotionLevelTable::Default();
+  EXPECT_EQ(table.Level("person"), MotionLevel::kHigh);
+  EXPECT_EQ(table.Level("dog"), MotionLevel::kHigh);
+  EXPECT_EQ(table.Level("chair"), MotionLevel::kMedium);
+  EXPECT_EQ(table.Level("keyboard"), MotionLevel::kMedium);
+  EXPECT_EQ(table.Level("tvmonitor"), MotionLevel::kLow);
+  EXPECT_EQ(table.Level("refrigerator"), MotionLevel::kLow);
+  table.Set("chair", "low");
+  EXPECT_EQ(table.Level("chair"), MotionLevel::kLow);
+  EXPECT_THROW(table.Set("chair", "fast"), InputError);
+}
+
+TEST(YoloxDetectorTest, MissingModelIsNamed) {
+  testing::TempDir dir;
+  try {
+    MakeYoloxDetector(dir.path(), MotionLevelTable::Default());
+    FAIL() << "no error for a missing model";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("yolox_nano.onnx"), std::string::npos) << e.what();
+  }
+}
+
+// On rendered people with exact masks. Decoding: every person box lies on a person (a third of
+// its area or more is person pixels; people fill about half of their box). Recall, a property of
+// the model on these renderings rather than of the code: where people cover at least 5 % of the
+// frame, the high-level boxes hold 80 % of their pixels in 13 of 24 sampled frames (people seen
+// from the side at the image border are missed, or taken for chairs); issue 5's geometric checks
+// and the carrying of masks between frames are there for those.
+TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
+  const auto models = testing::SharedModels("yolox_nano");
+  if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
+  const std::unique_ptr<Detector> detector =
+      MakeYoloxDetector(*models, MotionLevelTable::Default());
+  testing::TempDir dir;
+  SynthOptions options;
+  options.scenario = "walking_xyz";
+  options.frames = 240;
+  WriteSyntheticSequence(dir / "seq", options);
+  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  int frames = 0, covered = 0, person_boxes = 0, boxes_on_people = 0;
+  for (size_t i = 0; i < sequence.frames().size(); i += 10) {
+    const std::string name = fs::path(sequence.frames()[i].color_path).filename().string();
+    const cv::Mat mask = cv::imread(dir / ("seq/masks/" + name), cv::IMREAD_UNCHANGED) > 0;
+    cv::Mat high(mask.size(), CV_8UC1, cv::Scalar(0));
+    for (const Detection& detection :
+         detector->Detect(cv::imread(sequence.frames()[i].color_path))) {
+      if (detection.level != MotionLevel::kHigh) continue;
+      const cv::Rect box(detection.box);
+      high(box).setTo(255);
+      ++person_boxes;
+      boxes_on_people += cv::countNonZero(mask(box)) >= box.area() / 3;
+    }
+    const int person_pixels = cv::countNonZero(mask);
+    if (person_pixels < 0.05 * static_cast<double>(mask.total())) continue;
+    ++frames;
+    covered += cv::countNonZero(mask & high) >= 0.8 * person_pixels;
+  }
+  std::cout << boxes_on_people << " of " << person_boxes
+            << " person boxes lie on people; people 80 % inside the boxes in " << covered << " of "
+            << frames << " frames\n";
+  ASSERT_GE(person_boxes, 10);
+  EXPECT_GE(boxes_on_people, 0.9 * person_boxes);
+  ASSERT_GE(frames, 10);
+  EXPECT_GE(covered, 0.5 * frames);
+}
+
+}  // namespace
+}  // namespace stillmap

@@ -1,0 +1,61 @@
+// Semantic prior for dynamic-object rejection (issue 5): detectors on OpenCV's DNN module and
+// the motion levels of paper 002 (RTD-SLAM, section III.B): high (people, animals), medium
+// (easily moved objects: chairs, books, keyboards, mice...), low (everything else, taken as
+// static).
+#pragma once
+
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace stillmap {
+
+enum class MotionLevel { kLow, kMedium, kHigh };
+const char* MotionLevelName(MotionLevel level);
+
+// Class name -> motion level; names not listed are low.
+class MotionLevelTable {
+ public:
+  // Paper 002's levels over the COCO / VOC names the models use.
+  static MotionLevelTable Default();
+  MotionLevel Level(const std::string& name) const;
+  // Sets one class (throws InputError for a level name other than high, medium or low).
+  void Set(const std::string& name, const std::string& level);
+  const std::map<std::string, MotionLevel>& entries() const { return levels_; }
+
+ private:
+  std::map<std::string, MotionLevel> levels_;
+};
+
+struct Detection {
+  cv::Rect2f box;  // image pixels, clipped to the image
+  int class_id = 0;
+  std::string name;  // class name from the model's names file
+  float score = 0.0f;
+  MotionLevel level = MotionLevel::kLow;
+};
+
+class Detector {
+ public:
+  virtual ~Detector() = default;
+  // Objects in a BGR (CV_8UC3) image.
+  virtual std::vector<Detection> Detect(const cv::Mat& bgr) = 0;
+  virtual std::string name() const = 0;
+};
+
+struct YoloxOptions {
+  int input_width = 416;         // letterbox size, multiples of 32 (PROVENANCE.txt: 416x320 runs in
+  int input_height = 320;        // 30 ms here against 40 ms at 416x416, same detections)
+  float score_threshold = 0.3f;  // objectness x class probability
+  float nms_threshold = 0.45f;   // IoU, per class
+};
+
+// YOLOX-Nano (COCO, ONNX) from MODELS_DIR/yolox_nano/{yolox_nano.onnx, coco.names}. Throws
+// InputError naming the missing file.
+std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
+                                            const MotionLevelTable& levels,
+                                            const YoloxOptions& options = {});
+
+}  // namespace stillmap

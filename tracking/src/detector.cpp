@@ -1,0 +1,193 @@
+#include "stillmap/tracking/detector.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/dnn.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+const char* MotionLevelName(MotionLevel level) {
+  switch (level) {
+    case MotionLevel::kHigh:
+      return "high";
+    case MotionLevel::kMedium:
+      return "medium";
+    case MotionLevel::kLow:
+      return "low";
+  }
+  return "low";
+}
+
+MotionLevelTable MotionLevelTable::Default() {
+  MotionLevelTable table;
+  // High: people and animals (COCO and VOC spellings).
+  for (const char* name : {"person", "bird", "cat", "dog", "horse", "sheep", "cow", "elephant",
+                           "bear", "zebra", "giraffe"}) {
+    table.levels_[name] = MotionLevel::kHigh;
+  }
+  // Medium: objects people easily move; paper 002 names chairs, books, keyboards and mice.
+  for (const char* name : {"chair", "book", "keyboard", "mouse", "cup", "bottle", "wine glass",
+                           "laptop", "cell phone", "remote", "backpack", "handbag", "suitcase",
+                           "umbrella", "sports ball", "teddy bear", "bowl", "scissors"}) {
+    table.levels_[name] = MotionLevel::kMedium;
+  }
+  return table;
+}
+
+MotionLevel MotionLevelTable::Level(const std::string& name) const {
+  const auto it = levels_.find(name);
+  return it == levels_.end() ? MotionLevel::kLow : it->second;
+}
+
+void MotionLevelTable::Set(const std::string& name, const std::string& level) {
+  if (level == "high") {
+    levels_[name] = MotionLevel::kHigh;
+  } else if (level == "medium") {
+    levels_[name] = MotionLevel::kMedium;
+  } else if (level == "low") {
+    levels_[name] = MotionLevel::kLow;
+  } else {
+    throw InputError("motion level of '" + name + "': '" + level +
+                     "' is not one of high, medium, low");
+  }
+}
+
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> ReadNames(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path.string() + ": cannot open the class names file");
+  std::vector<std::string> names;
+  std::string line;
+  while (std::getline(in, line)) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (!line.empty()) names.push_back(line);
+  }
+  return names;
+}
+
+// YOLOX decoding (PROVENANCE.txt): rows [cx cy w h obj cls...] on the grids of strides 8, 16
+// and 32, raw; xy = (xy + grid) * stride, wh = exp(wh) * stride, score = obj * cls.
+class YoloxDetector : public Detector {
+ public:
+  YoloxDetector(const std::string& models_dir, const MotionLevelTable& levels,
+                const YoloxOptions& options)
+      : levels_(levels), options_(options) {
+    const fs::path dir = fs::path(models_dir) / "yolox_nano";
+    const fs::path model = dir / "yolox_nano.onnx";
+    if (!fs::exists(model)) {
+      throw InputError(model.string() +
+                       ": YOLOX-Nano model not found (pass --models DIR holding yolox_nano/)");
+    }
+    if (options.input_width % 32 != 0 || options.input_height % 32 != 0 ||
+        options.input_width <= 0 || options.input_height <= 0) {
+      throw InputError("the YOLOX input size must be a positive multiple of 32");
+    }
+    names_ = ReadNames(dir / "coco.names");
+    try {
+      net_ = cv::dnn::readNetFromONNX(model.string());
+    } catch (const cv::Exception& e) {
+      throw InputError(model.string() + ": OpenCV cannot load the model: " + e.what());
+    }
+    for (int stride : {8, 16, 32}) {
+      const int columns = options.input_width / stride, rows = options.input_height / stride;
+      for (int y = 0; y < rows; ++y) {
+        for (int x = 0; x < columns; ++x) grid_.push_back({x, y, stride});
+      }
+    }
+  }
+
+  std::string name() const override { return "yolox"; }
+
+  std::vector<Detection> Detect(const cv::Mat& bgr) override {
+    CV_Assert(bgr.type() == CV_8UC3);
+    // Letterbox at the top left, pad 114, raw BGR 0..255.
+    const float scale = std::min(static_cast<float>(options_.input_width) / bgr.cols,
+                                 static_cast<float>(options_.input_height) / bgr.rows);
+    cv::Mat resized;
+    cv::resize(bgr, resized, cv::Size(), scale, scale, cv::INTER_LINEAR);
+    cv::Mat canvas(options_.input_height, options_.input_width, CV_8UC3, cv::Scalar(114, 114, 114));
+    resized.copyTo(canvas(
+        cv::Rect(0, 0, std::min(resized.cols, canvas.cols), std::min(resized.rows, canvas.rows))));
+    net_.setInput(cv::dnn::blobFromImage(canvas, 1.0, cv::Size(), cv::Scalar(), false, false));
+    const cv::Mat out = net_.forward();
+    const int rows = out.size[1], width = out.size[2];
+    const int classes = width - 5;
+    if (out.dims != 3 || rows != static_cast<int>(grid_.size()) || classes < 1) {
+      throw std::runtime_error("YOLOX output has an unexpected shape");
+    }
+    const float* data = out.ptr<float>();
+
+    std::vector<std::vector<cv::Rect2d>> boxes(static_cast<size_t>(classes));
+    std::vector<std::vector<float>> scores(static_cast<size_t>(classes));
+    for (int i = 0; i < rows; ++i) {
+      const float* row = data + static_cast<ptrdiff_t>(i) * width;
+      const float objectness = row[4];
+      if (objectness < options_.score_threshold) continue;
+      const int best = static_cast<int>(std::max_element(row + 5, row + width) - (row + 5));
+      const float score = objectness * row[5 + best];
+      if (score < options_.score_threshold) continue;
+      const GridCell& cell = grid_[static_cast<size_t>(i)];
+      const float cx = (row[0] + static_cast<float>(cell.x)) * static_cast<float>(cell.stride);
+      const float cy = (row[1] + static_cast<float>(cell.y)) * static_cast<float>(cell.stride);
+      const float w = std::exp(row[2]) * static_cast<float>(cell.stride);
+      const float h = std::exp(row[3]) * static_cast<float>(cell.stride);
+      boxes[static_cast<size_t>(best)].emplace_back((cx - w / 2) / scale, (cy - h / 2) / scale,
+                                                    w / scale, h / scale);
+      scores[static_cast<size_t>(best)].push_back(score);
+    }
+    // Class-aware non-maximum suppression (OpenCV 4.6 has no batched NMS: one call per class).
+    std::vector<Detection> detections;
+    const cv::Rect2f image(0.0f, 0.0f, static_cast<float>(bgr.cols), static_cast<float>(bgr.rows));
+    for (int c = 0; c < classes; ++c) {
+      if (boxes[static_cast<size_t>(c)].empty()) continue;
+      std::vector<int> kept;
+      cv::dnn::NMSBoxes(boxes[static_cast<size_t>(c)], scores[static_cast<size_t>(c)],
+                        options_.score_threshold, options_.nms_threshold, kept);
+      for (int k : kept) {
+        Detection detection;
+        const cv::Rect2d& box = boxes[static_cast<size_t>(c)][static_cast<size_t>(k)];
+        detection.box = cv::Rect2f(static_cast<float>(box.x), static_cast<float>(box.y),
+                                   static_cast<float>(box.width), static_cast<float>(box.height)) &
+                        image;
+        if (detection.box.area() <= 0.0f) continue;
+        detection.class_id = c;
+        detection.name = c < static_cast<int>(names_.size()) ? names_[static_cast<size_t>(c)]
+                                                             : std::to_string(c);
+        detection.score = scores[static_cast<size_t>(c)][static_cast<size_t>(k)];
+        detection.level = levels_.Level(detection.name);
+        detections.push_back(detection);
+      }
+    }
+    std::sort(detections.begin(), detections.end(),
+              [](const Detection& a, const Detection& b) { return a.score > b.score; });
+    return detections;
+  }
+
+ private:
+  struct GridCell {
+    int x, y, stride;
+  };
+  MotionLevelTable levels_;
+  YoloxOptions options_;
+  std::vector<std::string> names_;
+  cv::dnn::Net net_;
+  std::vector<GridCell> grid_;
+};
+
+}  // namespace
+
+std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
+                                            const MotionLevelTable& levels,
+                                            const YoloxOptions& options) {
+  return std::make_unique<YoloxDetector>(models_dir, levels, options);
+}
+
+}  // namespace stillmap
