@@ -43,12 +43,14 @@ TEST(YoloxDetectorTest, MissingModelIsNamed) {
   }
 }
 
-// On rendered people with exact masks. Decoding: every person box lies on a person (a third of
-// its area or more is person pixels; people fill about half of their box). Recall, a property of
-// the model on these renderings rather than of the code: where people cover at least 5 % of the
-// frame, the high-level boxes hold 80 % of their pixels in 13 of 24 sampled frames (people seen
-// from the side at the image border are missed, or taken for chairs); issue 5's geometric checks
-// and the carrying of masks between frames are there for those.
+// On rendered people with exact masks; this also checks that the synthetic people of issue 3 look
+// like people to the model (box-shaped people scored below 0.04, the rounded, faced ones 0.5-0.9).
+// Decoding: every person box lies on a person (a third of its area or more is person pixels;
+// people fill about half of their box). Recall is a property of the model on these renderings
+// rather than of the code: where people cover at least 5 % of the frame, a person box lies on
+// them in 17 of 24 sampled frames and holds 80 % of their pixels in 13. People seen from the side
+// at the image border are missed, or taken for chairs; issue 5's geometric checks and the
+// carrying of masks between frames are there for those.
 TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   const auto models = testing::SharedModels("yolox_nano");
   if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
@@ -60,7 +62,7 @@ TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   options.frames = 240;
   WriteSyntheticSequence(dir / "seq", options);
   const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
-  int frames = 0, covered = 0, person_boxes = 0, boxes_on_people = 0;
+  int frames = 0, seen = 0, covered = 0, person_boxes = 0, boxes_on_people = 0;
   for (size_t i = 0; i < sequence.frames().size(); i += 10) {
     const std::string name = fs::path(sequence.frames()[i].color_path).filename().string();
     const cv::Mat mask = cv::imread(dir / ("seq/masks/" + name), cv::IMREAD_UNCHANGED) > 0;
@@ -76,14 +78,16 @@ TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
     const int person_pixels = cv::countNonZero(mask);
     if (person_pixels < 0.05 * static_cast<double>(mask.total())) continue;
     ++frames;
+    seen += cv::countNonZero(mask & high) > 0;
     covered += cv::countNonZero(mask & high) >= 0.8 * person_pixels;
   }
-  std::cout << boxes_on_people << " of " << person_boxes
-            << " person boxes lie on people; people 80 % inside the boxes in " << covered << " of "
-            << frames << " frames\n";
+  std::cout << boxes_on_people << " of " << person_boxes << " person boxes lie on people; of "
+            << frames << " frames with people, " << seen << " have a person box on them, "
+            << covered << " hold 80 % of them in boxes\n";
   ASSERT_GE(person_boxes, 10);
   EXPECT_GE(boxes_on_people, 0.9 * person_boxes);
   ASSERT_GE(frames, 10);
+  EXPECT_GE(seen, 0.6 * frames);  // the rendered people look like people to the model
   EXPECT_GE(covered, 0.5 * frames);
 }
 
