@@ -261,22 +261,30 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
   EXPECT_GT(completeness, 0.9);
 }
 
-// A covered lens: frames whose images are black and depth empty get no pose (the trajectory skips
-// them and the report names them), tracking resumes after them, and the run succeeds.
-TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
-  testing::TempDir dir;
+// Renders `frames` frames of the static room into DIR/seq and covers the lens (black color, no
+// depth) for frames [first, end); returns the times of the covered frames.
+std::vector<double> RenderWithCoveredLens(const std::string& dir, int frames, size_t first,
+                                          size_t end) {
   SynthOptions options;
   options.scenario = "static";
-  options.frames = 30;
-  WriteSyntheticSequence(dir / "seq", options);
-  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  options.frames = frames;
+  WriteSyntheticSequence(dir + "/seq", options);
+  const Sequence sequence = Sequence::Open(dir + "/seq", ResolveCamera(dir + "/seq", {}));
   std::vector<double> covered;
-  for (size_t i = 12; i < 15; ++i) {
+  for (size_t i = first; i < end; ++i) {
     const FrameEntry& pair = sequence.frames()[i];
     cv::imwrite(pair.color_path, cv::Mat(480, 640, CV_8UC3, cv::Scalar(0, 0, 0)));
     cv::imwrite(pair.depth_path, cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
     covered.push_back(pair.time);
   }
+  return covered;
+}
+
+// A covered lens: frames whose images are black and depth empty get no pose (the trajectory skips
+// them and the report names them), tracking resumes after them, and the run succeeds.
+TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
+  testing::TempDir dir;
+  const std::vector<double> covered = RenderWithCoveredLens(dir.path(), 30, 12, 15);
   std::string output;
   ASSERT_EQ(
       testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" + " --quiet", &output), 0)
@@ -296,15 +304,7 @@ TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
 // leaves no outputs.
 TEST(BuildTest, TrackingNothingFailsWithoutOutputs) {
   testing::TempDir dir;
-  SynthOptions options;
-  options.scenario = "static";
-  options.frames = 4;
-  WriteSyntheticSequence(dir / "seq", options);
-  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
-  for (const FrameEntry& pair : sequence.frames()) {
-    cv::imwrite(pair.color_path, cv::Mat(480, 640, CV_8UC3, cv::Scalar(0, 0, 0)));
-    cv::imwrite(pair.depth_path, cv::Mat(480, 640, CV_16UC1, cv::Scalar(0)));
-  }
+  RenderWithCoveredLens(dir.path(), 4, 0, 4);
   std::string output;
   EXPECT_EQ(
       testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" + " --quiet", &output), 1);
