@@ -1,0 +1,93 @@
+// The geometric check of paper 004 (KLT flow, epipolar distance, DBSCAN) against exact truth: a
+// hand-made DBSCAN case, and the ground-truth masks of rendered walking people.
+#include "stillmap/tracking/flow_check.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <string>
+
+#include "stillmap/io/sequence.h"
+#include "stillmap/viewer/synthetic.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(DbscanTest, DenseBlobsAreClustersAndStragglersNoise) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> blob(-0.5f, 0.5f);
+  std::vector<cv::Point2f> points;
+  points.reserve(82);
+  for (int i = 0; i < 60; ++i) points.emplace_back(blob(rng), blob(rng));           // cluster A
+  for (int i = 0; i < 20; ++i) points.emplace_back(10 + blob(rng), 3 + blob(rng));  // cluster B
+  points.emplace_back(5.0f, 5.0f);                                                  // noise
+  points.emplace_back(-6.0f, 2.0f);                                                 // noise
+  const std::vector<int> labels = Dbscan(points, 0.5, 4);
+  for (int i = 1; i < 60; ++i) EXPECT_EQ(labels[static_cast<size_t>(i)], labels[0]);
+  for (int i = 61; i < 80; ++i) EXPECT_EQ(labels[static_cast<size_t>(i)], labels[60]);
+  EXPECT_GE(labels[0], 0);
+  EXPECT_GE(labels[60], 0);
+  EXPECT_NE(labels[0], labels[60]);
+  EXPECT_EQ(labels[80], -1);
+  EXPECT_EQ(labels[81], -1);
+}
+
+// Corners of rendered walking_xyz frames, checked against the people's masks, comparing each
+// frame with the one 3 frames before (one frame apart, people and camera move about as far, and
+// recall drops to 0.40). Measured with the defaults (DBSCAN epsilon 0.5 px, 6 points): 2177 of
+// 2718 points on people flagged (recall 0.80), 1012 of 14720 static points (6.9 %). Epsilon 1 px:
+// recall 0.58, 4.6 %; 2 px: 0.40, 2.8 %. The check proposes candidates; the fusion of issue 5
+// (detections, region growing) decides.
+TEST(FlowCheckTest, FlagsPointsOnWalkingPeople) {
+  testing::TempDir dir;
+  SynthOptions synth;
+  synth.scenario = "walking_xyz";
+  synth.frames = 150;
+  WriteSyntheticSequence(dir / "seq", synth);
+  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  auto gray = [&](size_t i) {
+    return cv::imread(sequence.frames()[i].color_path, cv::IMREAD_GRAYSCALE);
+  };
+  auto mask = [&](size_t i) {
+    const std::string name = fs::path(sequence.frames()[i].color_path).filename().string();
+    return cv::Mat(cv::imread(dir / ("seq/masks/" + name), cv::IMREAD_UNCHANGED) > 0);
+  };
+  const int gap = 3;
+  const FlowCheckOptions options;
+  size_t true_positive = 0, false_positive = 0, false_negative = 0, static_points = 0;
+  for (size_t i = static_cast<size_t>(gap); i < sequence.frames().size(); i += 5) {
+    const cv::Mat previous = gray(i - static_cast<size_t>(gap));
+    std::vector<cv::Point2f> corners;
+    cv::goodFeaturesToTrack(previous, corners, 800, 0.01, 7);
+    const FlowCheckResult result = CheckFlow(previous, gray(i), corners, options);
+    ASSERT_TRUE(result.fundamental_found) << "frame " << i;
+    const cv::Mat before = mask(i - static_cast<size_t>(gap));
+    for (size_t k = 0; k < corners.size(); ++k) {
+      if (result.tracked[k] == 0) continue;
+      const bool on_person = before.at<std::uint8_t>(cv::Point(corners[k])) != 0;
+      const bool flagged = result.dynamic[k] != 0;
+      true_positive += on_person && flagged;
+      false_positive += !on_person && flagged;
+      false_negative += on_person && !flagged;
+      static_points += !on_person;
+    }
+  }
+  const double recall = true_positive / std::max(1.0, double(true_positive + false_negative));
+  const double false_alarm = false_positive / std::max(1.0, double(static_points));
+  std::cout << "gap " << gap << ": points on people flagged " << true_positive << " of "
+            << true_positive + false_negative << " (recall " << recall
+            << "); static points flagged " << false_positive << " of " << static_points << " ("
+            << 100 * false_alarm << " %)\n";
+  EXPECT_GE(recall, 0.75);
+  EXPECT_LE(false_alarm, 0.10);
+}
+
+}  // namespace
+}  // namespace stillmap
