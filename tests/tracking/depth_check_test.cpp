@@ -4,19 +4,16 @@
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "rendered_sequence.h"
 #include "stillmap/io/sequence.h"
-#include "stillmap/viewer/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
 namespace {
-
-namespace fs = std::filesystem;
 
 // Reference points on the plane z = 2 m; the camera moves 0.1 m to the right; in the current
 // image an object 1 m away covers the columns 300-399.
@@ -61,16 +58,9 @@ TEST(DepthCheckTest, PointsBehindANewObjectAreDynamic) {
 // the other cues).
 TEST(DepthCheckTest, FlaggedPointsLieOnRenderedPeople) {
   testing::TempDir dir;
-  SynthOptions synth;
-  synth.scenario = "walking_xyz";
-  synth.frames = 150;
-  WriteSyntheticSequence(dir / "seq", synth);
-  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 150);
   const Camera& camera = sequence.camera();
-  auto mask = [&](size_t i) {
-    const std::string name = fs::path(sequence.frames()[i].color_path).filename().string();
-    return cv::Mat(cv::imread(dir / ("seq/masks/" + name), cv::IMREAD_UNCHANGED) > 0);
-  };
+  auto mask = [&](size_t i) { return testing::MovingObjectMask(dir / "seq", sequence, i); };
   const size_t gap = 10;
   size_t flagged = 0, flagged_on_people = 0, checked = 0;
   for (size_t i = gap; i < sequence.frames().size(); i += 10) {

@@ -5,20 +5,17 @@
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "rendered_sequence.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/sequence.h"
-#include "stillmap/viewer/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
 namespace {
-
-namespace fs = std::filesystem;
 
 TEST(MotionLevelTest, PaperLevelsAndOverrides) {
   MotionLevelTable table = MotionLevelTable::Default();
@@ -57,15 +54,10 @@ TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   const std::unique_ptr<Detector> detector =
       MakeYoloxDetector(*models, MotionLevelTable::Default());
   testing::TempDir dir;
-  SynthOptions options;
-  options.scenario = "walking_xyz";
-  options.frames = 240;
-  WriteSyntheticSequence(dir / "seq", options);
-  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 240);
   int frames = 0, seen = 0, covered = 0, person_boxes = 0, boxes_on_people = 0;
   for (size_t i = 0; i < sequence.frames().size(); i += 10) {
-    const std::string name = fs::path(sequence.frames()[i].color_path).filename().string();
-    const cv::Mat mask = cv::imread(dir / ("seq/masks/" + name), cv::IMREAD_UNCHANGED) > 0;
+    const cv::Mat mask = testing::MovingObjectMask(dir / "seq", sequence, i);
     cv::Mat high(mask.size(), CV_8UC1, cv::Scalar(0));
     for (const Detection& detection :
          detector->Detect(cv::imread(sequence.frames()[i].color_path))) {

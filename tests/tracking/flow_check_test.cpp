@@ -4,21 +4,18 @@
 
 #include <gtest/gtest.h>
 
-#include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 
+#include "rendered_sequence.h"
 #include "stillmap/io/sequence.h"
-#include "stillmap/viewer/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
 namespace {
-
-namespace fs = std::filesystem;
 
 TEST(DbscanTest, DenseBlobsAreClustersAndStragglersNoise) {
   std::mt19937 rng(5);
@@ -47,18 +44,11 @@ TEST(DbscanTest, DenseBlobsAreClustersAndStragglersNoise) {
 // (detections, region growing) decides.
 TEST(FlowCheckTest, FlagsPointsOnWalkingPeople) {
   testing::TempDir dir;
-  SynthOptions synth;
-  synth.scenario = "walking_xyz";
-  synth.frames = 150;
-  WriteSyntheticSequence(dir / "seq", synth);
-  const Sequence sequence = Sequence::Open(dir / "seq", ResolveCamera(dir / "seq", {}));
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 150);
   auto gray = [&](size_t i) {
     return cv::imread(sequence.frames()[i].color_path, cv::IMREAD_GRAYSCALE);
   };
-  auto mask = [&](size_t i) {
-    const std::string name = fs::path(sequence.frames()[i].color_path).filename().string();
-    return cv::Mat(cv::imread(dir / ("seq/masks/" + name), cv::IMREAD_UNCHANGED) > 0);
-  };
+  auto mask = [&](size_t i) { return testing::MovingObjectMask(dir / "seq", sequence, i); };
   const int gap = 3;
   const FlowCheckOptions options;
   size_t true_positive = 0, false_positive = 0, false_negative = 0, static_points = 0;

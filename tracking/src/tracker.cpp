@@ -323,18 +323,25 @@ struct Tracker::Impl {
     double rmse_px = 0.0;
   };
 
+  // The associated features and their landmarks' positions.
+  void GatherAssociations(const Association& association, std::vector<size_t>* features,
+                          std::vector<Eigen::Vector3d>* points) const {
+    for (size_t i = 0; i < association.landmark.size(); ++i) {
+      if (association.landmark[i] < 0) continue;
+      features->push_back(i);
+      points->push_back(landmarks.at(association.landmark[i]).position);
+    }
+  }
+
   // Motion-only refinement over the associations; drops the outliers from `association`.
   PoseEstimate Refine(const Eigen::Isometry3d& initial, const FrameData& frame,
                       Association* association, const RefinementOptions& refinement) {
-    std::vector<Eigen::Vector3d> points;
-    std::vector<RgbdObservation> observations;
     std::vector<size_t> feature_of;
-    for (size_t i = 0; i < frame.size(); ++i) {
-      if (association->landmark[i] < 0) continue;
-      points.push_back(landmarks.at(association->landmark[i]).position);
-      observations.push_back(Observation(frame.features(), i));
-      feature_of.push_back(i);
-    }
+    std::vector<Eigen::Vector3d> points;
+    GatherAssociations(*association, &feature_of, &points);
+    std::vector<RgbdObservation> observations;
+    observations.reserve(feature_of.size());
+    for (size_t i : feature_of) observations.push_back(Observation(frame.features(), i));
     PoseEstimate estimate;
     estimate.matches = static_cast<int>(points.size());
     const PoseResult refined = RefinePose(initial, points, observations, refinement);
@@ -356,15 +363,12 @@ struct Tracker::Impl {
   PoseEstimate EstimatePose(const Eigen::Isometry3d& guess, bool guess_usable,
                             const LocalSet& local, const FrameData& frame,
                             Association* association) {
-    std::vector<Eigen::Vector3d> points;
-    std::vector<Eigen::Vector2d> normalized;
     std::vector<size_t> feature_of;
-    for (size_t i = 0; i < frame.size(); ++i) {
-      if (association->landmark[i] < 0) continue;
-      points.push_back(landmarks.at(association->landmark[i]).position);
-      normalized.push_back(frame.features().normalized[i]);
-      feature_of.push_back(i);
-    }
+    std::vector<Eigen::Vector3d> points;
+    GatherAssociations(*association, &feature_of, &points);
+    std::vector<Eigen::Vector2d> normalized;
+    normalized.reserve(feature_of.size());
+    for (size_t i : feature_of) normalized.push_back(frame.features().normalized[i]);
     PoseEstimate failed;
     failed.matches = static_cast<int>(points.size());
     const PoseResult pnp = EstimatePosePnp(points, normalized, options.pnp);
@@ -431,11 +435,7 @@ struct Tracker::Impl {
   }
 
   void ClearMatches(Association& association) {
-    for (int& id : association.landmark) {
-      if (id >= 0) landmarks.at(id).matched_stamp = 0;
-      id = -1;
-    }
-    std::fill(association.distance.begin(), association.distance.end(), INT_MAX);
+    for (size_t i = 0; i < association.landmark.size(); ++i) Unmatch(i, &association);
   }
 
   // ---- Keyframes ------------------------------------------------------------------------------
