@@ -83,5 +83,49 @@ TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   EXPECT_GE(covered, 0.5 * frames);
 }
 
+TEST(DeeplabDetectorTest, MissingModelIsNamed) {
+  testing::TempDir dir;
+  try {
+    MakeDeeplabDetector(dir.path(), MotionLevelTable::Default());
+    FAIL() << "no error for a missing model";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("deeplab_v3_mnv2_voc_opencv46.onnx"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Per-pixel person labels against the exact masks of rendered people: segments carry their own
+// pixels (each mask lies inside its box), and the person pixels are mostly on people.
+TEST(DeeplabDetectorTest, PersonSegmentsLieOnTheRenderedPeople) {
+  const auto models = testing::SharedModels("deeplabv3_mnv2_voc");
+  if (!models) {
+    GTEST_SKIP() << "deeplabv3_mnv2_voc not found (set STILLMAP_MODELS or ../shared/models)";
+  }
+  const std::unique_ptr<Detector> detector =
+      MakeDeeplabDetector(*models, MotionLevelTable::Default());
+  testing::TempDir dir;
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 240);
+  double labelled = 0, correct = 0, person_pixels = 0;
+  for (size_t i = 0; i < sequence.frames().size(); i += 10) {
+    const cv::Mat truth = testing::MovingObjectMask(dir / "seq", sequence, i);
+    cv::Mat person(truth.size(), CV_8UC1, cv::Scalar(0));
+    for (const Detection& detection :
+         detector->Detect(cv::imread(sequence.frames()[i].color_path))) {
+      ASSERT_EQ(detection.mask.size(), cv::Rect(detection.box).size());
+      ASSERT_GT(cv::countNonZero(detection.mask), 0);
+      if (detection.name != "person") continue;
+      EXPECT_EQ(detection.level, MotionLevel::kHigh);
+      person(cv::Rect(detection.box)).setTo(255, detection.mask);
+    }
+    labelled += cv::countNonZero(person);
+    correct += cv::countNonZero(person & truth);
+    person_pixels += cv::countNonZero(truth);
+  }
+  std::cout << "DeepLab person pixels: precision " << correct / std::max(labelled, 1.0)
+            << ", recall " << correct / std::max(person_pixels, 1.0) << "\n";
+  ASSERT_GT(labelled, 0);
+  EXPECT_GE(correct / labelled, 0.8);
+}
+
 }  // namespace
 }  // namespace stillmap

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/dnn.hpp>
@@ -182,7 +183,119 @@ class YoloxDetector : public Detector {
   std::vector<GridCell> grid_;
 };
 
+// DeepLab decoding (PROVENANCE.txt): NHWC 1x257x257x3 RGB input scaled to [-1, 1], NHWC
+// 1x257x257x21 logits out; argmax per pixel, resized with nearest neighbour to the image.
+class DeeplabDetector : public Detector {
+ public:
+  static constexpr int kInputSize = 257;  // fixed: pooling and upsampling scales are baked in
+
+  DeeplabDetector(const std::string& models_dir, const MotionLevelTable& levels,
+                  const DeeplabOptions& options)
+      : levels_(levels), options_(options) {
+    const fs::path dir = fs::path(models_dir) / "deeplabv3_mnv2_voc";
+    const fs::path model = dir / "deeplab_v3_mnv2_voc_opencv46.onnx";
+    if (!fs::exists(model)) {
+      throw InputError(model.string() +
+                       ": DeepLabV3 model not found (pass --models DIR holding deeplabv3_mnv2_voc/)");
+    }
+    names_ = ReadNames(dir / "voc.names");
+    try {
+      net_ = cv::dnn::readNetFromONNX(model.string());
+    } catch (const cv::Exception& e) {
+      throw InputError(model.string() + ": OpenCV cannot load the model: " + e.what());
+    }
+  }
+
+  std::string name() const override { return "deeplab"; }
+
+  std::vector<Detection> Detect(const cv::Mat& bgr) override {
+    CV_Assert(bgr.type() == CV_8UC3);
+    cv::Mat resized, rgb, scaled;
+    cv::resize(bgr, resized, cv::Size(kInputSize, kInputSize), 0, 0, cv::INTER_LINEAR);
+    cv::cvtColor(resized, rgb, cv::COLOR_BGR2RGB);
+    rgb.convertTo(scaled, CV_32FC3, 1.0 / 127.5, -1.0);
+    // NHWC: the interleaved image is already laid out as 1x257x257x3.
+    const int input_shape[] = {1, kInputSize, kInputSize, 3};
+    cv::Mat blob(4, input_shape, CV_32F, scaled.data);
+    net_.setInput(blob);
+    const cv::Mat out = net_.forward();
+    const int classes = out.dims == 4 ? out.size[3] : 0;
+    if (out.dims != 4 || out.size[1] != kInputSize || out.size[2] != kInputSize || classes < 2) {
+      throw std::runtime_error("DeepLab output has an unexpected shape");
+    }
+    cv::Mat labels(kInputSize, kInputSize, CV_8UC1);
+    const float* data = out.ptr<float>();
+    for (int i = 0; i < kInputSize * kInputSize; ++i) {
+      const float* logits = data + static_cast<ptrdiff_t>(i) * classes;
+      labels.data[i] =
+          static_cast<std::uint8_t>(std::max_element(logits, logits + classes) - logits);
+    }
+    cv::Mat full;
+    cv::resize(labels, full, bgr.size(), 0, 0, cv::INTER_NEAREST);
+
+    std::vector<Detection> detections;
+    const double min_area = options_.min_segment_share * bgr.total();
+    cv::Mat class_mask, components, stats, centroids;
+    for (int c = 1; c < classes; ++c) {
+      class_mask = full == c;
+      if (cv::countNonZero(class_mask) < min_area) continue;
+      const int count = cv::connectedComponentsWithStats(class_mask, components, stats, centroids,
+                                                         8, CV_32S);
+      for (int k = 1; k < count; ++k) {
+        if (stats.at<int>(k, cv::CC_STAT_AREA) < min_area) continue;
+        const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
+                           stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
+        Detection detection;
+        detection.box = cv::Rect2f(box);
+        detection.class_id = c;
+        detection.name = c < static_cast<int>(names_.size()) ? names_[static_cast<size_t>(c)]
+                                                             : std::to_string(c);
+        detection.score = 1.0f;
+        detection.level = levels_.Level(detection.name);
+        detection.mask = components(box) == k;
+        detections.push_back(std::move(detection));
+      }
+    }
+    return detections;
+  }
+
+ private:
+  MotionLevelTable levels_;
+  DeeplabOptions options_;
+  std::vector<std::string> names_;
+  cv::dnn::Net net_;
+};
+
+class CombinedDetector : public Detector {
+ public:
+  CombinedDetector(std::unique_ptr<Detector> first, std::unique_ptr<Detector> second)
+      : first_(std::move(first)), second_(std::move(second)) {}
+  std::string name() const override { return "both"; }
+  std::vector<Detection> Detect(const cv::Mat& bgr) override {
+    std::vector<Detection> detections = first_->Detect(bgr);
+    std::vector<Detection> more = second_->Detect(bgr);
+    detections.insert(detections.end(), std::make_move_iterator(more.begin()),
+                      std::make_move_iterator(more.end()));
+    return detections;
+  }
+
+ private:
+  std::unique_ptr<Detector> first_;
+  std::unique_ptr<Detector> second_;
+};
+
 }  // namespace
+
+std::unique_ptr<Detector> MakeDeeplabDetector(const std::string& models_dir,
+                                              const MotionLevelTable& levels,
+                                              const DeeplabOptions& options) {
+  return std::make_unique<DeeplabDetector>(models_dir, levels, options);
+}
+
+std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
+                                               std::unique_ptr<Detector> second) {
+  return std::make_unique<CombinedDetector>(std::move(first), std::move(second));
+}
 
 std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
                                             const MotionLevelTable& levels,

@@ -35,6 +35,9 @@ struct Detection {
   std::string name;  // class name from the model's names file
   float score = 0.0f;
   MotionLevel level = MotionLevel::kLow;
+  // Per-pixel backends (DeepLab): the object's pixels inside the box, CV_8UC1 of the box's
+  // integer size (255 = the object). Empty for box detectors.
+  cv::Mat mask;
 };
 
 class Detector {
@@ -57,5 +60,23 @@ struct YoloxOptions {
 std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
                                             const MotionLevelTable& levels,
                                             const YoloxOptions& options = {});
+
+struct DeeplabOptions {
+  // Segments smaller than this share of the image are dropped (label noise at object borders).
+  double min_segment_share = 0.001;
+};
+
+// DeepLabV3-MobileNetV2 (PASCAL VOC, ONNX patched for OpenCV 4.6) from
+// MODELS_DIR/deeplabv3_mnv2_voc/{deeplab_v3_mnv2_voc_opencv46.onnx, voc.names}: per-pixel labels
+// at 257x257, resized (nearest) to the image; each connected segment of a non-background class is
+// one Detection with its mask. Throws InputError naming the missing file.
+std::unique_ptr<Detector> MakeDeeplabDetector(const std::string& models_dir,
+                                              const MotionLevelTable& levels,
+                                              const DeeplabOptions& options = {});
+
+// Runs two detectors on each image and returns both lists (`both`: YOLOX boxes and DeepLab
+// segments).
+std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
+                                               std::unique_ptr<Detector> second);
 
 }  // namespace stillmap
