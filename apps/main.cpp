@@ -1,5 +1,7 @@
 // The stillmap command: parses arguments and calls the library. Exit status: 0 success, 1 the run
 // failed, 2 bad usage or bad input.
+#include <cstdlib>
+#include <filesystem>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -52,18 +54,14 @@ int Run(int argc, char** argv) {
       ->add_option("--poses", poses,
                    "'groundtruth': map from the sequence's ground-truth poses instead of tracking")
       ->check(CLI::IsMember({"groundtruth"}));
-  std::string detector = "none";
   build_cmd
-      ->add_option("--detector", detector,
-                   "dynamic-object detector: 'none' (the only one in this build; the tracker "
-                   "uses every pixel)")
-      ->check([](const std::string& value) {
-        return value == "none" ? std::string()
-                               : "'" + value +
-                                     "' is not available in this build: the detectors (yolox, "
-                                     "deeplab, both) come with dynamic rejection; use --detector "
-                                     "none";
-      });
+      ->add_option("--detector", build.detector,
+                   "semantic prior for dynamic rejection: none (geometry only, the default), "
+                   "yolox (boxes), deeplab (per-pixel), both")
+      ->check(CLI::IsMember({"none", "yolox", "deeplab", "both"}));
+  build_cmd->add_option("--models", build.models_dir,
+                        "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: "
+                        "$STILLMAP_MODELS, else ../shared/models when present)");
   build_cmd
       ->add_option("--threads", build.threads,
                    "threads (1: no read-ahead, bundle adjustment inline)")
@@ -137,6 +135,14 @@ int Run(int argc, char** argv) {
       }
       build.poses = poses == "groundtruth" ? stillmap::PoseSource::kGroundTruth
                                            : stillmap::PoseSource::kTracking;
+      if (build.models_dir.empty() && build.detector != "none") {
+        const char* from_environment = std::getenv("STILLMAP_MODELS");
+        if (from_environment != nullptr && *from_environment != '\0') {
+          build.models_dir = from_environment;
+        } else if (std::filesystem::is_directory("../shared/models")) {
+          build.models_dir = "../shared/models";
+        }
+      }
       build.show_progress = !quiet && stillmap::StderrIsTerminal();
       if (quiet) spdlog::set_level(spdlog::level::warn);
       const stillmap::BuildSummary summary = stillmap::RunBuild(build);
@@ -148,6 +154,13 @@ int Run(int argc, char** argv) {
       if (summary.ate_rmse) {
         spdlog::info("trajectory vs ground truth: ATE RMSE {:.1f} mm (report.json has RPE)",
                      *summary.ate_rmse * 1e3);
+      }
+      spdlog::info("keyframes: {} fused, {} invalid, {} redundant; mean masked share {:.1f} %",
+                   summary.frames_fused, summary.keyframes_invalid, summary.keyframes_redundant,
+                   100.0 * summary.dynamic_share);
+      if (summary.mask_recall) {
+        spdlog::info("masks vs masks/: precision {:.3f}, recall {:.3f}, IoU {:.3f}",
+                     *summary.mask_precision, *summary.mask_recall, *summary.mask_iou);
       }
       if (summary.map_quality) {
         spdlog::info(

@@ -1,26 +1,33 @@
 #include "stillmap/apps/build_pipeline.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
 
 #include <chrono>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <future>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <unordered_set>
 
 #include "stillmap/apps/progress.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/evaluation.h"
+#include "stillmap/io/file_list.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/map_io.h"
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/tracking/detector.h"
+#include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
@@ -116,11 +123,13 @@ nlohmann::json StatisticsJson(const ErrorStatistics& statistics, double scale) {
           {"max", statistics.max * scale}};
 }
 
-MapperFrame ToMapperFrame(const Frame& frame, const Eigen::Isometry3d& world_from_camera) {
+MapperFrame ToMapperFrame(const Frame& frame, const cv::Mat& mask,
+                          const Eigen::Isometry3d& world_from_camera) {
   MapperFrame input;
   input.time = frame.time;
   input.color = frame.color;
   input.depth_m = frame.depth_m;
+  input.mask = mask;
   input.world_from_camera = world_from_camera;
   return input;
 }
@@ -131,7 +140,10 @@ struct TrackingRecord {
   std::map<std::string, size_t> status_counts;
   std::vector<double> lost_times;  // frames without a pose [s]
   double fuse_ms = 0.0;            // fusing final keyframes into the map, on the main thread
+  size_t rechecked_with_additions = 0;  // keyframes the map re-check added moving pixels to
 };
+
+enum class SelectionVerdict { kFused, kInvalid, kRedundant };
 
 nlohmann::json TimingJson(const std::vector<double>& values) {
   double total = 0.0;
@@ -140,6 +152,153 @@ nlohmann::json TimingJson(const std::vector<double>& values) {
           {"mean", values.empty() ? 0.0 : total / static_cast<double>(values.size())},
           {"total", total}};
 }
+
+// Ground-truth masks of moving pixels (synthetic sequences: masks.txt + masks/), by timestamp.
+class TruthMasks {
+ public:
+  explicit TruthMasks(const std::string& sequence_dir) {
+    const fs::path list = fs::path(sequence_dir) / "masks.txt";
+    if (!fs::exists(list)) return;
+    for (const StampedPath& entry : ReadFileList(list.string())) {
+      times_.push_back(entry.time);
+      paths_.push_back((fs::path(sequence_dir) / entry.path).string());
+    }
+  }
+  bool available() const { return !times_.empty(); }
+  // The mask of the frame at `time` (CV_8UC1, non-zero = moving), or empty when none is listed
+  // within 1 ms. Throws InputError for an unreadable mask.
+  cv::Mat Get(double time) const {
+    if (times_.empty()) return cv::Mat();
+    const size_t i = FindClosestIndex(times_, time);
+    if (std::abs(times_[i] - time) > 1e-3) return cv::Mat();
+    cv::Mat mask = cv::imread(paths_[i], cv::IMREAD_UNCHANGED);
+    if (mask.empty() || mask.type() != CV_8UC1) {
+      throw InputError(paths_[i] + ": not a readable 8-bit mask PNG (listed in masks.txt)");
+    }
+    return mask;
+  }
+
+ private:
+  std::vector<double> times_;
+  std::vector<std::string> paths_;
+};
+
+std::unique_ptr<Detector> MakeDetector(const BuildRequest& request) {
+  const std::string& name = request.detector;
+  if (name == "none" || name.empty()) return nullptr;
+  if (request.models_dir.empty()) {
+    throw InputError("--detector " + name +
+                     " needs the models: pass --models DIR (the folder holding yolox_nano/ and "
+                     "deeplabv3_mnv2_voc/) or set STILLMAP_MODELS");
+  }
+  const MotionLevelTable levels = MotionLevels(request.config);
+  if (name == "yolox") return MakeYoloxDetector(request.models_dir, levels, request.config.yolox);
+  if (name == "deeplab") return MakeDeeplabDetector(request.models_dir, levels);
+  if (name == "both") {
+    return MakeCombinedDetector(MakeYoloxDetector(request.models_dir, levels, request.config.yolox),
+                                MakeDeeplabDetector(request.models_dir, levels));
+  }
+  throw InputError("--detector " + name + ": expected none, yolox, deeplab or both");
+}
+
+// The dynamic-rejection stage of a build: detector, masker, ground-truth mask scores and the
+// per-frame figures for the report.
+class MaskStage {
+ public:
+  MaskStage(const BuildRequest& request, const Camera& camera)
+      : enabled_(request.config.masking_enabled),
+        options_(request.config.masking),
+        truth_(request.sequence_dir) {
+    if (!enabled_) return;
+    detector_ = MakeDetector(request);
+    masker_ = std::make_unique<DynamicMasker>(camera, options_);
+  }
+  bool enabled() const { return enabled_; }
+  const DynamicMasker* masker() const { return masker_.get(); }
+
+  // The mask of a frame (empty when masking is off), scored against the truth when there is one.
+  cv::Mat Compute(const Frame& frame, const cv::Mat& gray,
+                  const std::optional<Eigen::Isometry3d>& world_from_camera) {
+    if (!enabled_) return cv::Mat();
+    std::vector<Detection> detections;
+    const bool detect = detector_ != nullptr && options_.semantics &&
+                        frames_ % static_cast<size_t>(options_.detector_interval) == 0;
+    if (detect) {
+      const Clock::time_point start = Clock::now();
+      detections = detector_->Detect(frame.color);
+      detector_ms_.push_back(Seconds(start) * 1000.0);
+      for (const Detection& detection : detections) ++detected_[MotionLevelName(detection.level)];
+    }
+    const DynamicMaskResult result =
+        masker_->Compute(gray, frame.depth_m, world_from_camera, detect ? &detections : nullptr);
+    ++frames_;
+    mask_ms_.push_back(result.ms);
+    share_sum_ += result.share;
+    depth_seeds_ += static_cast<size_t>(result.depth_seeds);
+    flow_seeds_ += static_cast<size_t>(result.flow_seeds);
+    high_regions_ += static_cast<size_t>(result.high_regions);
+    high_confirmed_ += static_cast<size_t>(result.high_confirmed);
+    medium_moving_ += static_cast<size_t>(result.medium_moving);
+    medium_static_ += static_cast<size_t>(result.medium_static);
+    geometric_only_ += static_cast<size_t>(result.geometric_only_regions);
+    frames_with_mask_ += result.share > 0.0 ? 1 : 0;
+    if (truth_.available()) {
+      const cv::Mat truth = truth_.Get(frame.time);
+      if (!truth.empty() && truth.size() == result.mask.size()) score_.Add(result.mask, truth);
+    }
+    return result.mask;
+  }
+
+  void AddReference(const Frame& frame, const cv::Mat& mask,
+                    const Eigen::Isometry3d& world_from_camera) {
+    if (!enabled_) return;
+    masker_->AddReference({frame.time, frame.depth_m, mask, world_from_camera});
+  }
+
+  double MeanShare() const { return frames_ > 0 ? share_sum_ / static_cast<double>(frames_) : 0.0; }
+  bool scored() const { return score_.frames > 0 || score_.true_positive + score_.false_positive > 0; }
+  const MaskScore& score() const { return score_; }
+
+  nlohmann::json Json() const {
+    nlohmann::json json = {{"enabled", enabled_}};
+    if (!enabled_) return json;
+    json["detector"] = detector_ ? detector_->name() : "none";
+    json["semantics"] = options_.semantics && detector_ != nullptr;
+    json["depth_check"] = options_.depth_check;
+    json["flow_check"] = options_.flow_check;
+    json["outline"] = OutlineModeName(options_.outline);
+    json["detector_interval"] = options_.detector_interval;
+    json["frames"] = frames_;
+    json["frames_with_moving_pixels"] = frames_with_mask_;
+    json["mean_masked_share"] = MeanShare();
+    json["detections_by_level"] = detected_;
+    json["high_level_regions"] = high_regions_;
+    json["high_level_confirmed_by_geometry"] = high_confirmed_;
+    json["medium_level_moving"] = medium_moving_;
+    json["medium_level_static"] = medium_static_;
+    json["geometric_regions_outside_detections"] = geometric_only_;
+    json["depth_check_seed_pixels"] = depth_seeds_;
+    json["flow_check_seed_points"] = flow_seeds_;
+    return json;
+  }
+  nlohmann::json TimingsJson() const {
+    return {{"detector", TimingJson(detector_ms_)}, {"mask", TimingJson(mask_ms_)}};
+  }
+
+ private:
+  bool enabled_;
+  DynamicMaskOptions options_;
+  TruthMasks truth_;
+  std::unique_ptr<Detector> detector_;
+  std::unique_ptr<DynamicMasker> masker_;
+  MaskScore score_;
+  size_t frames_ = 0, frames_with_mask_ = 0;
+  double share_sum_ = 0.0;
+  size_t depth_seeds_ = 0, flow_seeds_ = 0, high_regions_ = 0, high_confirmed_ = 0;
+  size_t medium_moving_ = 0, medium_static_ = 0, geometric_only_ = 0;
+  std::map<std::string, size_t> detected_;
+  std::vector<double> detector_ms_, mask_ms_;
+};
 
 }  // namespace
 
@@ -201,6 +360,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
         summary.frames_without_pose, summary.frames_paired, config.sequence.max_groundtruth_gap);
   }
 
+  MaskStage masks(request, camera);  // loads the detector: its errors come before any output
+
   CreatedFolderGuard folder_guard(request.output_dir);  // before the folder may be created
   PrepareOutputFolder(request.output_dir);
   OutputSet outputs(request.output_dir);
@@ -215,10 +376,16 @@ BuildSummary RunBuild(const BuildRequest& request) {
   Trajectory trajectory;
   TrackingRecord record;
   std::optional<TrackerStatistics> tracker_statistics;
+  cv::Mat gray;
   if (!tracking) {
+    // Every frame is fused; every fifth one becomes a depth-check reference.
     for (size_t k = 0; k < reader.size(); ++k) {
       const Frame frame = reader.Get(k);
-      mapper.Integrate(ToMapperFrame(frame, groundtruth_poses[k].world_from_camera));
+      const Eigen::Isometry3d& pose = groundtruth_poses[k].world_from_camera;
+      cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
+      const cv::Mat mask = masks.Compute(frame, gray, pose);
+      if (k % 5 == 0) masks.AddReference(frame, mask, pose);
+      mapper.Integrate(ToMapperFrame(frame, mask, pose));
       progress.Update(k + 1);
     }
     trajectory = Trajectory(groundtruth_poses);
@@ -229,23 +396,94 @@ BuildSummary RunBuild(const BuildRequest& request) {
     TrackerOptions tracker_options = config.tracking;
     if (request.threads == 1) tracker_options.background_bundle_adjustment = false;
     Tracker tracker(camera, tracker_options);
-    std::map<int, Frame> waiting;
+    struct Waiting {
+      Frame frame;
+      cv::Mat mask;
+      Eigen::Isometry3d world_from_camera;  // at tracking time
+    };
+    std::map<int, Waiting> waiting;
+    std::deque<MaskReference> recent;  // keyframes already considered, final poses, oldest first
+    std::unordered_set<int> selected_landmarks;
+    const double spacing = config.masking.reference_spacing_s;
+    const size_t max_references = static_cast<size_t>(2 * config.masking.reference_keyframes);
     auto fuse = [&](const std::vector<FinalKeyframe>& finals) {
       const Clock::time_point fuse_start = Clock::now();
       for (const FinalKeyframe& keyframe : finals) {
         const auto it = waiting.find(keyframe.id);
         if (it == waiting.end()) continue;
-        mapper.Integrate(ToMapperFrame(it->second, keyframe.world_from_camera));
-        keyframe_poses.push_back({keyframe.time, keyframe.world_from_camera});
+        const Frame& frame = it->second.frame;
+        cv::Mat mask = it->second.mask;
+        if (masks.enabled() && config.map_recheck && config.masking.depth_check) {
+          // References on both sides in time: earlier keyframes (final poses) and later ones
+          // still in the window (their current poses), each side spread by the spacing.
+          std::vector<MaskReference> later;
+          double last = keyframe.time;
+          for (auto next = std::next(it); next != waiting.end(); ++next) {
+            const bool newest = std::next(next) == waiting.end();
+            if (next->second.frame.time - last < spacing && !newest) continue;
+            later.push_back({next->second.frame.time, next->second.frame.depth_m, next->second.mask,
+                             next->second.world_from_camera});
+            last = next->second.frame.time;
+          }
+          std::vector<const MaskReference*> references;
+          last = keyframe.time;
+          for (auto earlier = recent.rbegin(); earlier != recent.rend(); ++earlier) {
+            if (references.empty() || last - earlier->time >= spacing) {
+              references.push_back(&*earlier);
+              last = earlier->time;
+            }
+          }
+          for (const MaskReference& reference : later) references.push_back(&reference);
+          if (references.size() > max_references) references.resize(max_references);
+          cv::Mat recheck = masks.masker()->geometry().Compute(frame.depth_m,
+                                                                keyframe.world_from_camera,
+                                                                references);
+          if (cv::countNonZero(recheck) > 0) {
+            const int size = 2 * config.masking.margin_px + 1;
+            cv::dilate(recheck, recheck,
+                       cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(size, size)));
+            mask = mask.empty() ? recheck : (mask | recheck);
+            ++record.rechecked_with_additions;
+          }
+        }
+        const double share =
+            mask.empty() ? 0.0
+                         : static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
+        size_t shared = 0;
+        for (int id : keyframe.landmarks) shared += selected_landmarks.count(id);
+        const SelectionVerdict verdict =
+            !config.selection.enabled ? SelectionVerdict::kFused
+            : share > config.selection.max_masked_share ? SelectionVerdict::kInvalid
+            : !keyframe.landmarks.empty() &&
+                    static_cast<double>(shared) >
+                        config.selection.max_shared_landmarks *
+                            static_cast<double>(keyframe.landmarks.size())
+                ? SelectionVerdict::kRedundant
+                : SelectionVerdict::kFused;
+        if (verdict == SelectionVerdict::kFused) {
+          mapper.Integrate(ToMapperFrame(frame, mask, keyframe.world_from_camera));
+          keyframe_poses.push_back({keyframe.time, keyframe.world_from_camera});
+          selected_landmarks.insert(keyframe.landmarks.begin(), keyframe.landmarks.end());
+        } else if (verdict == SelectionVerdict::kInvalid) {
+          ++summary.keyframes_invalid;
+        } else {
+          ++summary.keyframes_redundant;
+        }
+        recent.push_back({keyframe.time, frame.depth_m, mask, keyframe.world_from_camera});
+        while (recent.size() > 1 &&
+               recent.back().time - recent.front().time >
+                   spacing * static_cast<double>(config.masking.reference_keyframes) + 0.5) {
+          recent.pop_front();
+        }
         waiting.erase(it);
       }
       record.fuse_ms += Seconds(fuse_start) * 1000.0;
     };
-    cv::Mat gray;
     for (size_t k = 0; k < reader.size(); ++k) {
       Frame frame = reader.Get(k);
       cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
-      const TrackResult result = tracker.Track(frame.index, frame.time, gray, frame.depth_m);
+      const cv::Mat mask = masks.Compute(frame, gray, tracker.PredictedPose());
+      const TrackResult result = tracker.Track(frame.index, frame.time, gray, frame.depth_m, mask);
       record.extract_ms.push_back(result.timings.extract_ms);
       record.match_ms.push_back(result.timings.match_ms);
       record.pose_ms.push_back(result.timings.pose_ms);
@@ -253,7 +491,11 @@ BuildSummary RunBuild(const BuildRequest& request) {
       record.total_ms.push_back(result.timings.total_ms);
       ++record.status_counts[TrackStatusName(result.status)];
       if (!result.tracked()) record.lost_times.push_back(frame.time);
-      if (result.keyframe_id >= 0) waiting.emplace(result.keyframe_id, std::move(frame));
+      if (result.keyframe_id >= 0) {
+        masks.AddReference(frame, mask, result.world_from_camera);
+        waiting.emplace(result.keyframe_id,
+                        Waiting{std::move(frame), mask, result.world_from_camera});
+      }
       fuse(tracker.TakeFinalKeyframes());
       progress.Update(k + 1);
     }
@@ -316,13 +558,33 @@ BuildSummary RunBuild(const BuildRequest& request) {
                       {"without_pose", summary.frames_without_pose},
                       {"tracked", summary.frames_tracked},
                       {"fused", summary.frames_fused}};
-  report["keyframes"] = {{"fused", summary.frames_fused},
-                         {"rejected_invalid", 0},
-                         {"rejected_redundant", 0},
-                         {"selection", tracking ? "none yet: every tracking keyframe is fused"
-                                                : "none: with known poses every frame is fused"}};
-  report["dynamic_share"] = 0.0;
-  report["masking"] = "none";
+  summary.dynamic_share = masks.MeanShare();
+  report["keyframes"] = {
+      {"fused", summary.frames_fused},
+      {"rejected_invalid", summary.keyframes_invalid},
+      {"rejected_redundant", summary.keyframes_redundant},
+      {"map_recheck_added_pixels", record.rechecked_with_additions},
+      {"selection",
+       !tracking ? "none: with known poses every frame is fused"
+       : config.selection.enabled
+           ? fmt::format("invalid when more than {} of the frame is masked; redundant when more "
+                         "than {} of its landmarks are seen by the keyframes selected before",
+                         config.selection.max_masked_share, config.selection.max_shared_landmarks)
+           : "off: every tracking keyframe is fused"}};
+  report["dynamic_share"] = summary.dynamic_share;
+  report["masking"] = masks.Json();
+  if (masks.scored()) {
+    const MaskScore& score = masks.score();
+    summary.mask_precision = score.Precision();
+    summary.mask_recall = score.Recall();
+    summary.mask_iou = score.Iou();
+    report["mask_quality"] = {{"truth", "masks.txt"},
+                              {"frames", score.frames},
+                              {"precision", score.Precision()},
+                              {"recall", score.Recall()},
+                              {"iou", score.Iou()},
+                              {"mean_frame_iou", score.MeanFrameIou()}};
+  }
   report["map"] = {{"voxel_leaf_m", config.mapping.voxel.leaf_size},
                    {"points_fused", stats.points},
                    {"voxels", mapper.cloud().size()},
@@ -383,6 +645,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
           {"total", t.bundle_adjustment_ms}}},
         {"fuse_keyframes_total", record.fuse_ms}};
   }
+  if (masks.enabled()) timing["masking_ms"] = masks.TimingsJson();
   report["timing_ms"] = timing;
   report["wall_time_s"] = summary.wall_time_s;
   report["frames_per_second"] = summary.frames_per_second;

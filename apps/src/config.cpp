@@ -281,6 +281,106 @@ const std::vector<ConfigKey>& Keys() {
     tracking_int("new_map_after_lost",
                  "consecutive lost frames before a new local map starts at the last good pose",
                  &TrackerOptions::new_map_after_lost);
+    k.push_back(BoolKey("masking.enabled", "dynamic rejection (false: every pixel is used)",
+                        [](BuildConfig& c) -> bool& { return c.masking_enabled; }));
+    auto masking_bool = [&k](const std::string& name, const std::string& help,
+                             bool DynamicMaskOptions::*field) {
+      k.push_back(BoolKey("masking." + name, help,
+                          [field](BuildConfig& c) -> bool& { return c.masking.*field; }));
+    };
+    auto masking_int = [&k](const std::string& name, const std::string& help,
+                            int DynamicMaskOptions::*field) {
+      k.push_back(IntKey("masking." + name, help,
+                         [field](BuildConfig& c) -> int& { return c.masking.*field; }));
+    };
+    auto masking_double = [&k](const std::string& name, const std::string& help,
+                               double DynamicMaskOptions::*field) {
+      k.push_back(DoubleKey("masking." + name, help,
+                            [field](BuildConfig& c) -> double& { return c.masking.*field; }));
+    };
+    masking_bool("semantics", "use the detector's detections", &DynamicMaskOptions::semantics);
+    masking_bool("depth_check", "multi-view depth check against keyframes (paper 002)",
+                 &DynamicMaskOptions::depth_check);
+    masking_bool("flow_check", "KLT flow / epipolar distance DBSCAN check (paper 004)",
+                 &DynamicMaskOptions::flow_check);
+    k.push_back(DoubleKey(
+        "masking.depth_difference", "tau_d: nearer than the keyframe's static depth by this [m] "
+        "(paper 002: 0.4)",
+        [](BuildConfig& c) -> double& { return c.masking.depth.max_depth_difference_m; }));
+    k.push_back(DoubleKey(
+        "masking.max_parallax_deg", "depth-check points seen under more parallax are skipped "
+        "(paper 002: 30)",
+        [](BuildConfig& c) -> double& { return c.masking.depth.max_parallax_deg; }));
+    k.push_back(DoubleKey(
+        "masking.flow_epsilon_px", "DBSCAN radius in the (flow length, epipolar distance) plane "
+        "[px] (paper 004)",
+        [](BuildConfig& c) -> double& { return c.masking.flow.dbscan_epsilon_px; }));
+    k.push_back(IntKey("masking.flow_min_points", "DBSCAN core-point neighbours (paper 004)",
+                       [](BuildConfig& c) -> int& { return c.masking.flow.dbscan_min_points; }));
+    masking_int("flow_points", "corners tracked for the flow check",
+                &DynamicMaskOptions::flow_points);
+    masking_int("reference_keyframes", "keyframes the depth check compares with",
+                &DynamicMaskOptions::reference_keyframes);
+    masking_double("reference_spacing_s", "older references at least this far apart [s]",
+                   &DynamicMaskOptions::reference_spacing_s);
+    masking_int("depth_check_stride", "reference pixels sampled every n along u and v",
+                &DynamicMaskOptions::depth_check_stride);
+    masking_double("grow_depth_difference",
+                   "regions grow over pixels nearer than the static depth by this [m] (+ noise)",
+                   &DynamicMaskOptions::grow_depth_difference_m);
+    masking_double("continuity", "neighbours within 1 cm + this share of depth are one surface",
+                   &DynamicMaskOptions::continuity);
+    masking_int("max_unknown_steps", "growth through pixels no reference saw [px]",
+                &DynamicMaskOptions::max_unknown_steps);
+    k.push_back({"masking.outline",
+                 "box detections cut to: depth (foreground), edges (Canny, paper 000), box",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   try {
+                     c->masking.outline = ParseOutlineMode(v);
+                   } catch (const InputError& e) {
+                     throw InputError(where + ": " + e.what());
+                   }
+                 },
+                 [](const BuildConfig& c) { return std::string(OutlineModeName(c.masking.outline)); }});
+    masking_double("medium_min_moving_share",
+                   "medium-level objects are masked when geometry marks this share of them",
+                   &DynamicMaskOptions::medium_min_moving_share);
+    masking_int("detector_interval", "run the detector every n-th frame (boxes carried between)",
+                &DynamicMaskOptions::detector_interval);
+    masking_int("margin_px", "safety margin around moving objects [px]",
+                &DynamicMaskOptions::margin_px);
+    masking_int("min_region_px", "geometric regions smaller than this are dropped [px]",
+                &DynamicMaskOptions::min_region_px);
+    k.push_back(BoolKey("masking.map_recheck",
+                        "re-run the depth check on each keyframe against its neighbours (both "
+                        "sides in time, final poses) before fusing it",
+                        [](BuildConfig& c) -> bool& { return c.map_recheck; }));
+    k.push_back(BoolKey("keyframes.selection",
+                        "fuse only valid, non-redundant keyframes (paper 000)",
+                        [](BuildConfig& c) -> bool& { return c.selection.enabled; }));
+    k.push_back(DoubleKey("keyframes.max_masked_share",
+                          "invalid: a larger share of the frame is masked as moving",
+                          [](BuildConfig& c) -> double& { return c.selection.max_masked_share; }));
+    k.push_back(DoubleKey(
+        "keyframes.max_shared_landmarks",
+        "redundant: more than this share of its landmarks is seen by the selected keyframes",
+        [](BuildConfig& c) -> double& { return c.selection.max_shared_landmarks; }));
+    k.push_back(DoubleKey(
+        "detector.score_threshold", "YOLOX: objectness x class probability",
+        [](BuildConfig& c) -> double& { return c.yolox.score_threshold; }));
+    k.push_back({"detector.levels",
+                 "motion-level overrides, e.g. chair=low,book=high (levels: high, medium, low)",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   BuildConfig copy = *c;
+                   copy.detector_levels = v;
+                   try {
+                     MotionLevels(copy);
+                   } catch (const InputError& e) {
+                     throw InputError(where + ": detector.levels: " + e.what());
+                   }
+                   c->detector_levels = v;
+                 },
+                 [](const BuildConfig& c) { return c.detector_levels; }});
     k.push_back(DoubleKey("eval.max_time_difference", "ATE association window [s]",
                           [](BuildConfig& c) -> double& { return c.ate.max_time_difference; }));
     k.push_back(DoubleKey("eval.rpe_delta", "RPE pose-pair time delta [s]",
@@ -325,6 +425,35 @@ void BuildConfig::Validate() const {
   if (!(rpe.delta > 0.0)) throw InputError("eval.rpe_delta must be > 0");
   mapping.Validate();
   tracking.Validate();
+  masking.Validate();
+  selection.Validate();
+  if (!(yolox.score_threshold > 0.0 && yolox.score_threshold < 1.0)) {
+    throw InputError("detector.score_threshold must be in (0, 1)");
+  }
+}
+
+void KeyframeSelectionOptions::Validate() const {
+  if (!(max_masked_share > 0.0 && max_masked_share <= 1.0)) {
+    throw InputError("keyframes.max_masked_share must be in (0, 1]");
+  }
+  if (!(max_shared_landmarks > 0.0 && max_shared_landmarks <= 1.0)) {
+    throw InputError("keyframes.max_shared_landmarks must be in (0, 1]");
+  }
+}
+
+MotionLevelTable MotionLevels(const BuildConfig& config) {
+  MotionLevelTable table = MotionLevelTable::Default();
+  std::stringstream entries(config.detector_levels);
+  std::string entry;
+  while (std::getline(entries, entry, ',')) {
+    if (entry.empty()) continue;
+    const size_t equals = entry.find('=');
+    if (equals == std::string::npos || equals == 0) {
+      throw InputError("'" + entry + "' is not name=level");
+    }
+    table.Set(entry.substr(0, equals), entry.substr(equals + 1));
+  }
+  return table;
 }
 
 std::vector<ConfigKeyInfo> ListConfigKeys() {

@@ -151,7 +151,8 @@ class YoloxDetector : public Detector {
       if (boxes[static_cast<size_t>(c)].empty()) continue;
       std::vector<int> kept;
       cv::dnn::NMSBoxes(boxes[static_cast<size_t>(c)], scores[static_cast<size_t>(c)],
-                        options_.score_threshold, options_.nms_threshold, kept);
+                        static_cast<float>(options_.score_threshold),
+                        static_cast<float>(options_.nms_threshold), kept);
       for (int k : kept) {
         Detection detection;
         const cv::Rect2d& box = boxes[static_cast<size_t>(c)][static_cast<size_t>(k)];

@@ -564,8 +564,12 @@ struct Tracker::Impl {
       Keyframe& keyframe = keyframes.at(map_keyframes[next_final]);
       if (!keyframe.final) {
         keyframe.final = true;
-        final_queue.push_back({keyframe.id, keyframe.frame_index, keyframe.time,
-                               keyframe.camera_from_world.inverse()});
+        FinalKeyframe done{keyframe.id, keyframe.frame_index, keyframe.time,
+                           keyframe.camera_from_world.inverse(), {}};
+        for (int id : keyframe.landmark_of_feature) {
+          if (id >= 0) done.landmarks.push_back(id);
+        }
+        final_queue.push_back(std::move(done));
       }
       ++next_final;
     }
@@ -889,6 +893,15 @@ Tracker::~Tracker() = default;
 TrackResult Tracker::Track(size_t frame_index, double time, const cv::Mat& gray,
                            const cv::Mat& depth_m, const cv::Mat& ignore_mask) {
   return impl_->Track(frame_index, time, gray, depth_m, ignore_mask);
+}
+
+std::optional<Eigen::Isometry3d> Tracker::PredictedPose() const {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (!impl_->have_map || !impl_->have_last) return std::nullopt;
+  const Eigen::Isometry3d predicted = impl_->have_velocity
+                                          ? impl_->velocity * impl_->last_camera_from_world
+                                          : impl_->last_camera_from_world;
+  return predicted.inverse();
 }
 
 std::vector<FinalKeyframe> Tracker::TakeFinalKeyframes() {

@@ -21,6 +21,8 @@ struct BuildRequest {
   std::string output_dir;
   BuildConfig config;
   PoseSource poses = PoseSource::kTracking;
+  std::string detector = "none";  // none, yolox, deeplab or both
+  std::string models_dir;         // holds yolox_nano/ and deeplabv3_mnv2_voc/
   int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
   bool show_progress = false;  // a progress line on stderr
 };
@@ -40,6 +42,11 @@ struct BuildSummary {
   std::optional<MapQuality> map_quality;
   // ATE RMSE [m] of the tracked trajectory, when the sequence has ground truth.
   std::optional<double> ate_rmse;
+  size_t keyframes_invalid = 0;    // not fused: too much of the frame masked
+  size_t keyframes_redundant = 0;  // not fused: landmarks already seen by the selected ones
+  double dynamic_share = 0.0;      // mean masked share of the frames
+  // Against the sequence's masks/ (synthetic sequences): pixel precision, recall, IoU.
+  std::optional<double> mask_precision, mask_recall, mask_iou;
 };
 
 // Runs the whole build. Throws InputError for bad input or options (before anything is written

@@ -9,9 +9,20 @@
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/tracking/detector.h"
+#include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
+
+// Which keyframes are fused into the map (paper 000, section II.D).
+struct KeyframeSelectionOptions {
+  bool enabled = true;
+  double max_masked_share = 0.5;      // invalid: more of the frame masked as moving than this
+  double max_shared_landmarks = 0.5;  // redundant: |L n Lc| > this * |Lc|
+
+  void Validate() const;
+};
 
 struct BuildConfig {
   CameraOverrides camera;
@@ -20,6 +31,15 @@ struct BuildConfig {
   size_t max_frames = 0;   // pairs to use from first_frame; 0 = all
   MapperOptions mapping;
   TrackerOptions tracking;
+  bool masking_enabled = true;  // false: no dynamic rejection at all (the ablation baseline)
+  DynamicMaskOptions masking;
+  // Before a keyframe is fused, the depth check is run again against keyframes on both sides of
+  // it in time, with final poses (catches people the online check could not see yet, e.g. in the
+  // first keyframe).
+  bool map_recheck = true;
+  KeyframeSelectionOptions selection;
+  YoloxOptions yolox;
+  std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;
   RpeOptions rpe;
 
@@ -33,6 +53,9 @@ struct ConfigKeyInfo {
   std::string help;
 };
 std::vector<ConfigKeyInfo> ListConfigKeys();
+
+// The motion-level table with config.detector_levels applied (InputError for a bad entry).
+MotionLevelTable MotionLevels(const BuildConfig& config);
 
 // Sets one key from its text value; throws InputError naming `where` (the file and line, or
 // "--set") for an unknown key (listing the known ones) or a value of the wrong type.

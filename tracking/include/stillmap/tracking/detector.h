@@ -51,8 +51,8 @@ class Detector {
 struct YoloxOptions {
   int input_width = 416;         // letterbox size, multiples of 32 (PROVENANCE.txt: 416x320 runs in
   int input_height = 320;        // 30 ms here against 40 ms at 416x416, same detections)
-  float score_threshold = 0.3f;  // objectness x class probability
-  float nms_threshold = 0.45f;   // IoU, per class
+  double score_threshold = 0.3;  // objectness x class probability
+  double nms_threshold = 0.45;   // IoU, per class
 };
 
 // YOLOX-Nano (COCO, ONNX) from MODELS_DIR/yolox_nano/{yolox_nano.onnx, coco.names}. Throws

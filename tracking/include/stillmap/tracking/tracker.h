@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "stillmap/io/camera.h"
@@ -106,6 +107,7 @@ struct FinalKeyframe {
   size_t frame_index = 0;
   double time = 0.0;
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  std::vector<int> landmarks;  // ids of the landmarks it observes (for the map's redundancy test)
 };
 
 struct TrackerStatistics {
@@ -134,6 +136,10 @@ class Tracker {
   // (optional) CV_8UC1, non-zero where pixels must not be used (moving objects).
   TrackResult Track(size_t frame_index, double time, const cv::Mat& gray, const cv::Mat& depth_m,
                     const cv::Mat& ignore_mask = cv::Mat());
+
+  // The constant-velocity prediction of the next frame's pose (camera-to-world), or nothing when
+  // there is no map yet or the last frame was lost.
+  std::optional<Eigen::Isometry3d> PredictedPose() const;
 
   // Keyframes whose pose became final since the last call, oldest first.
   std::vector<FinalKeyframe> TakeFinalKeyframes();

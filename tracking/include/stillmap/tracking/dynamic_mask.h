@@ -1,0 +1,156 @@
+// Fusion of the semantic prior and the geometric checks into one mask of moving pixels per frame
+// (issue 5; paper 000 section II.C, paper 002 section III, paper 004 section III.B).
+//
+// Geometry finds what moves, whatever it is:
+//  - the multi-view depth check of paper 002, densified: depth pixels of reference keyframes
+//    (sampled every few pixels, their own moving pixels left out) are placed in 3-D, moved into
+//    the current camera and splatted into a "static depth" image, the nearest surface the
+//    references saw along each ray. A current reading nearer than that by more than tau_d (0.4 m,
+//    paper 002) is a seed; points seen under more than 30 degrees of parallax are skipped;
+//  - the flow check of paper 004 (KLT, RANSAC fundamental matrix, DBSCAN): points outside the
+//    camera's cluster are seeds where the references saw nothing (the depth check is the more
+//    reliable of the two where both apply).
+// Seeds grow into regions over depth-continuous pixels that are also nearer than the static depth
+// by a lower threshold (hysteresis), or that no reference saw (for a bounded number of steps).
+//
+// Semantics says what may move: each detection is cut from its box to the object's outline (the
+// detection's own segment for DeepLab; for boxes the depth-continuous foreground, Canny-bounded
+// regions, or the whole box). High-level objects (people, animals) are masked whether or not
+// geometry confirms them; medium-level ones (chairs, books...) only when geometry finds them
+// moving; geometric regions outside every detection (a carried object) are masked too. The union
+// is closed, stripped of specks and dilated by a safety margin.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <deque>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/tracking/depth_check.h"
+#include "stillmap/tracking/detector.h"
+#include "stillmap/tracking/flow_check.h"
+
+namespace stillmap {
+
+enum class OutlineMode { kBox, kDepth, kEdges };
+// "box", "depth" or "edges"; throws InputError listing them otherwise.
+OutlineMode ParseOutlineMode(const std::string& name);
+const char* OutlineModeName(OutlineMode mode);
+
+struct DynamicMaskOptions {
+  bool semantics = true;    // use the detector's detections (when one runs)
+  bool depth_check = true;  // paper 002's multi-view depth check
+  bool flow_check = true;   // paper 004's flow / epipolar clustering
+  DepthCheckOptions depth;  // tau_d = 0.4 m and 30 degrees of parallax (paper 002): seeds
+  FlowCheckOptions flow;
+  int flow_points = 400;  // corners tracked from the previous frame for the flow check
+
+  int reference_keyframes = 3;        // the last keyframe and older ones, spread in time
+  double reference_spacing_s = 0.7;   // older references at least this far apart
+  int depth_check_stride = 4;         // reference pixels sampled along u and v
+  double grow_depth_difference_m = 0.1;  // hysteresis: grown pixels nearer than the static
+                                         // depth by this plus 6 sigma of Kinect noise
+  double continuity = 0.03;     // neighbours within 1 cm + 3 % of depth are one surface
+  int max_unknown_steps = 30;   // growth through pixels no reference saw [px]
+
+  OutlineMode outline = OutlineMode::kDepth;  // box detections: how the object is cut out
+  double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
+  int detector_interval = 1;    // the detector runs every n-th frame; boxes are carried between
+  int margin_px = 4;            // safety margin around the mask
+  int min_region_px = 150;      // geometric regions smaller than this are dropped
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+};
+
+// A keyframe as a reference for the depth check.
+struct MaskReference {
+  double time = 0.0;
+  cv::Mat depth_m;  // CV_32FC1
+  cv::Mat mask;     // CV_8UC1 moving pixels (left out), or empty
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+
+struct DynamicMaskResult {
+  cv::Mat mask;  // CV_8UC1, 255 = moving
+  double share = 0.0;  // masked share of the image
+  int depth_seeds = 0;  // pixels the depth check flagged
+  int flow_seeds = 0;   // flow-check points used as seeds
+  int geometric_pixels = 0;  // after growth
+  int high_regions = 0;
+  int high_confirmed = 0;  // of those, with geometry agreeing
+  int medium_moving = 0;
+  int medium_static = 0;
+  int geometric_only_regions = 0;  // moving regions outside every detection
+  bool detections_fresh = false;   // the detector ran on this frame (else carried or none)
+  double ms = 0.0;
+};
+
+// Depth-check seeds and their growth for one frame against references. Used online and when a
+// keyframe is fused into the map, against its neighbours on both sides in time.
+class GeometricMasker {
+ public:
+  GeometricMasker(const Camera& camera, const DynamicMaskOptions& options);
+  // CV_8UC1, 255 = moving. `extra_seeds` (flow check) count only where no reference saw the
+  // static surface or where the depth check's lower threshold agrees. `depth_seeds` (optional)
+  // receives the number of depth-check seed pixels.
+  cv::Mat Compute(const cv::Mat& depth_m, const Eigen::Isometry3d& world_from_camera,
+                  const std::vector<const MaskReference*>& references,
+                  const std::vector<cv::Point>& extra_seeds = {}, int* depth_seeds = nullptr) const;
+
+ private:
+  Camera camera_;
+  DynamicMaskOptions options_;
+  std::vector<Eigen::Vector2f> rays_;  // undistorted normalized ray per pixel
+};
+
+class DynamicMasker {
+ public:
+  DynamicMasker(const Camera& camera, const DynamicMaskOptions& options);
+
+  // The mask of one frame. `world_from_camera`: its (predicted) pose, or nothing (no depth
+  // check). `detections`: this frame's, or nullptr on frames the detector skipped (the last ones
+  // are carried by the flow of their points).
+  DynamicMaskResult Compute(const cv::Mat& gray, const cv::Mat& depth_m,
+                            const std::optional<Eigen::Isometry3d>& world_from_camera,
+                            const std::vector<Detection>* detections);
+
+  // A keyframe becomes a depth-check reference (kept: the newest and older ones spread in time).
+  void AddReference(MaskReference reference);
+
+  // The references Compute uses now, newest first.
+  std::vector<const MaskReference*> References() const;
+  const GeometricMasker& geometry() const { return geometry_; }
+
+ private:
+  std::vector<cv::Point> FlowSeeds(const cv::Mat& gray, const cv::Mat& depth_m,
+                                   std::vector<cv::Point2f>* moved_from,
+                                   std::vector<cv::Point2f>* moved_to);
+
+  Camera camera_;
+  DynamicMaskOptions options_;
+  GeometricMasker geometry_;
+  std::deque<MaskReference> references_;  // newest first
+  cv::Mat previous_gray_;
+  std::vector<cv::Point2f> previous_points_;
+  std::vector<Detection> carried_;
+};
+
+// Pixel precision, recall and IoU of `mask` against `truth` (both CV_8UC1, non-zero = moving),
+// accumulated over frames.
+struct MaskScore {
+  double true_positive = 0.0;
+  double false_positive = 0.0;
+  double false_negative = 0.0;
+  double iou_sum = 0.0;  // per-frame IoU, summed over frames with moving pixels in either
+  size_t frames = 0;
+  void Add(const cv::Mat& mask, const cv::Mat& truth);
+  double Precision() const;
+  double Recall() const;
+  double Iou() const;  // pooled over all pixels
+  double MeanFrameIou() const;
+};
+
+}  // namespace stillmap

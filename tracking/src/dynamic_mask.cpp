@@ -1,0 +1,529 @@
+#include "stillmap/tracking/dynamic_mask.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+namespace {
+
+constexpr float kNoDepth = std::numeric_limits<float>::infinity();
+
+// Axial noise of Kinect-class sensors (Nguyen et al., 3DIMPVT 2012) [m].
+float DepthSigma(float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
+
+bool Continuous(float a, float b, double continuity) {
+  return std::abs(a - b) <= 0.01f + static_cast<float>(continuity) * a;
+}
+
+// Pixel states for the growth.
+enum : std::uint8_t { kStatic = 0, kCandidate = 1, kUnknown = 2, kSeed = 3 };
+
+cv::Rect Clip(const cv::Rect& box, const cv::Size& size) { return box & cv::Rect(cv::Point(), size); }
+
+// Breadth-first growth over 4-neighbours of `region` (CV_8UC1, seeds set) restricted to `allowed`
+// pixels (a predicate on the linear index and the pixel grown from).
+template <typename Allowed>
+void Grow(cv::Mat* region, std::vector<int> queue, const Allowed& allowed) {
+  const int width = region->cols, height = region->rows;
+  std::uint8_t* out = region->data;
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int index = queue[head];
+    const int u = index % width, v = index / width;
+    const int neighbours[4] = {u > 0 ? index - 1 : -1, u + 1 < width ? index + 1 : -1,
+                               v > 0 ? index - width : -1, v + 1 < height ? index + width : -1};
+    for (int next : neighbours) {
+      if (next < 0 || out[next] != 0 || !allowed(next, index)) continue;
+      out[next] = 255;
+      queue.push_back(next);
+    }
+  }
+}
+
+// The object in `box` cut to its outline. kDepth: the depth-continuous foreground grown from the
+// box's centre (people fill the middle of their boxes); kEdges: the region around the centre
+// bounded by Canny edges (paper 000, section II.C); kBox: the whole box. Box-sized CV_8UC1.
+cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Rect& box, OutlineMode mode,
+                double continuity) {
+  cv::Mat region(box.size(), CV_8UC1, cv::Scalar(0));
+  if (mode == OutlineMode::kBox || box.area() == 0) {
+    region.setTo(255);
+    return region;
+  }
+  const cv::Rect centre(box.width / 3, box.height / 4, std::max(1, box.width / 3),
+                        std::max(1, box.height / 2));
+  const cv::Mat depth = depth_m(box);
+  std::vector<int> queue;
+  if (mode == OutlineMode::kEdges) {
+    cv::Mat edges;
+    cv::Canny(gray(box), edges, 50, 150);
+    cv::dilate(edges, edges, cv::Mat());  // close one-pixel gaps
+    for (int v = centre.y; v < centre.y + centre.height; ++v) {
+      for (int u = centre.x; u < centre.x + centre.width; ++u) {
+        if (edges.at<std::uint8_t>(v, u) != 0) continue;
+        region.at<std::uint8_t>(v, u) = 255;
+        queue.push_back(v * box.width + u);
+      }
+    }
+    const std::uint8_t* edge = edges.data;
+    Grow(&region, std::move(queue), [edge](int next, int) { return edge[next] == 0; });
+    return region;
+  }
+  // kDepth: the nearer third of the centre's readings is the object (background lies behind it).
+  std::vector<float> centre_depths;
+  for (int v = centre.y; v < centre.y + centre.height; ++v) {
+    for (int u = centre.x; u < centre.x + centre.width; ++u) {
+      const float z = depth.at<float>(v, u);
+      if (z > 0.0f) centre_depths.push_back(z);
+    }
+  }
+  if (centre_depths.size() < 10) {  // nothing to cut by: keep the box
+    region.setTo(255);
+    return region;
+  }
+  const auto nth = centre_depths.begin() + static_cast<long>(centre_depths.size() / 3);
+  std::nth_element(centre_depths.begin(), nth, centre_depths.end());
+  const float foreground = *nth;
+  const float band = 0.1f + 0.05f * foreground;
+  for (int v = centre.y; v < centre.y + centre.height; ++v) {
+    for (int u = centre.x; u < centre.x + centre.width; ++u) {
+      const float z = depth.at<float>(v, u);
+      if (z > 0.0f && std::abs(z - foreground) < band) {
+        region.at<std::uint8_t>(v, u) = 255;
+        queue.push_back(v * box.width + u);
+      }
+    }
+  }
+  const cv::Mat depth_copy = depth.clone();  // continuous rows for linear indexing
+  const float* z = depth_copy.ptr<float>();
+  const float farthest = foreground + 1.0f;  // an object is not deeper than this
+  Grow(&region, std::move(queue), [z, continuity, farthest](int next, int from) {
+    return z[next] > 0.0f && z[next] < farthest && Continuous(z[from], z[next], continuity);
+  });
+  return region;
+}
+
+}  // namespace
+
+OutlineMode ParseOutlineMode(const std::string& name) {
+  if (name == "box") return OutlineMode::kBox;
+  if (name == "depth") return OutlineMode::kDepth;
+  if (name == "edges") return OutlineMode::kEdges;
+  throw InputError("masking.outline: '" + name + "' is not one of box, depth, edges");
+}
+
+const char* OutlineModeName(OutlineMode mode) {
+  switch (mode) {
+    case OutlineMode::kBox:
+      return "box";
+    case OutlineMode::kDepth:
+      return "depth";
+    case OutlineMode::kEdges:
+      return "edges";
+  }
+  return "depth";
+}
+
+void DynamicMaskOptions::Validate() const {
+  auto check = [](bool ok, const char* what) {
+    if (!ok) throw InputError(std::string("masking.") + what);
+  };
+  check(depth.max_depth_difference_m > 0.0, "depth_difference must be > 0 (paper 002: 0.4 m)");
+  check(depth.max_parallax_deg > 0.0 && depth.max_parallax_deg <= 180.0,
+        "max_parallax_deg must be in (0, 180] (paper 002: 30)");
+  check(flow.dbscan_epsilon_px > 0.0, "flow_epsilon_px must be > 0");
+  check(flow.dbscan_min_points >= 1, "flow_min_points must be >= 1");
+  check(flow_points >= 8, "flow_points must be >= 8");
+  check(reference_keyframes >= 1, "reference_keyframes must be >= 1");
+  check(reference_spacing_s >= 0.0, "reference_spacing_s must be >= 0");
+  check(depth_check_stride >= 1 && depth_check_stride <= 16, "depth_check_stride must be 1..16");
+  check(grow_depth_difference_m > 0.0 &&
+            grow_depth_difference_m <= depth.max_depth_difference_m,
+        "grow_depth_difference_m must be > 0 and <= depth_difference");
+  check(continuity > 0.0 && continuity < 1.0, "continuity must be in (0, 1)");
+  check(max_unknown_steps >= 0, "max_unknown_steps must be >= 0");
+  check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
+        "medium_min_moving_share must be in (0, 1]");
+  check(detector_interval >= 1, "detector_interval must be >= 1");
+  check(margin_px >= 0 && margin_px <= 50, "margin_px must be 0..50");
+  check(min_region_px >= 0, "min_region_px must be >= 0");
+}
+
+// ---- Geometry ----------------------------------------------------------------------------------
+
+GeometricMasker::GeometricMasker(const Camera& camera, const DynamicMaskOptions& options)
+    : camera_(camera), options_(options) {
+  const size_t count = static_cast<size_t>(camera.width) * static_cast<size_t>(camera.height);
+  rays_.resize(count);
+  if (!camera.HasDistortion()) {
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        rays_[static_cast<size_t>(v * camera.width + u)] =
+            Eigen::Vector2f(static_cast<float>((u - camera.cx) / camera.fx),
+                            static_cast<float>((v - camera.cy) / camera.fy));
+      }
+    }
+    return;
+  }
+  std::vector<cv::Point2f> pixels, undistorted;
+  pixels.reserve(count);
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    }
+  }
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+  cv::undistortPoints(pixels, undistorted, k, distortion);
+  for (size_t i = 0; i < count; ++i) rays_[i] = Eigen::Vector2f(undistorted[i].x, undistorted[i].y);
+}
+
+cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d& world_from_camera,
+                                 const std::vector<const MaskReference*>& references,
+                                 const std::vector<cv::Point>& extra_seeds,
+                                 int* depth_seeds) const {
+  CV_Assert(depth_m.type() == CV_32FC1 && depth_m.isContinuous());
+  const int width = depth_m.cols, height = depth_m.rows;
+  const auto& d = camera_.distortion;
+  const float k1 = static_cast<float>(d[0]), k2 = static_cast<float>(d[1]);
+  const float p1 = static_cast<float>(d[2]), p2 = static_cast<float>(d[3]);
+  const float k3 = static_cast<float>(d[4]);
+  const bool distorted = camera_.HasDistortion();
+  const float fx = static_cast<float>(camera_.fx), fy = static_cast<float>(camera_.fy);
+  const float cx = static_cast<float>(camera_.cx), cy = static_cast<float>(camera_.cy);
+  const float cos_limit =
+      static_cast<float>(std::cos(options_.depth.max_parallax_deg * M_PI / 180.0));
+
+  // The static depth the references saw along each current ray (nearest splatted surface).
+  cv::Mat static_depth(height, width, CV_32FC1, cv::Scalar(kNoDepth));
+  const int stride = options_.depth_check_stride;
+  const int half = stride / 2;
+  for (const MaskReference* reference : references) {
+    if (reference->depth_m.size() != depth_m.size()) continue;
+    const Eigen::Isometry3f current_from_reference =
+        (world_from_camera.inverse() * reference->world_from_camera).cast<float>();
+    const Eigen::Matrix3f rotation = current_from_reference.linear();
+    const Eigen::Vector3f centre = current_from_reference.translation();
+    const bool masked = !reference->mask.empty();
+    for (int v = half; v < height; v += stride) {
+      const float* row = reference->depth_m.ptr<float>(v);
+      const std::uint8_t* mask_row = masked ? reference->mask.ptr<std::uint8_t>(v) : nullptr;
+      for (int u = half; u < width; u += stride) {
+        const float z = row[u];
+        if (!(z > 0.1f) || (masked && mask_row[u] != 0)) continue;
+        const Eigen::Vector2f& ray = rays_[static_cast<size_t>(v * width + u)];
+        const Eigen::Vector3f q = rotation * Eigen::Vector3f(z * ray.x(), z * ray.y(), z) + centre;
+        if (q.z() < 0.1f) continue;
+        // Parallax: the angle at the point between the rays to the two camera centres.
+        const Eigen::Vector3f to_reference = centre - q;
+        const float cos_angle = (-q).dot(to_reference) / (q.norm() * to_reference.norm() + 1e-12f);
+        if (cos_angle < cos_limit) continue;
+        float x = q.x() / q.z(), y = q.y() / q.z();
+        if (distorted) {
+          const float r2 = x * x + y * y;
+          const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
+          const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
+          const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
+          x = xd;
+          y = yd;
+        }
+        const int pu = static_cast<int>(std::lround(fx * x + cx)) - half;
+        const int pv = static_cast<int>(std::lround(fy * y + cy)) - half;
+        if (pu + stride <= 0 || pv + stride <= 0 || pu >= width || pv >= height) continue;
+        for (int sv = std::max(pv, 0); sv < std::min(pv + stride, height); ++sv) {
+          float* out = static_depth.ptr<float>(sv);
+          for (int su = std::max(pu, 0); su < std::min(pu + stride, width); ++su) {
+            out[su] = std::min(out[su], q.z());
+          }
+        }
+      }
+    }
+  }
+
+  // Seeds (nearer than the static surface by tau_d), candidates (by the lower threshold), pixels
+  // no reference saw, and static pixels.
+  cv::Mat state(height, width, CV_8UC1);
+  cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
+  std::vector<int> queue;
+  const float seed_difference = static_cast<float>(options_.depth.max_depth_difference_m);
+  const float grow_difference = static_cast<float>(options_.grow_depth_difference_m);
+  const float* z = depth_m.ptr<float>();
+  const float* w = static_depth.ptr<float>();
+  std::uint8_t* s = state.data;
+  for (int i = 0; i < width * height; ++i) {
+    if (!(z[i] > 0.0f)) {
+      s[i] = kStatic;  // no reading: nothing to fuse, nothing to grow through
+    } else if (w[i] == kNoDepth) {
+      s[i] = kUnknown;
+    } else if (z[i] < w[i] - seed_difference) {
+      s[i] = kSeed;
+      region.data[i] = 255;
+      queue.push_back(i);
+    } else if (z[i] < w[i] - grow_difference - 6.0f * DepthSigma(z[i])) {
+      s[i] = kCandidate;
+    } else {
+      s[i] = kStatic;
+    }
+  }
+  if (depth_seeds != nullptr) *depth_seeds = static_cast<int>(queue.size());
+  for (const cv::Point& seed : extra_seeds) {
+    if (seed.x < 0 || seed.y < 0 || seed.x >= width || seed.y >= height) continue;
+    const int i = seed.y * width + seed.x;
+    if ((s[i] == kUnknown || s[i] == kCandidate) && region.data[i] == 0) {
+      region.data[i] = 255;
+      queue.push_back(i);
+    }
+  }
+  // Growth; steps through unseen pixels are counted and bounded.
+  std::vector<std::uint8_t> unknown_steps(static_cast<size_t>(width * height), 0);
+  const int max_steps = options_.max_unknown_steps;
+  const double continuity = options_.continuity;
+  Grow(&region, std::move(queue), [&](int next, int from) {
+    if (s[next] == kStatic || !Continuous(z[from], z[next], continuity)) return false;
+    if (s[next] != kUnknown) return true;
+    const int steps = unknown_steps[static_cast<size_t>(from)] + 1;
+    if (steps > max_steps) return false;
+    unknown_steps[static_cast<size_t>(next)] = static_cast<std::uint8_t>(steps);
+    return true;
+  });
+
+  // Specks (noise at depth edges, single flow outliers) are dropped.
+  if (options_.min_region_px > 0) {
+    cv::Mat labels, stats, centroids;
+    const int count = cv::connectedComponentsWithStats(region, labels, stats, centroids, 8, CV_32S);
+    std::vector<std::uint8_t> keep(static_cast<size_t>(count), 0);
+    for (int k = 1; k < count; ++k) {
+      keep[static_cast<size_t>(k)] = stats.at<int>(k, cv::CC_STAT_AREA) >= options_.min_region_px;
+    }
+    const int* label = labels.ptr<int>();
+    for (int i = 0; i < width * height; ++i) {
+      if (region.data[i] != 0 && keep[static_cast<size_t>(label[i])] == 0) region.data[i] = 0;
+    }
+  }
+  return region;
+}
+
+// ---- Fusion ------------------------------------------------------------------------------------
+
+DynamicMasker::DynamicMasker(const Camera& camera, const DynamicMaskOptions& options)
+    : camera_(camera), options_(options), geometry_(camera, options) {
+  options.Validate();
+}
+
+void DynamicMasker::AddReference(MaskReference reference) {
+  references_.push_front(std::move(reference));
+  // History long enough for References() to pick older ones spread in time.
+  const double horizon =
+      options_.reference_spacing_s * static_cast<double>(options_.reference_keyframes) + 0.5;
+  while (references_.size() > 1 && references_.front().time - references_.back().time > horizon) {
+    references_.pop_back();
+  }
+}
+
+std::vector<const MaskReference*> DynamicMasker::References() const {
+  // The newest, then each next one at least reference_spacing_s older than the last chosen.
+  std::vector<const MaskReference*> chosen;
+  double last_time = std::numeric_limits<double>::infinity();
+  for (const MaskReference& reference : references_) {
+    if (static_cast<int>(chosen.size()) >= options_.reference_keyframes) break;
+    if (!chosen.empty() && last_time - reference.time < options_.reference_spacing_s) continue;
+    chosen.push_back(&reference);
+    last_time = reference.time;
+  }
+  return chosen;
+}
+
+std::vector<cv::Point> DynamicMasker::FlowSeeds(const cv::Mat& gray, const cv::Mat& depth_m,
+                                                std::vector<cv::Point2f>* moved_from,
+                                                std::vector<cv::Point2f>* moved_to) {
+  std::vector<cv::Point> seeds;
+  if (previous_gray_.empty() || previous_points_.size() < 8 || previous_gray_.size() != gray.size()) {
+    return seeds;
+  }
+  const FlowCheckResult flow = CheckFlow(previous_gray_, gray, previous_points_, options_.flow);
+  for (size_t i = 0; i < previous_points_.size(); ++i) {
+    if (flow.tracked[i] == 0) continue;
+    moved_from->push_back(previous_points_[i]);
+    moved_to->push_back(flow.current[i]);
+    if (!options_.flow_check || !flow.fundamental_found || flow.dynamic[i] == 0) continue;
+    const cv::Point pixel(static_cast<int>(std::lround(flow.current[i].x)),
+                          static_cast<int>(std::lround(flow.current[i].y)));
+    if (pixel.x < 0 || pixel.y < 0 || pixel.x >= gray.cols || pixel.y >= gray.rows) continue;
+    if (depth_m.at<float>(pixel) > 0.0f) seeds.push_back(pixel);
+  }
+  return seeds;
+}
+
+DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& depth_m,
+                                         const std::optional<Eigen::Isometry3d>& world_from_camera,
+                                         const std::vector<Detection>* detections) {
+  const auto start = std::chrono::steady_clock::now();
+  CV_Assert(gray.type() == CV_8UC1 && depth_m.type() == CV_32FC1 && gray.size() == depth_m.size());
+  DynamicMaskResult result;
+  const cv::Size size = gray.size();
+
+  // Flow: seeds for the geometry, and the motion that carries detections between detector runs.
+  std::vector<cv::Point2f> moved_from, moved_to;
+  const bool need_flow = options_.flow_check || (options_.semantics && detections == nullptr &&
+                                                 !carried_.empty());
+  std::vector<cv::Point> flow_seeds;
+  if (need_flow) flow_seeds = FlowSeeds(gray, depth_m, &moved_from, &moved_to);
+  result.flow_seeds = static_cast<int>(flow_seeds.size());
+
+  cv::Mat geometric(size, CV_8UC1, cv::Scalar(0));
+  const bool geometry = options_.depth_check || options_.flow_check;
+  if (geometry && world_from_camera) {
+    std::vector<const MaskReference*> references;
+    if (options_.depth_check) references = References();
+    geometric = geometry_.Compute(depth_m, *world_from_camera, references, flow_seeds,
+                                  &result.depth_seeds);
+  } else if (geometry && !flow_seeds.empty()) {
+    // No pose: flow seeds alone, grown over depth-continuous pixels.
+    geometric = geometry_.Compute(depth_m, Eigen::Isometry3d::Identity(), {}, flow_seeds, nullptr);
+  }
+
+  // Detections: this frame's, or the last ones moved by the median flow of the points in them.
+  if (detections != nullptr) {
+    carried_ = *detections;
+    result.detections_fresh = true;
+  } else {
+    for (Detection& detection : carried_) {
+      std::vector<float> dx, dy;
+      for (size_t i = 0; i < moved_from.size(); ++i) {
+        if (!detection.box.contains(moved_from[i])) continue;
+        dx.push_back(moved_to[i].x - moved_from[i].x);
+        dy.push_back(moved_to[i].y - moved_from[i].y);
+      }
+      if (dx.size() < 3) continue;
+      std::nth_element(dx.begin(), dx.begin() + static_cast<long>(dx.size() / 2), dx.end());
+      std::nth_element(dy.begin(), dy.begin() + static_cast<long>(dy.size() / 2), dy.end());
+      const cv::Point2f shift(dx[dx.size() / 2], dy[dy.size() / 2]);
+      const cv::Rect before(detection.box);
+      detection.box = cv::Rect2f(detection.box.tl() + shift, detection.box.size());
+      if (!detection.mask.empty()) {
+        // Keep the part of the mask that stays in the image.
+        const cv::Rect moved(cv::Rect(detection.box).tl(), before.size());
+        const cv::Rect inside = Clip(moved, size);
+        if (inside.area() == 0) {
+          detection.mask = cv::Mat();
+          detection.box = cv::Rect2f();
+          continue;
+        }
+        detection.mask = detection.mask(cv::Rect(inside.tl() - moved.tl(), inside.size())).clone();
+        detection.box = cv::Rect2f(inside);
+      } else {
+        detection.box &= cv::Rect2f(0.0f, 0.0f, static_cast<float>(size.width),
+                                    static_cast<float>(size.height));
+      }
+    }
+  }
+
+  cv::Mat mask = geometric.clone();
+  cv::Mat claimed(size, CV_8UC1, cv::Scalar(0));  // pixels of any detection's outline
+  if (options_.semantics) {
+    for (const Detection& detection : carried_) {
+      if (detection.level == MotionLevel::kLow) continue;
+      const cv::Rect box = Clip(cv::Rect(detection.box), size);
+      if (box.area() == 0) continue;
+      cv::Mat outline;
+      if (!detection.mask.empty() && detection.mask.size() == box.size()) {
+        outline = detection.mask;
+      } else if (!detection.mask.empty()) {
+        continue;  // a clipped carried mask that no longer matches its box
+      } else {
+        outline = Outline(gray, depth_m, box, options_.outline, options_.continuity);
+      }
+      const int area = cv::countNonZero(outline);
+      if (area == 0) continue;
+      const int moving = cv::countNonZero(geometric(box) & outline);
+      claimed(box).setTo(255, outline);
+      if (detection.level == MotionLevel::kHigh) {
+        ++result.high_regions;
+        result.high_confirmed += moving > 0 ? 1 : 0;
+        mask(box).setTo(255, outline);
+      } else if (moving >= options_.medium_min_moving_share * area) {
+        ++result.medium_moving;
+        mask(box).setTo(255, outline);
+      } else {
+        ++result.medium_static;
+      }
+    }
+  }
+  result.geometric_pixels = cv::countNonZero(geometric);
+  if (result.geometric_pixels > 0) {
+    cv::Mat labels;
+    const int count = cv::connectedComponents(geometric, labels, 8, CV_32S);
+    std::vector<std::uint8_t> inside(static_cast<size_t>(count), 0);
+    for (int v = 0; v < size.height; ++v) {
+      const int* label = labels.ptr<int>(v);
+      const std::uint8_t* claim = claimed.ptr<std::uint8_t>(v);
+      for (int u = 0; u < size.width; ++u) {
+        if (label[u] > 0 && claim[u] != 0) inside[static_cast<size_t>(label[u])] = 1;
+      }
+    }
+    for (int k = 1; k < count; ++k) result.geometric_only_regions += inside[static_cast<size_t>(k)] ? 0 : 1;
+  }
+
+  // Close small holes (missing readings inside people), then the safety margin.
+  if (cv::countNonZero(mask) > 0) {
+    cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
+    if (options_.margin_px > 0) {
+      const int k = 2 * options_.margin_px + 1;
+      cv::dilate(mask, mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
+    }
+  }
+  result.mask = mask;
+  result.share = static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
+
+  // Corners for the next frame's flow.
+  if (options_.flow_check || options_.semantics) {
+    previous_gray_ = gray.clone();
+    previous_points_.clear();
+    cv::goodFeaturesToTrack(gray, previous_points_, options_.flow_points, 0.01, 8.0);
+  }
+  result.ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+// ---- Scores ------------------------------------------------------------------------------------
+
+void MaskScore::Add(const cv::Mat& mask, const cv::Mat& truth) {
+  CV_Assert(mask.size() == truth.size() && mask.type() == CV_8UC1 && truth.type() == CV_8UC1);
+  const cv::Mat m = mask != 0, t = truth != 0;
+  const double tp = cv::countNonZero(m & t);
+  const double fp = cv::countNonZero(m) - tp;
+  const double fn = cv::countNonZero(t) - tp;
+  true_positive += tp;
+  false_positive += fp;
+  false_negative += fn;
+  if (tp + fp + fn > 0) {
+    iou_sum += tp / (tp + fp + fn);
+    ++frames;
+  }
+}
+
+double MaskScore::Precision() const {
+  return true_positive + false_positive > 0 ? true_positive / (true_positive + false_positive)
+                                            : 0.0;
+}
+double MaskScore::Recall() const {
+  return true_positive + false_negative > 0 ? true_positive / (true_positive + false_negative)
+                                            : 0.0;
+}
+double MaskScore::Iou() const {
+  const double all = true_positive + false_positive + false_negative;
+  return all > 0 ? true_positive / all : 0.0;
+}
+double MaskScore::MeanFrameIou() const {
+  return frames > 0 ? iou_sum / static_cast<double>(frames) : 0.0;
+}
+
+}  // namespace stillmap
