@@ -22,8 +22,9 @@ bool Continuous(float a, float b, double continuity) {
   return std::abs(a - b) <= 0.01f + static_cast<float>(continuity) * a;
 }
 
-// Pixel states for the growth.
-enum : std::uint8_t { kStatic = 0, kCandidate = 1, kUnknown = 2, kSeed = 3 };
+// Pixel verdicts of the depth check, by strength of evidence (the strongest over references
+// wins).
+enum : std::uint8_t { kNoVerdict = 0, kConsistent = 1, kCandidate = 2, kSeed = 3 };
 
 cv::Rect Clip(const cv::Rect& box, const cv::Size& size) { return box & cv::Rect(cv::Point(), size); }
 
@@ -49,8 +50,8 @@ void Grow(cv::Mat* region, std::vector<int> queue, const Allowed& allowed) {
 // The object in `box` cut to its outline. kDepth: the depth-continuous foreground grown from the
 // box's centre (people fill the middle of their boxes); kEdges: the region around the centre
 // bounded by Canny edges (paper 000, section II.C); kBox: the whole box. Box-sized CV_8UC1.
-cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Rect& box, OutlineMode mode,
-                double continuity) {
+cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excluded,
+                const cv::Rect& box, OutlineMode mode, double continuity) {
   cv::Mat region(box.size(), CV_8UC1, cv::Scalar(0));
   if (mode == OutlineMode::kBox || box.area() == 0) {
     region.setTo(255);
@@ -102,9 +103,13 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Rect& box
   }
   const cv::Mat depth_copy = depth.clone();  // continuous rows for linear indexing
   const float* z = depth_copy.ptr<float>();
+  const cv::Mat excluded_copy = excluded.empty() ? cv::Mat(box.size(), CV_8UC1, cv::Scalar(0))
+                                                 : cv::Mat(excluded(box).clone());
+  const std::uint8_t* out = excluded_copy.data;
   const float farthest = foreground + 1.0f;  // an object is not deeper than this
-  Grow(&region, std::move(queue), [z, continuity, farthest](int next, int from) {
-    return z[next] > 0.0f && z[next] < farthest && Continuous(z[from], z[next], continuity);
+  Grow(&region, std::move(queue), [z, out, continuity, farthest](int next, int from) {
+    return z[next] > 0.0f && z[next] < farthest && out[next] == 0 &&
+           Continuous(z[from], z[next], continuity);
   });
   return region;
 }
@@ -186,8 +191,8 @@ GeometricMasker::GeometricMasker(const Camera& camera, const DynamicMaskOptions&
 
 cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d& world_from_camera,
                                  const std::vector<const MaskReference*>& references,
-                                 const std::vector<cv::Point>& extra_seeds,
-                                 int* depth_seeds) const {
+                                 const std::vector<cv::Point>& extra_seeds, int* depth_seeds,
+                                 cv::Mat* consistent) const {
   CV_Assert(depth_m.type() == CV_32FC1 && depth_m.isContinuous());
   const int width = depth_m.cols, height = depth_m.rows;
   const auto& d = camera_.distortion;
@@ -200,30 +205,39 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
   const float cos_limit =
       static_cast<float>(std::cos(options_.depth.max_parallax_deg * M_PI / 180.0));
 
-  // The static depth the references saw along each current ray (nearest splatted surface).
-  cv::Mat static_depth(height, width, CV_32FC1, cv::Scalar(kNoDepth));
-  const int stride = options_.depth_check_stride;
-  const int half = stride / 2;
+  // Each current reading is placed in 3-D and looked up in every reference. Where a reference
+  // saw farther than the point along the same ray, the point was not there then: the space it
+  // occupies now was free (paper 002's test, depth difference above tau_d, evaluated for every
+  // current pixel so that visibility is explicit). The reference depth is the minimum over a
+  // 5x5 neighbourhood (one-pixel pose or edge errors at thin objects are no evidence); points
+  // outside a reference, where it had no reading or its own mask, or hidden behind a nearer
+  // surface there, get no verdict from it.
+  const float seed_difference = static_cast<float>(options_.depth.max_depth_difference_m);
+  const float grow_difference = static_cast<float>(options_.grow_depth_difference_m);
+  cv::Mat state(height, width, CV_8UC1, cv::Scalar(kNoVerdict));
+  std::uint8_t* s = state.data;
+  const float* z = depth_m.ptr<float>();
+  cv::Mat nearest;
+  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5));
   for (const MaskReference* reference : references) {
     if (reference->depth_m.size() != depth_m.size()) continue;
-    const Eigen::Isometry3f current_from_reference =
-        (world_from_camera.inverse() * reference->world_from_camera).cast<float>();
-    const Eigen::Matrix3f rotation = current_from_reference.linear();
-    const Eigen::Vector3f centre = current_from_reference.translation();
-    const bool masked = !reference->mask.empty();
-    for (int v = half; v < height; v += stride) {
-      const float* row = reference->depth_m.ptr<float>(v);
-      const std::uint8_t* mask_row = masked ? reference->mask.ptr<std::uint8_t>(v) : nullptr;
-      for (int u = half; u < width; u += stride) {
-        const float z = row[u];
-        if (!(z > 0.1f) || (masked && mask_row[u] != 0)) continue;
-        const Eigen::Vector2f& ray = rays_[static_cast<size_t>(v * width + u)];
-        const Eigen::Vector3f q = rotation * Eigen::Vector3f(z * ray.x(), z * ray.y(), z) + centre;
+    nearest = reference->depth_m.clone();
+    if (!reference->mask.empty()) nearest.setTo(0.0f, reference->mask);
+    cv::erode(nearest, nearest, kernel);  // 0 (no reading) wins: no evidence
+    const float* near = nearest.ptr<float>();
+    const Eigen::Isometry3f reference_from_current =
+        (reference->world_from_camera.inverse() * world_from_camera).cast<float>();
+    const Eigen::Matrix3f rotation = reference_from_current.linear();
+    const Eigen::Vector3f centre = reference_from_current.translation();  // current centre
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const int i = v * width + u;
+        const float depth = z[i];
+        if (!(depth > 0.0f) || s[i] == kSeed) continue;
+        const Eigen::Vector2f& ray = rays_[static_cast<size_t>(i)];
+        const Eigen::Vector3f q =
+            rotation * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre;
         if (q.z() < 0.1f) continue;
-        // Parallax: the angle at the point between the rays to the two camera centres.
-        const Eigen::Vector3f to_reference = centre - q;
-        const float cos_angle = (-q).dot(to_reference) / (q.norm() * to_reference.norm() + 1e-12f);
-        if (cos_angle < cos_limit) continue;
         float x = q.x() / q.z(), y = q.y() / q.z();
         if (distorted) {
           const float r2 = x * x + y * y;
@@ -233,49 +247,44 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
           x = xd;
           y = yd;
         }
-        const int pu = static_cast<int>(std::lround(fx * x + cx)) - half;
-        const int pv = static_cast<int>(std::lround(fy * y + cy)) - half;
-        if (pu + stride <= 0 || pv + stride <= 0 || pu >= width || pv >= height) continue;
-        for (int sv = std::max(pv, 0); sv < std::min(pv + stride, height); ++sv) {
-          float* out = static_depth.ptr<float>(sv);
-          for (int su = std::max(pu, 0); su < std::min(pu + stride, width); ++su) {
-            out[su] = std::min(out[su], q.z());
-          }
-        }
+        const int ru = static_cast<int>(std::lround(fx * x + cx));
+        const int rv = static_cast<int>(std::lround(fy * y + cy));
+        if (ru < 0 || rv < 0 || ru >= width || rv >= height) continue;
+        const float seen = near[rv * width + ru];
+        if (!(seen > 0.0f)) continue;
+        // Parallax: the angle at the point between the rays to the two camera centres.
+        const Eigen::Vector3f to_current = centre - q;
+        const float cos_angle = (-q).dot(to_current) / (q.norm() * to_current.norm() + 1e-12f);
+        if (cos_angle < cos_limit) continue;
+        const float difference = seen - q.z();
+        const float noise = grow_difference + 6.0f * DepthSigma(q.z());
+        std::uint8_t verdict = kNoVerdict;
+        if (difference > seed_difference) {
+          verdict = kSeed;
+        } else if (difference > noise) {
+          verdict = kCandidate;
+        } else if (difference > -noise) {
+          verdict = kConsistent;
+        }  // else hidden behind a nearer surface in the reference: no verdict
+        s[i] = std::max(s[i], verdict);
       }
     }
   }
 
-  // Seeds (nearer than the static surface by tau_d), candidates (by the lower threshold), pixels
-  // no reference saw, and static pixels.
-  cv::Mat state(height, width, CV_8UC1);
   cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
   std::vector<int> queue;
-  const float seed_difference = static_cast<float>(options_.depth.max_depth_difference_m);
-  const float grow_difference = static_cast<float>(options_.grow_depth_difference_m);
-  const float* z = depth_m.ptr<float>();
-  const float* w = static_depth.ptr<float>();
-  std::uint8_t* s = state.data;
   for (int i = 0; i < width * height; ++i) {
-    if (!(z[i] > 0.0f)) {
-      s[i] = kStatic;  // no reading: nothing to fuse, nothing to grow through
-    } else if (w[i] == kNoDepth) {
-      s[i] = kUnknown;
-    } else if (z[i] < w[i] - seed_difference) {
-      s[i] = kSeed;
+    if (s[i] == kSeed) {
       region.data[i] = 255;
       queue.push_back(i);
-    } else if (z[i] < w[i] - grow_difference - 6.0f * DepthSigma(z[i])) {
-      s[i] = kCandidate;
-    } else {
-      s[i] = kStatic;
     }
   }
   if (depth_seeds != nullptr) *depth_seeds = static_cast<int>(queue.size());
+  if (consistent != nullptr) *consistent = state == kConsistent;
   for (const cv::Point& seed : extra_seeds) {
     if (seed.x < 0 || seed.y < 0 || seed.x >= width || seed.y >= height) continue;
     const int i = seed.y * width + seed.x;
-    if ((s[i] == kUnknown || s[i] == kCandidate) && region.data[i] == 0) {
+    if ((s[i] == kNoVerdict || s[i] == kCandidate) && z[i] > 0.0f && region.data[i] == 0) {
       region.data[i] = 255;
       queue.push_back(i);
     }
@@ -285,8 +294,10 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
   const int max_steps = options_.max_unknown_steps;
   const double continuity = options_.continuity;
   Grow(&region, std::move(queue), [&](int next, int from) {
-    if (s[next] == kStatic || !Continuous(z[from], z[next], continuity)) return false;
-    if (s[next] != kUnknown) return true;
+    if (s[next] == kConsistent || !(z[next] > 0.0f) || !Continuous(z[from], z[next], continuity)) {
+      return false;
+    }
+    if (s[next] != kNoVerdict) return true;
     const int steps = unknown_steps[static_cast<size_t>(from)] + 1;
     if (steps > max_steps) return false;
     unknown_steps[static_cast<size_t>(next)] = static_cast<std::uint8_t>(steps);
@@ -317,6 +328,18 @@ DynamicMasker::DynamicMasker(const Camera& camera, const DynamicMaskOptions& opt
 }
 
 void DynamicMasker::AddReference(MaskReference reference) {
+  // The older references are checked against the new one: people they saw who have moved on
+  // since are found now, and left out of the comparisons to come (an unmasked person in a
+  // reference otherwise vouches for the person being static where they stood).
+  if (options_.depth_check) {
+    const std::vector<const MaskReference*> newest = {&reference};
+    for (MaskReference& older : references_) {
+      if (reference.time - older.time < options_.reference_spacing_s) continue;
+      const cv::Mat found = geometry_.Compute(older.depth_m, older.world_from_camera, newest);
+      if (cv::countNonZero(found) == 0) continue;
+      older.mask = older.mask.empty() ? found : (older.mask | found);
+    }
+  }
   references_.push_front(std::move(reference));
   // History long enough for References() to pick older ones spread in time.
   const double horizon =
@@ -377,12 +400,13 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   result.flow_seeds = static_cast<int>(flow_seeds.size());
 
   cv::Mat geometric(size, CV_8UC1, cv::Scalar(0));
+  cv::Mat consistent;  // readings a reference confirms as static
   const bool geometry = options_.depth_check || options_.flow_check;
   if (geometry && world_from_camera) {
     std::vector<const MaskReference*> references;
     if (options_.depth_check) references = References();
     geometric = geometry_.Compute(depth_m, *world_from_camera, references, flow_seeds,
-                                  &result.depth_seeds);
+                                  &result.depth_seeds, &consistent);
   } else if (geometry && !flow_seeds.empty()) {
     // No pose: flow seeds alone, grown over depth-continuous pixels.
     geometric = geometry_.Compute(depth_m, Eigen::Isometry3d::Identity(), {}, flow_seeds, nullptr);
@@ -437,7 +461,13 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
       } else if (!detection.mask.empty()) {
         continue;  // a clipped carried mask that no longer matches its box
       } else {
-        outline = Outline(gray, depth_m, box, options_.outline, options_.continuity);
+        outline = Outline(gray, depth_m, cv::Mat(), box, options_.outline, options_.continuity);
+        // An object geometry sees moving is trimmed of the readings it confirms as static (the
+        // floor at a walker's feet); an object at rest keeps its whole outline.
+        if (!consistent.empty() && options_.outline == OutlineMode::kDepth &&
+            cv::countNonZero(geometric(box) & outline) > 0) {
+          outline = Outline(gray, depth_m, consistent, box, options_.outline, options_.continuity);
+        }
       }
       const int area = cv::countNonZero(outline);
       if (area == 0) continue;
