@@ -255,7 +255,7 @@ class MaskStage {
   void AddReference(const Frame& frame, const cv::Mat& mask,
                     const Eigen::Isometry3d& world_from_camera) {
     if (!enabled_) return;
-    masker_->AddReference({frame.time, frame.depth_m, mask, world_from_camera});
+    masker_->AddReference({frame.time, frame.depth_m, mask, world_from_camera, cv::Mat()});
   }
 
   double MeanShare() const { return frames_ > 0 ? share_sum_ / static_cast<double>(frames_) : 0.0; }
@@ -424,8 +424,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
           for (auto next = std::next(it); next != waiting.end(); ++next) {
             const bool newest = std::next(next) == waiting.end();
             if (next->second.frame.time - last < spacing && !newest) continue;
-            later.push_back({next->second.frame.time, next->second.frame.depth_m, next->second.mask,
-                             next->second.world_from_camera});
+            later.push_back({next->second.frame.time, next->second.frame.depth_m,
+                             next->second.mask, next->second.world_from_camera, cv::Mat()});
             last = next->second.frame.time;
           }
           std::vector<const MaskReference*> references;
@@ -472,7 +472,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
         } else {
           ++summary.keyframes_redundant;
         }
-        recent.push_back({keyframe.time, frame.depth_m, mask, keyframe.world_from_camera});
+        recent.push_back(
+            {keyframe.time, frame.depth_m, mask, keyframe.world_from_camera, cv::Mat()});
+        if (config.map_recheck) recent.back().nearest_depth_m = NearestStaticDepth(recent.back());
         while (recent.size() > 1 &&
                recent.back().time - recent.front().time >
                    spacing * static_cast<double>(config.masking.reference_keyframes) + 0.5) {

@@ -323,7 +323,7 @@ const std::vector<ConfigKey>& Keys() {
                 &DynamicMaskOptions::reference_keyframes);
     masking_double("reference_spacing_s", "older references at least this far apart [s]",
                    &DynamicMaskOptions::reference_spacing_s);
-    masking_int("depth_check_stride", "reference pixels sampled every n along u and v",
+    masking_int("depth_check_stride", "depth check: one verdict per n x n block of continuous readings",
                 &DynamicMaskOptions::depth_check_stride);
     masking_double("grow_depth_difference",
                    "regions grow over pixels nearer than the static depth by this [m] (+ noise)",

@@ -116,6 +116,13 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excl
 
 }  // namespace
 
+cv::Mat NearestStaticDepth(const MaskReference& reference) {
+  cv::Mat nearest = reference.depth_m.clone();
+  if (!reference.mask.empty()) nearest.setTo(0.0f, reference.mask);
+  cv::erode(nearest, nearest, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+  return nearest;  // 0 (no reading, or moving) wins: no evidence
+}
+
 OutlineMode ParseOutlineMode(const std::string& name) {
   if (name == "box") return OutlineMode::kBox;
   if (name == "depth") return OutlineMode::kDepth;
@@ -217,56 +224,82 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
   cv::Mat state(height, width, CV_8UC1, cv::Scalar(kNoVerdict));
   std::uint8_t* s = state.data;
   const float* z = depth_m.ptr<float>();
-  cv::Mat nearest;
-  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5));
+  const float sin_limit =
+      static_cast<float>(std::sin(options_.depth.max_parallax_deg * M_PI / 180.0));
+  const int stride = options_.depth_check_stride;
+  cv::Mat computed;
   for (const MaskReference* reference : references) {
     if (reference->depth_m.size() != depth_m.size()) continue;
-    nearest = reference->depth_m.clone();
-    if (!reference->mask.empty()) nearest.setTo(0.0f, reference->mask);
-    cv::erode(nearest, nearest, kernel);  // 0 (no reading) wins: no evidence
-    const float* near = nearest.ptr<float>();
+    const cv::Mat* nearest = &reference->nearest_depth_m;
+    if (nearest->empty()) {
+      computed = NearestStaticDepth(*reference);
+      nearest = &computed;
+    }
+    const float* near = nearest->ptr<float>();
     const Eigen::Isometry3f reference_from_current =
         (reference->world_from_camera.inverse() * world_from_camera).cast<float>();
     const Eigen::Matrix3f rotation = reference_from_current.linear();
     const Eigen::Vector3f centre = reference_from_current.translation();  // current centre
-    for (int v = 0; v < height; ++v) {
-      for (int u = 0; u < width; ++u) {
-        const int i = v * width + u;
-        const float depth = z[i];
-        if (!(depth > 0.0f) || s[i] == kSeed) continue;
-        const Eigen::Vector2f& ray = rays_[static_cast<size_t>(i)];
-        const Eigen::Vector3f q =
-            rotation * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre;
-        if (q.z() < 0.1f) continue;
-        float x = q.x() / q.z(), y = q.y() / q.z();
-        if (distorted) {
-          const float r2 = x * x + y * y;
-          const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
-          const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
-          const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
-          x = xd;
-          y = yd;
-        }
-        const int ru = static_cast<int>(std::lround(fx * x + cx));
-        const int rv = static_cast<int>(std::lround(fy * y + cy));
-        if (ru < 0 || rv < 0 || ru >= width || rv >= height) continue;
-        const float seen = near[rv * width + ru];
-        if (!(seen > 0.0f)) continue;
-        // Parallax: the angle at the point between the rays to the two camera centres.
+    const float baseline_squared = centre.squaredNorm();
+    // The verdict of this reference on current pixel i.
+    auto judge = [&](int i) -> std::uint8_t {
+      const float depth = z[i];
+      const Eigen::Vector2f& ray = rays_[static_cast<size_t>(i)];
+      const Eigen::Vector3f q =
+          rotation * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre;
+      if (q.z() < 0.1f) return kNoVerdict;
+      float x = q.x() / q.z(), y = q.y() / q.z();
+      if (distorted) {
+        const float r2 = x * x + y * y;
+        const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
+        const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
+        const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
+        x = xd;
+        y = yd;
+      }
+      const float pu = fx * x + cx + 0.5f, pv = fy * y + cy + 0.5f;
+      if (!(pu >= 0.0f && pv >= 0.0f && pu < static_cast<float>(width) &&
+            pv < static_cast<float>(height))) {
+        return kNoVerdict;
+      }
+      const float seen = near[static_cast<int>(pv) * width + static_cast<int>(pu)];
+      if (!(seen > 0.0f)) return kNoVerdict;
+      // Parallax: the angle at the point between the rays to the two camera centres. Its sine is
+      // at most baseline / distance, so the exact test is needed only for near points.
+      const float distance_squared = q.squaredNorm();
+      if (baseline_squared > sin_limit * sin_limit * distance_squared) {
         const Eigen::Vector3f to_current = centre - q;
         const float cos_angle = (-q).dot(to_current) / (q.norm() * to_current.norm() + 1e-12f);
-        if (cos_angle < cos_limit) continue;
-        const float difference = seen - q.z();
-        const float noise = grow_difference + 6.0f * DepthSigma(q.z());
-        std::uint8_t verdict = kNoVerdict;
-        if (difference > seed_difference) {
-          verdict = kSeed;
-        } else if (difference > noise) {
-          verdict = kCandidate;
-        } else if (difference > -noise) {
-          verdict = kConsistent;
-        }  // else hidden behind a nearer surface in the reference: no verdict
-        s[i] = std::max(s[i], verdict);
+        if (cos_angle < cos_limit) return kNoVerdict;
+      }
+      const float difference = seen - q.z();
+      const float noise = grow_difference + 6.0f * DepthSigma(q.z());
+      if (difference > seed_difference) return kSeed;
+      if (difference > noise) return kCandidate;
+      if (difference > -noise) return kConsistent;
+      return kNoVerdict;  // hidden behind a nearer surface in the reference
+    };
+    // One verdict per stride x stride block, from its centre, for the readings continuous with
+    // the centre's; the others (object edges) are judged on their own.
+    for (int bv = 0; bv < height; bv += stride) {
+      for (int bu = 0; bu < width; bu += stride) {
+        const int v_end = std::min(bv + stride, height), u_end = std::min(bu + stride, width);
+        const int centre_index = std::min(bv + stride / 2, v_end - 1) * width +
+                                 std::min(bu + stride / 2, u_end - 1);
+        const float centre_depth = z[centre_index];
+        const std::uint8_t centre_verdict = 
+            centre_depth > 0.0f ? judge(centre_index) : std::uint8_t{kNoVerdict};
+        for (int v = bv; v < v_end; ++v) {
+          for (int u = bu; u < u_end; ++u) {
+            const int i = v * width + u;
+            if (!(z[i] > 0.0f) || s[i] == kSeed) continue;
+            const std::uint8_t verdict =
+                centre_depth > 0.0f && (i == centre_index || Continuous(centre_depth, z[i], 0.01))
+                    ? centre_verdict
+                    : judge(i);
+            s[i] = std::max(s[i], verdict);
+          }
+        }
       }
     }
   }
@@ -338,8 +371,10 @@ void DynamicMasker::AddReference(MaskReference reference) {
       const cv::Mat found = geometry_.Compute(older.depth_m, older.world_from_camera, newest);
       if (cv::countNonZero(found) == 0) continue;
       older.mask = older.mask.empty() ? found : (older.mask | found);
+      older.nearest_depth_m = NearestStaticDepth(older);
     }
   }
+  reference.nearest_depth_m = NearestStaticDepth(reference);
   references_.push_front(std::move(reference));
   // History long enough for References() to pick older ones spread in time.
   const double horizon =

@@ -49,7 +49,9 @@ struct DynamicMaskOptions {
 
   int reference_keyframes = 3;        // the last keyframe and older ones, spread in time
   double reference_spacing_s = 0.7;   // older references at least this far apart
-  int depth_check_stride = 4;         // reference pixels sampled along u and v
+  // Current pixels are judged in blocks of stride x stride: one verdict for the readings
+  // continuous with the block's centre, the others (object edges) each on their own.
+  int depth_check_stride = 2;
   double grow_depth_difference_m = 0.1;  // hysteresis: grown pixels nearer than the static
                                          // depth by this plus 6 sigma of Kinect noise
   double continuity = 0.03;     // neighbours within 1 cm + 3 % of depth are one surface
@@ -71,7 +73,13 @@ struct MaskReference {
   cv::Mat depth_m;  // CV_32FC1
   cv::Mat mask;     // CV_8UC1 moving pixels (left out), or empty
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  // NearestStaticDepth(*this), cached by DynamicMasker; computed on the fly when empty.
+  cv::Mat nearest_depth_m;
 };
+
+// The reference's depth with its moving pixels removed, as the minimum over 5x5 pixels (0 where
+// any of them has no reading): one-pixel pose or edge errors at thin objects are no evidence.
+cv::Mat NearestStaticDepth(const MaskReference& reference);
 
 struct DynamicMaskResult {
   cv::Mat mask;  // CV_8UC1, 255 = moving
