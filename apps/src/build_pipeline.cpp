@@ -246,9 +246,6 @@ class MaskStage {
       const cv::Mat truth = truth_.Get(frame.time);
       if (!truth.empty() && truth.size() == result.mask.size()) score_.Add(result.mask, truth);
     }
-    if (const char* dump = std::getenv("STILLMAP_DUMP_MASKS")) {  // DEBUG-ONLY
-      cv::imwrite(std::string(dump) + "/" + std::to_string(frames_) + ".png", result.mask);
-    }
     return result.mask;
   }
 

@@ -152,14 +152,25 @@ TEST_F(BadInputTest, OutputFolderThatCannotBeWritten) {
   ExpectRefused("cannot create the output folder");
 }
 
-TEST_F(BadInputTest, DetectorsOtherThanNoneAreRefusedByName) {
+TEST_F(BadInputTest, UnknownDetectorIsRefused) {
   std::string output;
   EXPECT_EQ(
-      RunStillmap("build " + sequence_ + " -o " + output_ + " --detector yolox --quiet", &output),
+      RunStillmap("build " + sequence_ + " -o " + output_ + " --detector yolo9 --quiet", &output),
       2);
-  EXPECT_NE(output.find("'yolox' is not available"), std::string::npos) << output;
-  EXPECT_NE(output.find("--detector none"), std::string::npos) << output;
+  EXPECT_NE(output.find("yolo9"), std::string::npos) << output;
   EXPECT_FALSE(std::filesystem::exists(output_));
+}
+
+TEST_F(BadInputTest, DetectorWithoutItsModelIsRefusedNamingTheFile) {
+  ExpectRefused("yolox_nano.onnx", "--detector yolox --models " + (dir_ / "no_models"));
+}
+
+TEST_F(BadInputTest, UnknownOutlineModeIsRefused) {
+  ExpectRefused("masking.outline", "--set masking.outline=blob");
+}
+
+TEST_F(BadInputTest, BadMotionLevelIsRefused) {
+  ExpectRefused("detector.levels", "--set detector.levels=chair=sometimes");
 }
 
 TEST(CommandLineTest, UsageErrorsExitWithTwoAndHelpWithZero) {

@@ -59,7 +59,9 @@ struct DynamicMaskOptions {
 
   OutlineMode outline = OutlineMode::kDepth;  // box detections: how the object is cut out
   double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
-  int detector_interval = 1;    // the detector runs every n-th frame; boxes are carried between
+  // The detector runs every n-th frame; boxes are carried between by the flow of their points
+  // (walking_xyz, YOLOX: 1 and 2 give precision 0.942/0.943, recall 0.967/0.967; 11.7 -> 15.8 fps).
+  int detector_interval = 2;
   int margin_px = 1;            // safety margin around the mask (walking_xyz: 4 px gave precision 0.82, 1 px 0.94, same ghosts)
   int min_region_px = 150;      // geometric regions smaller than this are dropped
 

@@ -1,0 +1,162 @@
+// The dynamic mask: scores recomputed by hand, the depth check on an analytic scene, and the fused
+// masks of rendered walking people against their exact masks (rendering poses).
+#include "stillmap/tracking/dynamic_mask.h"
+
+#include <gtest/gtest.h>
+
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "rendered_sequence.h"
+#include "stillmap/io/error.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+Camera PlainCamera() {
+  Camera camera;
+  camera.width = 160;
+  camera.height = 120;
+  camera.fx = camera.fy = 130.0;
+  camera.cx = 79.5;
+  camera.cy = 59.5;
+  return camera;
+}
+
+TEST(MaskScoreTest, CountsPixelsAsDefined) {
+  cv::Mat mask(10, 10, CV_8UC1, cv::Scalar(0)), truth(10, 10, CV_8UC1, cv::Scalar(0));
+  mask(cv::Rect(0, 0, 5, 4)).setTo(255);   // 20 pixels
+  truth(cv::Rect(0, 0, 5, 2)).setTo(255);  // 10 pixels, all inside the mask
+  truth(cv::Rect(8, 8, 2, 2)).setTo(255);  // 4 missed
+  MaskScore score;
+  score.Add(mask, truth);
+  EXPECT_DOUBLE_EQ(score.Precision(), 10.0 / 20.0);
+  EXPECT_DOUBLE_EQ(score.Recall(), 10.0 / 14.0);
+  EXPECT_DOUBLE_EQ(score.Iou(), 10.0 / 24.0);
+  score.Add(cv::Mat(10, 10, CV_8UC1, cv::Scalar(0)), cv::Mat(10, 10, CV_8UC1, cv::Scalar(0)));
+  EXPECT_EQ(score.frames, 1U);  // frames with nothing moving in either do not count for the IoU
+}
+
+TEST(DynamicMaskOptionsTest, ImpossibleValuesAreNamed) {
+  DynamicMaskOptions options;
+  options.grow_depth_difference_m = 1.0;  // above tau_d
+  EXPECT_THROW(options.Validate(), InputError);
+  EXPECT_THROW(ParseOutlineMode("blob"), InputError);
+  EXPECT_EQ(ParseOutlineMode("edges"), OutlineMode::kEdges);
+}
+
+// A wall at 3 m seen by a reference; then the camera moves 10 cm sideways and a box stands 1.5 m
+// in front of it. The box is exactly the moving region; the wall is not.
+TEST(GeometricMaskerTest, AnObjectInFreeSpaceIsFoundExactly) {
+  const Camera camera = PlainCamera();
+  DynamicMaskOptions options;
+  options.min_region_px = 0;
+  const GeometricMasker masker(camera, options);
+  MaskReference reference;
+  reference.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  Eigen::Isometry3d world_from_current = Eigen::Isometry3d::Identity();
+  world_from_current.translation() = Eigen::Vector3d(0.1, 0.0, 0.0);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  const cv::Rect object(60, 40, 30, 40);
+  depth(object).setTo(1.5f);
+  int seeds = 0;
+  cv::Mat consistent;
+  const cv::Mat found =
+      masker.Compute(depth, world_from_current, {&reference}, {}, &seeds, &consistent);
+  cv::Mat truth(depth.size(), CV_8UC1, cv::Scalar(0));
+  truth(object).setTo(255);
+  MaskScore score;
+  score.Add(found, truth);
+  EXPECT_EQ(score.Precision(), 1.0);
+  EXPECT_EQ(score.Recall(), 1.0);
+  EXPECT_EQ(seeds, object.area());
+  // The wall the reference saw is confirmed static where it is visible in both views.
+  EXPECT_GT(cv::countNonZero(consistent), 0.8 * (depth.total() - object.area()));
+  // Without the object nothing moves; with the reference's own mask over the region, the
+  // reference gives no evidence there and nothing is found either.
+  EXPECT_EQ(cv::countNonZero(masker.Compute(reference.depth_m, world_from_current, {&reference})), 0);
+  MaskReference blind = reference;
+  blind.mask = cv::Mat(depth.size(), CV_8UC1, cv::Scalar(255));
+  EXPECT_EQ(cv::countNonZero(masker.Compute(depth, world_from_current, {&blind})), 0);
+}
+
+// Hysteresis: a person 0.2 m in front of a wall is below tau_d (0.4 m) but is grown from the part
+// of the same body that stands farther out.
+TEST(GeometricMaskerTest, RegionsGrowFromSeedsOverContinuousNearerReadings) {
+  const Camera camera = PlainCamera();
+  DynamicMaskOptions options;
+  options.min_region_px = 0;
+  const GeometricMasker masker(camera, options);
+  MaskReference reference;
+  reference.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  cv::Mat depth = reference.depth_m.clone();
+  // A slanted object: from 2.4 m (0.6 m out) to 2.8 m (0.2 m out) over 40 columns.
+  for (int u = 40; u < 80; ++u) depth(cv::Rect(u, 30, 1, 50)).setTo(2.4f + 0.01f * (u - 40));
+  int seeds = 0;
+  const cv::Mat found =
+      masker.Compute(depth, Eigen::Isometry3d::Identity(), {&reference}, {}, &seeds);
+  EXPECT_EQ(seeds, 20 * 50);                            // columns at least 0.4 m out
+  EXPECT_EQ(cv::countNonZero(found), 40 * 50);          // the whole object
+  EXPECT_EQ(cv::countNonZero(found(cv::Rect(0, 0, 40, camera.height))), 0);
+}
+
+// Rendered walking people with exact masks, rendering poses, geometry only: each frame's mask
+// against the truth after the first references exist (frames 15 on). Measured: precision 0.94,
+// recall 0.86 (the longer runs of the build reach 0.94 / 0.94 without a detector).
+TEST(DynamicMaskerTest, FindsRenderedWalkingPeople) {
+  testing::TempDir dir;
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 75);
+  const Camera camera = ResolveCamera(dir / "seq", {});
+  DynamicMasker masker(camera, DynamicMaskOptions());
+  MaskScore score;
+  cv::Mat gray;
+  for (size_t i = 0; i < sequence.frames().size(); ++i) {
+    const Frame frame = sequence.LoadFrame(i);
+    const Eigen::Isometry3d pose = *sequence.groundtruth()->Interpolate(frame.time, 0.1);
+    cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
+    const DynamicMaskResult result = masker.Compute(gray, frame.depth_m, pose, nullptr);
+    ASSERT_EQ(result.mask.size(), gray.size());
+    if (i % 5 == 0) masker.AddReference({frame.time, frame.depth_m, result.mask, pose, cv::Mat()});
+    if (i >= 15) score.Add(result.mask, testing::MovingObjectMask(dir / "seq", sequence, i));
+  }
+  std::cout << "rendered walking_xyz, frames 15-74, geometry only: precision " << score.Precision()
+            << ", recall " << score.Recall() << ", IoU " << score.Iou() << "\n";
+  EXPECT_GT(score.Precision(), 0.9);
+  EXPECT_GT(score.Recall(), 0.8);
+}
+
+// Semantics: a person detection is masked even when geometry has nothing to say (no pose), cut
+// to the depth foreground inside its box; a medium-level object at rest is not masked.
+TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
+  const Camera camera = PlainCamera();
+  DynamicMaskOptions options;
+  options.margin_px = 0;
+  DynamicMasker masker(camera, options);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  const cv::Rect person(50, 20, 20, 80), chair(100, 60, 30, 30);
+  depth(person).setTo(1.5f);
+  depth(chair).setTo(2.0f);
+  const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
+  Detection high;
+  high.box = cv::Rect2f(40, 10, 40, 100);  // loose box around the person
+  high.level = MotionLevel::kHigh;
+  Detection medium;
+  medium.box = cv::Rect2f(chair);
+  medium.level = MotionLevel::kMedium;
+  const std::vector<Detection> detections = {high, medium};
+  const DynamicMaskResult result = masker.Compute(gray, depth, std::nullopt, &detections);
+  cv::Mat truth(depth.size(), CV_8UC1, cv::Scalar(0));
+  truth(person).setTo(255);
+  MaskScore score;
+  score.Add(result.mask, truth);
+  EXPECT_GT(score.Recall(), 0.99);
+  EXPECT_GT(score.Precision(), 0.95);  // the box's background is cut away
+  EXPECT_EQ(result.high_regions, 1);
+  EXPECT_EQ(result.medium_static, 1);
+  EXPECT_EQ(cv::countNonZero(result.mask(chair)), 0);
+}
+
+}  // namespace
+}  // namespace stillmap
