@@ -1,12 +1,12 @@
 // The stillmap command: parses arguments and calls the library. Exit status: 0 success, 1 the run
 // failed, 2 bad usage or bad input.
-#include <cstdlib>
-#include <filesystem>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <iostream>
 
 #include "stillmap/apps/build_pipeline.h"

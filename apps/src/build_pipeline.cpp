@@ -11,8 +11,8 @@
 #include <future>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgproc.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <unordered_set>
 
@@ -138,8 +138,8 @@ MapperFrame ToMapperFrame(const Frame& frame, const cv::Mat& mask,
 struct TrackingRecord {
   std::vector<double> extract_ms, match_ms, pose_ms, keyframe_ms, total_ms;
   std::map<std::string, size_t> status_counts;
-  std::vector<double> lost_times;  // frames without a pose [s]
-  double fuse_ms = 0.0;            // fusing final keyframes into the map, on the main thread
+  std::vector<double> lost_times;       // frames without a pose [s]
+  double fuse_ms = 0.0;                 // fusing final keyframes into the map, on the main thread
   size_t rechecked_with_additions = 0;  // keyframes the map re-check added moving pixels to
 };
 
@@ -256,7 +256,9 @@ class MaskStage {
   }
 
   double MeanShare() const { return frames_ > 0 ? share_sum_ / static_cast<double>(frames_) : 0.0; }
-  bool scored() const { return score_.frames > 0 || score_.true_positive + score_.false_positive > 0; }
+  bool scored() const {
+    return score_.frames > 0 || score_.true_positive + score_.false_positive > 0;
+  }
   const MaskScore& score() const { return score_; }
 
   nlohmann::json Json() const {
@@ -421,8 +423,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
           for (auto next = std::next(it); next != waiting.end(); ++next) {
             const bool newest = std::next(next) == waiting.end();
             if (next->second.frame.time - last < spacing && !newest) continue;
-            later.push_back({next->second.frame.time, next->second.frame.depth_m,
-                             next->second.mask, next->second.world_from_camera, cv::Mat()});
+            later.push_back({next->second.frame.time, next->second.frame.depth_m, next->second.mask,
+                             next->second.world_from_camera, cv::Mat()});
             last = next->second.frame.time;
           }
           std::vector<const MaskReference*> references;
@@ -435,9 +437,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
           }
           for (const MaskReference& reference : later) references.push_back(&reference);
           if (references.size() > max_references) references.resize(max_references);
-          cv::Mat recheck = masks.masker()->geometry().Compute(frame.depth_m,
-                                                                keyframe.world_from_camera,
-                                                                references);
+          cv::Mat recheck = masks.masker()->geometry().Compute(
+              frame.depth_m, keyframe.world_from_camera, references);
           if (cv::countNonZero(recheck) > 0) {
             const int size = 2 * config.masking.margin_px + 1;
             cv::dilate(recheck, recheck,
@@ -446,18 +447,17 @@ BuildSummary RunBuild(const BuildRequest& request) {
             ++record.rechecked_with_additions;
           }
         }
-        const double share =
-            mask.empty() ? 0.0
-                         : static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
+        const double share = mask.empty() ? 0.0
+                                          : static_cast<double>(cv::countNonZero(mask)) /
+                                                static_cast<double>(mask.total());
         size_t shared = 0;
         for (int id : keyframe.landmarks) shared += selected_landmarks.count(id);
         const SelectionVerdict verdict =
-            !config.selection.enabled ? SelectionVerdict::kFused
+            !config.selection.enabled                   ? SelectionVerdict::kFused
             : share > config.selection.max_masked_share ? SelectionVerdict::kInvalid
             : !keyframe.landmarks.empty() &&
-                    static_cast<double>(shared) >
-                        config.selection.max_shared_landmarks *
-                            static_cast<double>(keyframe.landmarks.size())
+                    static_cast<double>(shared) > config.selection.max_shared_landmarks *
+                                                      static_cast<double>(keyframe.landmarks.size())
                 ? SelectionVerdict::kRedundant
                 : SelectionVerdict::kFused;
         if (verdict == SelectionVerdict::kFused) {

@@ -304,17 +304,20 @@ const std::vector<ConfigKey>& Keys() {
     masking_bool("flow_check", "KLT flow / epipolar distance DBSCAN check (paper 004)",
                  &DynamicMaskOptions::flow_check);
     k.push_back(DoubleKey(
-        "masking.depth_difference", "tau_d: nearer than the keyframe's static depth by this [m] "
+        "masking.depth_difference",
+        "tau_d: nearer than the keyframe's static depth by this [m] "
         "(paper 002: 0.4)",
         [](BuildConfig& c) -> double& { return c.masking.depth.max_depth_difference_m; }));
-    k.push_back(DoubleKey(
-        "masking.max_parallax_deg", "depth-check points seen under more parallax are skipped "
-        "(paper 002: 30)",
-        [](BuildConfig& c) -> double& { return c.masking.depth.max_parallax_deg; }));
-    k.push_back(DoubleKey(
-        "masking.flow_epsilon_px", "DBSCAN radius in the (flow length, epipolar distance) plane "
-        "[px] (paper 004)",
-        [](BuildConfig& c) -> double& { return c.masking.flow.dbscan_epsilon_px; }));
+    k.push_back(
+        DoubleKey("masking.max_parallax_deg",
+                  "depth-check points seen under more parallax are skipped "
+                  "(paper 002: 30)",
+                  [](BuildConfig& c) -> double& { return c.masking.depth.max_parallax_deg; }));
+    k.push_back(
+        DoubleKey("masking.flow_epsilon_px",
+                  "DBSCAN radius in the (flow length, epipolar distance) plane "
+                  "[px] (paper 004)",
+                  [](BuildConfig& c) -> double& { return c.masking.flow.dbscan_epsilon_px; }));
     k.push_back(IntKey("masking.flow_min_points", "DBSCAN core-point neighbours (paper 004)",
                        [](BuildConfig& c) -> int& { return c.masking.flow.dbscan_min_points; }));
     masking_int("flow_points", "corners tracked for the flow check",
@@ -323,7 +326,8 @@ const std::vector<ConfigKey>& Keys() {
                 &DynamicMaskOptions::reference_keyframes);
     masking_double("reference_spacing_s", "older references at least this far apart [s]",
                    &DynamicMaskOptions::reference_spacing_s);
-    masking_int("depth_check_stride", "depth check: one verdict per n x n block of continuous readings",
+    masking_int("depth_check_stride",
+                "depth check: one verdict per n x n block of continuous readings",
                 &DynamicMaskOptions::depth_check_stride);
     masking_double("grow_depth_difference",
                    "regions grow over pixels nearer than the static depth by this [m] (+ noise)",
@@ -332,16 +336,17 @@ const std::vector<ConfigKey>& Keys() {
                    &DynamicMaskOptions::continuity);
     masking_int("max_unknown_steps", "growth through pixels no reference saw [px]",
                 &DynamicMaskOptions::max_unknown_steps);
-    k.push_back({"masking.outline",
-                 "box detections cut to: depth (foreground), edges (Canny, paper 000), box",
-                 [](BuildConfig* c, const std::string& v, const std::string& where) {
-                   try {
-                     c->masking.outline = ParseOutlineMode(v);
-                   } catch (const InputError& e) {
-                     throw InputError(where + ": " + e.what());
-                   }
-                 },
-                 [](const BuildConfig& c) { return std::string(OutlineModeName(c.masking.outline)); }});
+    k.push_back(
+        {"masking.outline",
+         "box detections cut to: depth (foreground), edges (Canny, paper 000), box",
+         [](BuildConfig* c, const std::string& v, const std::string& where) {
+           try {
+             c->masking.outline = ParseOutlineMode(v);
+           } catch (const InputError& e) {
+             throw InputError(where + ": " + e.what());
+           }
+         },
+         [](const BuildConfig& c) { return std::string(OutlineModeName(c.masking.outline)); }});
     masking_double("medium_min_moving_share",
                    "medium-level objects are masked when geometry marks this share of them",
                    &DynamicMaskOptions::medium_min_moving_share);
@@ -365,9 +370,8 @@ const std::vector<ConfigKey>& Keys() {
         "keyframes.max_shared_landmarks",
         "redundant: more than this share of its landmarks is seen by the selected keyframes",
         [](BuildConfig& c) -> double& { return c.selection.max_shared_landmarks; }));
-    k.push_back(DoubleKey(
-        "detector.score_threshold", "YOLOX: objectness x class probability",
-        [](BuildConfig& c) -> double& { return c.yolox.score_threshold; }));
+    k.push_back(DoubleKey("detector.score_threshold", "YOLOX: objectness x class probability",
+                          [](BuildConfig& c) -> double& { return c.yolox.score_threshold; }));
     k.push_back({"detector.levels",
                  "motion-level overrides, e.g. chair=low,book=high (levels: high, medium, low)",
                  [](BuildConfig* c, const std::string& v, const std::string& where) {

@@ -228,7 +228,8 @@ TEST(BuildTest, DynamicRejectionMasksWalkingPeopleAndKeepsTheirGhostsOut) {
                                  &output),
             0)
       << output;
-  const nlohmann::json masked = nlohmann::json::parse(testing::ReadText(dir / "masked/report.json"));
+  const nlohmann::json masked =
+      nlohmann::json::parse(testing::ReadText(dir / "masked/report.json"));
   const nlohmann::json unmasked =
       nlohmann::json::parse(testing::ReadText(dir / "unmasked/report.json"));
   const nlohmann::json& score = masked.at("mask_quality");
@@ -239,7 +240,8 @@ TEST(BuildTest, DynamicRejectionMasksWalkingPeopleAndKeepsTheirGhostsOut) {
             << " %), completeness "
             << 100.0 * masked.at("map_quality").at("completeness").get<double>() << " %; ATE "
             << masked.at("trajectory_error").at("ate_m").at("rmse").get<double>() * 1e3
-            << " mm (without " << unmasked.at("trajectory_error").at("ate_m").at("rmse").get<double>() * 1e3
+            << " mm (without "
+            << unmasked.at("trajectory_error").at("ate_m").at("rmse").get<double>() * 1e3
             << " mm)\n";
   // Measured: precision 0.95, recall 0.90 (the first frames have no reference yet).
   EXPECT_GT(score.at("precision").get<double>(), 0.85);

@@ -76,7 +76,8 @@ TEST(GeometricMaskerTest, AnObjectInFreeSpaceIsFoundExactly) {
   EXPECT_GT(cv::countNonZero(consistent), 0.8 * (depth.total() - object.area()));
   // Without the object nothing moves; with the reference's own mask over the region, the
   // reference gives no evidence there and nothing is found either.
-  EXPECT_EQ(cv::countNonZero(masker.Compute(reference.depth_m, world_from_current, {&reference})), 0);
+  EXPECT_EQ(cv::countNonZero(masker.Compute(reference.depth_m, world_from_current, {&reference})),
+            0);
   MaskReference blind = reference;
   blind.mask = cv::Mat(depth.size(), CV_8UC1, cv::Scalar(255));
   EXPECT_EQ(cv::countNonZero(masker.Compute(depth, world_from_current, {&blind})), 0);
@@ -97,8 +98,8 @@ TEST(GeometricMaskerTest, RegionsGrowFromSeedsOverContinuousNearerReadings) {
   int seeds = 0;
   const cv::Mat found =
       masker.Compute(depth, Eigen::Isometry3d::Identity(), {&reference}, {}, &seeds);
-  EXPECT_EQ(seeds, 20 * 50);                            // columns at least 0.4 m out
-  EXPECT_EQ(cv::countNonZero(found), 40 * 50);          // the whole object
+  EXPECT_EQ(seeds, 20 * 50);                    // columns at least 0.4 m out
+  EXPECT_EQ(cv::countNonZero(found), 40 * 50);  // the whole object
   EXPECT_EQ(cv::countNonZero(found(cv::Rect(0, 0, 40, camera.height))), 0);
 }
 

@@ -196,8 +196,9 @@ class DeeplabDetector : public Detector {
     const fs::path dir = fs::path(models_dir) / "deeplabv3_mnv2_voc";
     const fs::path model = dir / "deeplab_v3_mnv2_voc_opencv46.onnx";
     if (!fs::exists(model)) {
-      throw InputError(model.string() +
-                       ": DeepLabV3 model not found (pass --models DIR holding deeplabv3_mnv2_voc/)");
+      throw InputError(
+          model.string() +
+          ": DeepLabV3 model not found (pass --models DIR holding deeplabv3_mnv2_voc/)");
     }
     names_ = ReadNames(dir / "voc.names");
     try {
@@ -240,12 +241,13 @@ class DeeplabDetector : public Detector {
     for (int c = 1; c < classes; ++c) {
       class_mask = full == c;
       if (cv::countNonZero(class_mask) < min_area) continue;
-      const int count = cv::connectedComponentsWithStats(class_mask, components, stats, centroids,
-                                                         8, CV_32S);
+      const int count =
+          cv::connectedComponentsWithStats(class_mask, components, stats, centroids, 8, CV_32S);
       for (int k = 1; k < count; ++k) {
         if (stats.at<int>(k, cv::CC_STAT_AREA) < min_area) continue;
         const cv::Rect box(stats.at<int>(k, cv::CC_STAT_LEFT), stats.at<int>(k, cv::CC_STAT_TOP),
-                           stats.at<int>(k, cv::CC_STAT_WIDTH), stats.at<int>(k, cv::CC_STAT_HEIGHT));
+                           stats.at<int>(k, cv::CC_STAT_WIDTH),
+                           stats.at<int>(k, cv::CC_STAT_HEIGHT));
         Detection detection;
         detection.box = cv::Rect2f(box);
         detection.class_id = c;

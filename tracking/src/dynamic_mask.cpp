@@ -26,7 +26,9 @@ bool Continuous(float a, float b, double continuity) {
 // wins).
 enum : std::uint8_t { kNoVerdict = 0, kConsistent = 1, kCandidate = 2, kSeed = 3 };
 
-cv::Rect Clip(const cv::Rect& box, const cv::Size& size) { return box & cv::Rect(cv::Point(), size); }
+cv::Rect Clip(const cv::Rect& box, const cv::Size& size) {
+  return box & cv::Rect(cv::Point(), size);
+}
 
 // Breadth-first growth over 4-neighbours of `region` (CV_8UC1, seeds set) restricted to `allowed`
 // pixels (a predicate on the linear index and the pixel grown from).
@@ -155,8 +157,7 @@ void DynamicMaskOptions::Validate() const {
   check(reference_keyframes >= 1, "reference_keyframes must be >= 1");
   check(reference_spacing_s >= 0.0, "reference_spacing_s must be >= 0");
   check(depth_check_stride >= 1 && depth_check_stride <= 16, "depth_check_stride must be 1..16");
-  check(grow_depth_difference_m > 0.0 &&
-            grow_depth_difference_m <= depth.max_depth_difference_m,
+  check(grow_depth_difference_m > 0.0 && grow_depth_difference_m <= depth.max_depth_difference_m,
         "grow_depth_difference_m must be > 0 and <= depth_difference");
   check(continuity > 0.0 && continuity < 1.0, "continuity must be in (0, 1)");
   check(max_unknown_steps >= 0, "max_unknown_steps must be >= 0");
@@ -284,10 +285,10 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
     for (int bv = 0; bv < height; bv += stride) {
       for (int bu = 0; bu < width; bu += stride) {
         const int v_end = std::min(bv + stride, height), u_end = std::min(bu + stride, width);
-        const int centre_index = std::min(bv + stride / 2, v_end - 1) * width +
-                                 std::min(bu + stride / 2, u_end - 1);
+        const int centre_index =
+            std::min(bv + stride / 2, v_end - 1) * width + std::min(bu + stride / 2, u_end - 1);
         const float centre_depth = z[centre_index];
-        const std::uint8_t centre_verdict = 
+        const std::uint8_t centre_verdict =
             centre_depth > 0.0f ? judge(centre_index) : std::uint8_t{kNoVerdict};
         for (int v = bv; v < v_end; ++v) {
           for (int u = bu; u < u_end; ++u) {
@@ -401,7 +402,8 @@ std::vector<cv::Point> DynamicMasker::FlowSeeds(const cv::Mat& gray, const cv::M
                                                 std::vector<cv::Point2f>* moved_from,
                                                 std::vector<cv::Point2f>* moved_to) {
   std::vector<cv::Point> seeds;
-  if (previous_gray_.empty() || previous_points_.size() < 8 || previous_gray_.size() != gray.size()) {
+  if (previous_gray_.empty() || previous_points_.size() < 8 ||
+      previous_gray_.size() != gray.size()) {
     return seeds;
   }
   const FlowCheckResult flow = CheckFlow(previous_gray_, gray, previous_points_, options_.flow);
@@ -428,8 +430,8 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
 
   // Flow: seeds for the geometry, and the motion that carries detections between detector runs.
   std::vector<cv::Point2f> moved_from, moved_to;
-  const bool need_flow = options_.flow_check || (options_.semantics && detections == nullptr &&
-                                                 !carried_.empty());
+  const bool need_flow =
+      options_.flow_check || (options_.semantics && detections == nullptr && !carried_.empty());
   std::vector<cv::Point> flow_seeds;
   if (need_flow) flow_seeds = FlowSeeds(gray, depth_m, &moved_from, &moved_to);
   result.flow_seeds = static_cast<int>(flow_seeds.size());
@@ -477,8 +479,8 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
         detection.mask = detection.mask(cv::Rect(inside.tl() - moved.tl(), inside.size())).clone();
         detection.box = cv::Rect2f(inside);
       } else {
-        detection.box &= cv::Rect2f(0.0f, 0.0f, static_cast<float>(size.width),
-                                    static_cast<float>(size.height));
+        detection.box &=
+            cv::Rect2f(0.0f, 0.0f, static_cast<float>(size.width), static_cast<float>(size.height));
       }
     }
   }
@@ -532,7 +534,8 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
         if (label[u] > 0 && claim[u] != 0) inside[static_cast<size_t>(label[u])] = 1;
       }
     }
-    for (int k = 1; k < count; ++k) result.geometric_only_regions += inside[static_cast<size_t>(k)] ? 0 : 1;
+    for (int k = 1; k < count; ++k)
+      result.geometric_only_regions += inside[static_cast<size_t>(k)] ? 0 : 1;
   }
 
   // Close small holes (missing readings inside people), then the safety margin.

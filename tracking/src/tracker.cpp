@@ -564,8 +564,11 @@ struct Tracker::Impl {
       Keyframe& keyframe = keyframes.at(map_keyframes[next_final]);
       if (!keyframe.final) {
         keyframe.final = true;
-        FinalKeyframe done{keyframe.id, keyframe.frame_index, keyframe.time,
-                           keyframe.camera_from_world.inverse(), {}};
+        FinalKeyframe done{keyframe.id,
+                           keyframe.frame_index,
+                           keyframe.time,
+                           keyframe.camera_from_world.inverse(),
+                           {}};
         for (int id : keyframe.landmark_of_feature) {
           if (id >= 0) done.landmarks.push_back(id);
         }

@@ -18,7 +18,7 @@ namespace stillmap {
 // Which keyframes are fused into the map (paper 000, section II.D).
 struct KeyframeSelectionOptions {
   bool enabled = true;
-  double max_masked_share = 0.5;      // invalid: more of the frame masked as moving than this
+  double max_masked_share = 0.5;  // invalid: more of the frame masked as moving than this
   // Redundant: |L n Lc| > this * |Lc|. Paper 000 uses 0.5; on synthetic walking_xyz (YOLOX) that
   // fuses 4 of 23 keyframes and leaves 78.6 % completeness; 0.8 gives 85-92 % from run to run,
   // 0.9 fuses 16 of 24 for 98.0 % completeness and 0.34 % ghosts.

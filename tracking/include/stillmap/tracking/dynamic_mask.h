@@ -47,23 +47,24 @@ struct DynamicMaskOptions {
   FlowCheckOptions flow;
   int flow_points = 400;  // corners tracked from the previous frame for the flow check
 
-  int reference_keyframes = 3;        // the last keyframe and older ones, spread in time
-  double reference_spacing_s = 0.7;   // older references at least this far apart
+  int reference_keyframes = 3;       // the last keyframe and older ones, spread in time
+  double reference_spacing_s = 0.7;  // older references at least this far apart
   // Current pixels are judged in blocks of stride x stride: one verdict for the readings
   // continuous with the block's centre, the others (object edges) each on their own.
   int depth_check_stride = 2;
   double grow_depth_difference_m = 0.1;  // hysteresis: grown pixels nearer than the static
                                          // depth by this plus 6 sigma of Kinect noise
-  double continuity = 0.03;     // neighbours within 1 cm + 3 % of depth are one surface
-  int max_unknown_steps = 30;   // growth through pixels no reference saw [px]
+  double continuity = 0.03;              // neighbours within 1 cm + 3 % of depth are one surface
+  int max_unknown_steps = 30;            // growth through pixels no reference saw [px]
 
   OutlineMode outline = OutlineMode::kDepth;  // box detections: how the object is cut out
-  double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
+  double medium_min_moving_share = 0.1;       // medium-level: share of the outline geometry marks
   // The detector runs every n-th frame; boxes are carried between by the flow of their points
   // (walking_xyz, YOLOX: 1 and 2 give precision 0.942/0.943, recall 0.967/0.967; 11.7 -> 15.8 fps).
   int detector_interval = 2;
-  int margin_px = 1;            // safety margin around the mask (walking_xyz: 4 px gave precision 0.82, 1 px 0.94, same ghosts)
-  int min_region_px = 150;      // geometric regions smaller than this are dropped
+  int margin_px = 1;  // safety margin around the mask (walking_xyz: 4 px gave precision 0.82, 1 px
+                      // 0.94, same ghosts)
+  int min_region_px = 150;  // geometric regions smaller than this are dropped
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
@@ -84,10 +85,10 @@ struct MaskReference {
 cv::Mat NearestStaticDepth(const MaskReference& reference);
 
 struct DynamicMaskResult {
-  cv::Mat mask;  // CV_8UC1, 255 = moving
-  double share = 0.0;  // masked share of the image
-  int depth_seeds = 0;  // pixels the depth check flagged
-  int flow_seeds = 0;   // flow-check points used as seeds
+  cv::Mat mask;              // CV_8UC1, 255 = moving
+  double share = 0.0;        // masked share of the image
+  int depth_seeds = 0;       // pixels the depth check flagged
+  int flow_seeds = 0;        // flow-check points used as seeds
   int geometric_pixels = 0;  // after growth
   int high_regions = 0;
   int high_confirmed = 0;  // of those, with geometry agreeing
