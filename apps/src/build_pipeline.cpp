@@ -400,8 +400,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
     Tracker tracker(camera, tracker_options);
     struct Waiting {
       Frame frame;
-      cv::Mat mask;
-      Eigen::Isometry3d world_from_camera;  // at tracking time
+      MaskReference reference;  // its mask and pose at tracking time, for the map re-check
     };
     std::map<int, Waiting> waiting;
     std::deque<MaskReference> recent;  // keyframes already considered, final poses, oldest first
@@ -414,29 +413,27 @@ BuildSummary RunBuild(const BuildRequest& request) {
         const auto it = waiting.find(keyframe.id);
         if (it == waiting.end()) continue;
         const Frame& frame = it->second.frame;
-        cv::Mat mask = it->second.mask;
+        cv::Mat mask = it->second.reference.mask;
+        bool mask_changed = false;
         if (masks.enabled() && config.map_recheck && config.masking.depth_check) {
           // References on both sides in time: earlier keyframes (final poses) and later ones
           // still in the window (their current poses), each side spread by the spacing.
-          std::vector<MaskReference> later;
+          std::vector<const MaskReference*> newest_first;
+          for (auto earlier = recent.rbegin(); earlier != recent.rend(); ++earlier) {
+            newest_first.push_back(&*earlier);
+          }
+          std::vector<const MaskReference*> references =
+              SpreadInTime(newest_first, spacing, max_references);
           double last = keyframe.time;
           for (auto next = std::next(it); next != waiting.end(); ++next) {
+            MaskReference& later = next->second.reference;
             const bool newest = std::next(next) == waiting.end();
-            if (next->second.frame.time - last < spacing && !newest) continue;
-            later.push_back({next->second.frame.time, next->second.frame.depth_m, next->second.mask,
-                             next->second.world_from_camera, cv::Mat()});
-            last = next->second.frame.time;
+            if (later.time - last < spacing && !newest) continue;
+            last = later.time;
+            if (references.size() >= max_references) continue;
+            if (later.nearest_depth_m.empty()) later.nearest_depth_m = NearestStaticDepth(later);
+            references.push_back(&later);
           }
-          std::vector<const MaskReference*> references;
-          last = keyframe.time;
-          for (auto earlier = recent.rbegin(); earlier != recent.rend(); ++earlier) {
-            if (references.empty() || last - earlier->time >= spacing) {
-              references.push_back(&*earlier);
-              last = earlier->time;
-            }
-          }
-          for (const MaskReference& reference : later) references.push_back(&reference);
-          if (references.size() > max_references) references.resize(max_references);
           cv::Mat recheck = masks.masker()->geometry().Compute(
               frame.depth_m, keyframe.world_from_camera, references);
           if (cv::countNonZero(recheck) > 0) {
@@ -444,6 +441,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
             cv::dilate(recheck, recheck,
                        cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(size, size)));
             mask = mask.empty() ? recheck : (mask | recheck);
+            mask_changed = true;
             ++record.rechecked_with_additions;
           }
         }
@@ -469,13 +467,17 @@ BuildSummary RunBuild(const BuildRequest& request) {
         } else {
           ++summary.keyframes_redundant;
         }
-        recent.push_back(
-            {keyframe.time, frame.depth_m, mask, keyframe.world_from_camera, cv::Mat()});
-        if (config.map_recheck) recent.back().nearest_depth_m = NearestStaticDepth(recent.back());
-        while (recent.size() > 1 &&
-               recent.back().time - recent.front().time >
-                   spacing * static_cast<double>(config.masking.reference_keyframes) + 0.5) {
-          recent.pop_front();
+        if (config.map_recheck) {
+          MaskReference& done = recent.emplace_back(std::move(it->second.reference));
+          done.mask = mask;
+          done.world_from_camera = keyframe.world_from_camera;  // final
+          if (mask_changed || done.nearest_depth_m.empty()) {
+            done.nearest_depth_m = NearestStaticDepth(done);
+          }
+          while (recent.size() > 1 &&
+                 recent.back().time - recent.front().time > config.masking.ReferenceHorizonS()) {
+            recent.pop_front();
+          }
         }
         waiting.erase(it);
       }
@@ -495,8 +497,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
       if (!result.tracked()) record.lost_times.push_back(frame.time);
       if (result.keyframe_id >= 0) {
         masks.AddReference(frame, mask, result.world_from_camera);
-        waiting.emplace(result.keyframe_id,
-                        Waiting{std::move(frame), mask, result.world_from_camera});
+        MaskReference reference{frame.time, frame.depth_m, mask, result.world_from_camera,
+                                cv::Mat()};
+        waiting.emplace(result.keyframe_id, Waiting{std::move(frame), std::move(reference)});
       }
       fuse(tracker.TakeFinalKeyframes());
       progress.Update(k + 1);

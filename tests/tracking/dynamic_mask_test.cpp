@@ -25,6 +25,20 @@ Camera PlainCamera() {
   return camera;
 }
 
+// A reference keyframe at the origin seeing a wall at 3 m.
+MaskReference WallReference(const Camera& camera) {
+  MaskReference reference;
+  reference.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  return reference;
+}
+
+// Every region kept, however small.
+DynamicMaskOptions KeepEveryRegion() {
+  DynamicMaskOptions options;
+  options.min_region_px = 0;
+  return options;
+}
+
 TEST(MaskScoreTest, CountsPixelsAsDefined) {
   cv::Mat mask(10, 10, CV_8UC1, cv::Scalar(0)), truth(10, 10, CV_8UC1, cv::Scalar(0));
   mask(cv::Rect(0, 0, 5, 4)).setTo(255);   // 20 pixels
@@ -51,11 +65,8 @@ TEST(DynamicMaskOptionsTest, ImpossibleValuesAreNamed) {
 // in front of it. The box is exactly the moving region; the wall is not.
 TEST(GeometricMaskerTest, AnObjectInFreeSpaceIsFoundExactly) {
   const Camera camera = PlainCamera();
-  DynamicMaskOptions options;
-  options.min_region_px = 0;
-  const GeometricMasker masker(camera, options);
-  MaskReference reference;
-  reference.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  const GeometricMasker masker(camera, KeepEveryRegion());
+  const MaskReference reference = WallReference(camera);
   Eigen::Isometry3d world_from_current = Eigen::Isometry3d::Identity();
   world_from_current.translation() = Eigen::Vector3d(0.1, 0.0, 0.0);
   cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
@@ -87,11 +98,8 @@ TEST(GeometricMaskerTest, AnObjectInFreeSpaceIsFoundExactly) {
 // of the same body that stands farther out.
 TEST(GeometricMaskerTest, RegionsGrowFromSeedsOverContinuousNearerReadings) {
   const Camera camera = PlainCamera();
-  DynamicMaskOptions options;
-  options.min_region_px = 0;
-  const GeometricMasker masker(camera, options);
-  MaskReference reference;
-  reference.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  const GeometricMasker masker(camera, KeepEveryRegion());
+  const MaskReference reference = WallReference(camera);
   cv::Mat depth = reference.depth_m.clone();
   // A slanted object: from 2.4 m (0.6 m out) to 2.8 m (0.2 m out) over 40 columns.
   for (int u = 40; u < 80; ++u) depth(cv::Rect(u, 30, 1, 50)).setTo(2.4f + 0.01f * (u - 40));

@@ -365,6 +365,7 @@ void DynamicMasker::AddReference(MaskReference reference) {
   // The older references are checked against the new one: people they saw who have moved on
   // since are found now, and left out of the comparisons to come (an unmasked person in a
   // reference otherwise vouches for the person being static where they stood).
+  reference.nearest_depth_m = NearestStaticDepth(reference);  // once, for every check below
   if (options_.depth_check) {
     const std::vector<const MaskReference*> newest = {&reference};
     for (MaskReference& older : references_) {
@@ -375,25 +376,30 @@ void DynamicMasker::AddReference(MaskReference reference) {
       older.nearest_depth_m = NearestStaticDepth(older);
     }
   }
-  reference.nearest_depth_m = NearestStaticDepth(reference);
   references_.push_front(std::move(reference));
-  // History long enough for References() to pick older ones spread in time.
-  const double horizon =
-      options_.reference_spacing_s * static_cast<double>(options_.reference_keyframes) + 0.5;
+  const double horizon = options_.ReferenceHorizonS();
   while (references_.size() > 1 && references_.front().time - references_.back().time > horizon) {
     references_.pop_back();
   }
 }
 
 std::vector<const MaskReference*> DynamicMasker::References() const {
-  // The newest, then each next one at least reference_spacing_s older than the last chosen.
+  std::vector<const MaskReference*> newest_first;
+  for (const MaskReference& reference : references_) newest_first.push_back(&reference);
+  return SpreadInTime(newest_first, options_.reference_spacing_s,
+                      static_cast<size_t>(options_.reference_keyframes));
+}
+
+std::vector<const MaskReference*> SpreadInTime(
+    const std::vector<const MaskReference*>& newest_first, double spacing_s, size_t count) {
+  // The newest, then each next one at least spacing_s older than the last chosen.
   std::vector<const MaskReference*> chosen;
   double last_time = std::numeric_limits<double>::infinity();
-  for (const MaskReference& reference : references_) {
-    if (static_cast<int>(chosen.size()) >= options_.reference_keyframes) break;
-    if (!chosen.empty() && last_time - reference.time < options_.reference_spacing_s) continue;
-    chosen.push_back(&reference);
-    last_time = reference.time;
+  for (const MaskReference* reference : newest_first) {
+    if (chosen.size() >= count) break;
+    if (!chosen.empty() && last_time - reference->time < spacing_s) continue;
+    chosen.push_back(reference);
+    last_time = reference->time;
   }
   return chosen;
 }

@@ -66,6 +66,12 @@ struct DynamicMaskOptions {
                       // 0.94, same ghosts)
   int min_region_px = 150;  // geometric regions smaller than this are dropped
 
+  // How far back references are kept: long enough to pick reference_keyframes of them spread
+  // reference_spacing_s apart [s].
+  double ReferenceHorizonS() const {
+    return reference_spacing_s * static_cast<double>(reference_keyframes) + 0.5;
+  }
+
   // Throws InputError naming the first impossible value.
   void Validate() const;
 };
@@ -83,6 +89,11 @@ struct MaskReference {
 // The reference's depth with its moving pixels removed, as the minimum over 5x5 pixels (0 where
 // any of them has no reading): one-pixel pose or edge errors at thin objects are no evidence.
 cv::Mat NearestStaticDepth(const MaskReference& reference);
+
+// From references sorted newest first: the newest, then each next one at least spacing_s older
+// than the last chosen, at most `count`.
+std::vector<const MaskReference*> SpreadInTime(
+    const std::vector<const MaskReference*>& newest_first, double spacing_s, size_t count);
 
 struct DynamicMaskResult {
   cv::Mat mask;              // CV_8UC1, 255 = moving
