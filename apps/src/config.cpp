@@ -257,6 +257,12 @@ const std::vector<ConfigKey>& Keys() {
                     &TrackerOptions::sigma_px);
     tracking_double("sigma_inverse_depth", "keypoint depth noise, in inverse depth [1/m]",
                     &TrackerOptions::sigma_inverse_depth);
+    tracking_double("far_depth", "far depth: beyond this depth [m] (see far_depth_power)",
+                    &TrackerOptions::far_depth);
+    tracking_double(
+        "far_depth_power",
+        "inverse-depth noise times (z / far_depth)^this beyond far_depth (0: off; Bonn/Xtion: 4)",
+        &TrackerOptions::far_depth_power);
     tracking_double("max_landmark_depth", "landmarks are made from depth up to this [m]",
                     &TrackerOptions::max_landmark_depth);
     tracking_double("keyframe_ratio",

@@ -34,6 +34,8 @@ void TrackerOptions::Validate() const {
   require(min_matches >= 6, "tracking.min_matches must be at least 6");
   require(sigma_px > 0.0 && sigma_inverse_depth > 0.0,
           "tracking.sigma_px and tracking.sigma_inverse_depth must be positive");
+  require(far_depth > 0.0 && far_depth_power >= 0.0,
+          "tracking.far_depth must be positive and tracking.far_depth_power not negative");
   require(min_landmark_depth > 0.0 && max_landmark_depth > min_landmark_depth,
           "tracking.max_landmark_depth must exceed tracking.min_landmark_depth (> 0)");
   require(keyframe_ratio > 0.0 && keyframe_ratio <= 1.0,
@@ -234,6 +236,10 @@ struct Tracker::Impl {
     observation.sigma_normalized =
         options.sigma_px * OctaveScale(features.keypoints[i].octave) / camera.fx;
     observation.sigma_inverse_depth = options.sigma_inverse_depth;
+    if (options.far_depth_power > 0.0 && observation.depth_m > options.far_depth) {
+      observation.sigma_inverse_depth *=
+          std::pow(observation.depth_m / options.far_depth, options.far_depth_power);
+    }
     return observation;
   }
 
