@@ -9,6 +9,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
 
 #include "stillmap/apps/build_pipeline.h"
 #include "stillmap/io/evaluation.h"
@@ -367,6 +369,20 @@ TEST(BuildTest, TrackingNothingFailsWithoutOutputs) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
+// Tracks a real sequence with the bundle adjustment inline (the figure does not depend on thread
+// timing) and no OctoMap (not under test), plus `settings`.
+BuildSummary TrackRepeatably(const std::string& sequence,
+                             const std::vector<std::string>& settings = {}) {
+  testing::TempDir dir;
+  BuildRequest request;
+  request.sequence_dir = sequence;
+  request.output_dir = dir / "out";
+  ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
+  ApplySetArgument(&request.config, "octomap.enabled=false");
+  for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
+  return RunBuild(request);
+}
+
 // Real data: TUM fr3/teddy tracked against its motion-capture trajectory. The target is
 // an ATE RMSE of at most 6 mm with every frame tracked (ORB-SLAM2 RGB-D: 5.9 to 6.9 mm here). The
 // bundle adjustment runs inline, so the figure does not depend on thread timing.
@@ -375,13 +391,7 @@ TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
   if (!sequence) {
     GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
   }
-  testing::TempDir dir;
-  BuildRequest request;
-  request.sequence_dir = *sequence;
-  request.output_dir = dir / "out";
-  ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
-  ApplySetArgument(&request.config, "octomap.enabled=false");
-  const BuildSummary summary = RunBuild(request);
+  const BuildSummary summary = TrackRepeatably(*sequence);
   EXPECT_EQ(summary.frames_tracked, summary.frames_paired);
   ASSERT_TRUE(summary.ate_rmse.has_value());
   std::cout << "teddy tracked: " << summary.frames_tracked << " of " << summary.frames_paired
@@ -396,14 +406,7 @@ TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
 TEST(BuildTest, TrackingRealBonnCrowdWithWeakFarDepthMeetsTheAccuracyTarget) {
   const auto sequence = testing::SharedSequence("bonn_crowd_a");
   if (!sequence) GTEST_SKIP() << "bonn_crowd_a not found (set STILLMAP_DATA or ../shared/data)";
-  testing::TempDir dir;
-  BuildRequest request;
-  request.sequence_dir = *sequence;
-  request.output_dir = dir / "out";
-  ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
-  ApplySetArgument(&request.config, "octomap.enabled=false");
-  ApplySetArgument(&request.config, "tracking.far_depth_power=4");
-  const BuildSummary summary = RunBuild(request);
+  const BuildSummary summary = TrackRepeatably(*sequence, {"tracking.far_depth_power=4"});
   EXPECT_EQ(summary.frames_tracked, summary.frames_paired);
   ASSERT_TRUE(summary.ate_rmse.has_value());
   std::cout << "bonn crowd tracked: " << summary.frames_tracked << " of " << summary.frames_paired

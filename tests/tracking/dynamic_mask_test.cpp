@@ -15,16 +15,6 @@
 namespace stillmap {
 namespace {
 
-Camera PlainCamera() {
-  Camera camera;
-  camera.width = 160;
-  camera.height = 120;
-  camera.fx = camera.fy = 130.0;
-  camera.cx = 79.5;
-  camera.cy = 59.5;
-  return camera;
-}
-
 // A reference keyframe at the origin seeing a wall at 3 m.
 MaskReference WallReference(const Camera& camera) {
   MaskReference reference;
@@ -64,7 +54,7 @@ TEST(DynamicMaskOptionsTest, ImpossibleValuesAreNamed) {
 // A wall at 3 m seen by a reference; then the camera moves 10 cm sideways and a box stands 1.5 m
 // in front of it. The box is exactly the moving region; the wall is not.
 TEST(GeometricMaskerTest, AnObjectInFreeSpaceIsFoundExactly) {
-  const Camera camera = PlainCamera();
+  const Camera camera = testing::SmallCamera(160, 120);
   const GeometricMasker masker(camera, KeepEveryRegion());
   const MaskReference reference = WallReference(camera);
   Eigen::Isometry3d world_from_current = Eigen::Isometry3d::Identity();
@@ -97,7 +87,7 @@ TEST(GeometricMaskerTest, AnObjectInFreeSpaceIsFoundExactly) {
 // Hysteresis: a person 0.2 m in front of a wall is below tau_d (0.4 m) but is grown from the part
 // of the same body that stands farther out.
 TEST(GeometricMaskerTest, RegionsGrowFromSeedsOverContinuousNearerReadings) {
-  const Camera camera = PlainCamera();
+  const Camera camera = testing::SmallCamera(160, 120);
   const GeometricMasker masker(camera, KeepEveryRegion());
   const MaskReference reference = WallReference(camera);
   cv::Mat depth = reference.depth_m.clone();
@@ -139,7 +129,7 @@ TEST(DynamicMaskerTest, FindsRenderedWalkingPeople) {
 // Semantics: a person detection is masked even when geometry has nothing to say (no pose), cut
 // to the depth foreground inside its box; a medium-level object at rest is not masked.
 TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
-  const Camera camera = PlainCamera();
+  const Camera camera = testing::SmallCamera(160, 120);
   DynamicMaskOptions options;
   options.margin_px = 0;
   DynamicMasker masker(camera, options);
