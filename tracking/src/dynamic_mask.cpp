@@ -404,15 +404,16 @@ std::vector<const MaskReference*> SpreadInTime(
   return chosen;
 }
 
-std::vector<cv::Point> DynamicMasker::FlowSeeds(const cv::Mat& gray, const cv::Mat& depth_m,
+std::vector<cv::Point> DynamicMasker::FlowSeeds(const FlowPyramid& pyramid, const cv::Mat& depth_m,
                                                 std::vector<cv::Point2f>* moved_from,
                                                 std::vector<cv::Point2f>* moved_to) {
   std::vector<cv::Point> seeds;
-  if (previous_gray_.empty() || previous_points_.size() < 8 ||
-      previous_gray_.size() != gray.size()) {
+  if (previous_pyramid_.empty() || previous_points_.size() < 8 ||
+      previous_pyramid_.size != pyramid.size) {
     return seeds;
   }
-  const FlowCheckResult flow = CheckFlow(previous_gray_, gray, previous_points_, options_.flow);
+  const FlowCheckResult flow =
+      CheckFlow(previous_pyramid_, pyramid, previous_points_, options_.flow);
   for (size_t i = 0; i < previous_points_.size(); ++i) {
     if (flow.tracked[i] == 0) continue;
     moved_from->push_back(previous_points_[i]);
@@ -420,7 +421,7 @@ std::vector<cv::Point> DynamicMasker::FlowSeeds(const cv::Mat& gray, const cv::M
     if (!options_.flow_check || !flow.fundamental_found || flow.dynamic[i] == 0) continue;
     const cv::Point pixel(static_cast<int>(std::lround(flow.current[i].x)),
                           static_cast<int>(std::lround(flow.current[i].y)));
-    if (pixel.x < 0 || pixel.y < 0 || pixel.x >= gray.cols || pixel.y >= gray.rows) continue;
+    if (pixel.x < 0 || pixel.y < 0 || pixel.x >= depth_m.cols || pixel.y >= depth_m.rows) continue;
     if (depth_m.at<float>(pixel) > 0.0f) seeds.push_back(pixel);
   }
   return seeds;
@@ -438,8 +439,11 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   std::vector<cv::Point2f> moved_from, moved_to;
   const bool need_flow =
       options_.flow_check || (options_.semantics && detections == nullptr && !carried_.empty());
+  const bool keep_flow = options_.flow_check || options_.semantics;
+  FlowPyramid pyramid;
+  if (keep_flow) pyramid = BuildFlowPyramid(gray, options_.flow);
   std::vector<cv::Point> flow_seeds;
-  if (need_flow) flow_seeds = FlowSeeds(gray, depth_m, &moved_from, &moved_to);
+  if (need_flow) flow_seeds = FlowSeeds(pyramid, depth_m, &moved_from, &moved_to);
   result.flow_seeds = static_cast<int>(flow_seeds.size());
 
   cv::Mat geometric(size, CV_8UC1, cv::Scalar(0));
@@ -557,10 +561,9 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   result.share = static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
 
   // Corners for the next frame's flow.
-  if (options_.flow_check || options_.semantics) {
-    previous_gray_ = gray.clone();
-    previous_points_.clear();
-    cv::goodFeaturesToTrack(gray, previous_points_, options_.flow_points, 0.01, 8.0);
+  if (keep_flow) {
+    previous_pyramid_ = std::move(pyramid);
+    previous_points_ = FlowCorners(gray, options_.flow_points, 8.0);
   }
   result.ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

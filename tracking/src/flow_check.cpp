@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
 namespace stillmap {
@@ -46,9 +47,37 @@ std::vector<int> Dbscan(const std::vector<cv::Point2f>& points, double epsilon, 
   return label;
 }
 
+FlowPyramid BuildFlowPyramid(const cv::Mat& gray, const FlowCheckOptions& options) {
+  FlowPyramid pyramid;
+  pyramid.size = gray.size();
+  // A copy of the image, not a view of it: callers reuse their image buffers.
+  cv::buildOpticalFlowPyramid(gray, pyramid.levels,
+                              cv::Size(options.klt_window, options.klt_window), options.klt_levels,
+                              true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+  return pyramid;
+}
+
+std::vector<cv::Point2f> FlowCorners(const cv::Mat& gray, int count, double min_distance_px) {
+  cv::Mat half;
+  cv::pyrDown(gray, half);
+  std::vector<cv::Point2f> corners;
+  cv::goodFeaturesToTrack(half, corners, count, 0.01, min_distance_px / 2.0);
+  // Pixel centres: half-resolution pixel (x, y) covers full-resolution 2x .. 2x + 1.
+  for (cv::Point2f& corner : corners) corner = corner * 2.0f + cv::Point2f(0.5f, 0.5f);
+  return corners;
+}
+
 FlowCheckResult CheckFlow(const cv::Mat& previous_gray, const cv::Mat& gray,
                           const std::vector<cv::Point2f>& previous_points,
                           const FlowCheckOptions& options) {
+  return CheckFlow(BuildFlowPyramid(previous_gray, options), BuildFlowPyramid(gray, options),
+                   previous_points, options);
+}
+
+FlowCheckResult CheckFlow(const FlowPyramid& previous, const FlowPyramid& current,
+                          const std::vector<cv::Point2f>& previous_points,
+                          const FlowCheckOptions& options) {
+  CV_Assert(previous.size == current.size);
   const size_t n = previous_points.size();
   FlowCheckResult result;
   result.current.assign(n, cv::Point2f());
@@ -63,10 +92,10 @@ FlowCheckResult CheckFlow(const cv::Mat& previous_gray, const cv::Mat& gray,
   std::vector<cv::Point2f> forward, backward;
   std::vector<std::uint8_t> status_forward, status_backward;
   std::vector<float> errors;
-  cv::calcOpticalFlowPyrLK(previous_gray, gray, previous_points, forward, status_forward, errors,
-                           window, options.klt_levels);
-  cv::calcOpticalFlowPyrLK(gray, previous_gray, forward, backward, status_backward, errors, window,
-                           options.klt_levels);
+  cv::calcOpticalFlowPyrLK(previous.levels, current.levels, previous_points, forward,
+                           status_forward, errors, window, options.klt_levels);
+  cv::calcOpticalFlowPyrLK(current.levels, previous.levels, forward, backward, status_backward,
+                           errors, window, options.klt_levels);
   std::vector<size_t> kept;
   std::vector<cv::Point2f> from, to;
   const float limit2 =
@@ -74,8 +103,9 @@ FlowCheckResult CheckFlow(const cv::Mat& previous_gray, const cv::Mat& gray,
   for (size_t i = 0; i < n; ++i) {
     result.current[i] = forward[i];
     const cv::Point2f round_trip = backward[i] - previous_points[i];
-    const bool inside = forward[i].x >= 0 && forward[i].y >= 0 && forward[i].x < gray.cols &&
-                        forward[i].y < gray.rows;
+    const bool inside = forward[i].x >= 0 && forward[i].y >= 0 &&
+                        forward[i].x < static_cast<float>(current.size.width) &&
+                        forward[i].y < static_cast<float>(current.size.height);
     if (status_forward[i] == 0 || status_backward[i] == 0 || !inside ||
         round_trip.x * round_trip.x + round_trip.y * round_trip.y > limit2) {
       continue;

@@ -150,7 +150,7 @@ class DynamicMasker {
   const GeometricMasker& geometry() const { return geometry_; }
 
  private:
-  std::vector<cv::Point> FlowSeeds(const cv::Mat& gray, const cv::Mat& depth_m,
+  std::vector<cv::Point> FlowSeeds(const FlowPyramid& pyramid, const cv::Mat& depth_m,
                                    std::vector<cv::Point2f>* moved_from,
                                    std::vector<cv::Point2f>* moved_to);
 
@@ -158,7 +158,7 @@ class DynamicMasker {
   DynamicMaskOptions options_;
   GeometricMasker geometry_;
   std::deque<MaskReference> references_;  // newest first
-  cv::Mat previous_gray_;
+  FlowPyramid previous_pyramid_;
   std::vector<cv::Point2f> previous_points_;
   std::vector<Detection> carried_;
 };
