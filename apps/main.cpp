@@ -64,7 +64,7 @@ int Run(int argc, char** argv) {
                         "$STILLMAP_MODELS, else ../shared/models when present)");
   build_cmd
       ->add_option("--threads", build.threads,
-                   "threads (1: no read-ahead, bundle adjustment inline)")
+                   "threads (1: no read-ahead, bundle adjustment inline, OpenCV single-threaded)")
       ->check(CLI::Range(1, 64));
   build_cmd->add_flag("--quiet", quiet, "no progress line, warnings only");
   build_cmd->footer(ConfigKeysHelp());

@@ -27,14 +27,31 @@ Mapper::Mapper(const Camera& camera, const MapperOptions& options)
 }
 
 Mapper::~Mapper() {
+  if (fusion_job_.valid()) fusion_job_.wait();
   if (occupancy_job_.valid()) occupancy_job_.wait();
 }
 
 void Mapper::Finish() {
-  if (!occupancy_job_.valid()) return;
   const auto start = std::chrono::steady_clock::now();
-  occupancy_job_.get();
-  statistics_.occupancy_wait_ms += MillisecondsSince(start);
+  if (fusion_job_.valid()) {
+    try {
+      fusion_job_.get();
+    } catch (...) {
+      if (occupancy_job_.valid()) occupancy_job_.wait();
+      throw;
+    }
+  }
+  WaitForOccupancy();
+  statistics_.wait_ms += MillisecondsSince(start);
+}
+
+void Mapper::WaitForOccupancy() {
+  if (occupancy_job_.valid()) occupancy_job_.get();
+}
+
+const VoxelCloud& Mapper::cloud() {
+  Finish();
+  return cloud_;
 }
 
 const OccupancyMap* Mapper::occupancy() {
@@ -48,6 +65,19 @@ const MapperStatistics& Mapper::statistics() {
 }
 
 void Mapper::Integrate(const MapperFrame& frame) {
+  if (!options_.in_background) {
+    Fuse(frame);
+    return;
+  }
+  if (fusion_job_.valid()) {  // the previous frame's back-projection and voxels
+    const auto start = std::chrono::steady_clock::now();
+    fusion_job_.get();
+    statistics_.wait_ms += MillisecondsSince(start);
+  }
+  fusion_job_ = std::async(std::launch::async, [this, frame] { Fuse(frame); });
+}
+
+void Mapper::Fuse(const MapperFrame& frame) {
   auto start = std::chrono::steady_clock::now();
   scratch_.Clear();
   projector_.BackProject(frame.depth_m, frame.color, frame.mask,
@@ -55,7 +85,9 @@ void Mapper::Integrate(const MapperFrame& frame) {
   statistics_.back_projection_ms += MillisecondsSince(start);
 
   if (occupancy_) {
-    Finish();  // the previous frame's insertion
+    start = std::chrono::steady_clock::now();
+    WaitForOccupancy();  // the previous frame's insertion
+    statistics_.occupancy_wait_ms += MillisecondsSince(start);
     occupancy_points_ = scratch_.positions;
     const Eigen::Vector3f origin = frame.world_from_camera.translation().cast<float>();
     auto insert = [this, origin] {
@@ -63,7 +95,7 @@ void Mapper::Integrate(const MapperFrame& frame) {
       occupancy_->InsertScan(occupancy_points_, origin);
       statistics_.occupancy_ms += MillisecondsSince(job_start);
     };
-    if (options_.occupancy_in_background) {
+    if (options_.in_background) {
       occupancy_job_ = std::async(std::launch::async, insert);
     } else {
       insert();
@@ -77,7 +109,8 @@ void Mapper::Integrate(const MapperFrame& frame) {
   statistics_.points += scratch_.size();
 }
 
-void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {
+void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) {
+  Finish();
   WriteCloudFiles(ply_path, pcd_path, cloud_);
 }
 

@@ -79,5 +79,57 @@ TEST(FlowCheckTest, FlagsPointsOnWalkingPeople) {
   EXPECT_LE(false_alarm, 0.10);
 }
 
+// The pipeline runs the flow ahead on the decoding thread, frame after frame, into one reused gray
+// buffer. FlowTracker must give each frame exactly what CheckFlow gives on that frame's own images
+// with the previous frame's corners (its pyramids own their pixels, so overwriting the buffer does
+// not change the kept previous pyramid), and its half-resolution corners must sit on corners.
+TEST(FlowTrackerTest, StepsEqualTheCheckOnFreshImagesWithAReusedBuffer) {
+  testing::TempDir dir;
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 12);
+  auto gray = [&](size_t i) {
+    return cv::imread(sequence.frames()[i].color_path, cv::IMREAD_GRAYSCALE);
+  };
+  FlowTracker tracker(400, FlowCheckOptions());
+  cv::Mat buffer;
+  size_t compared = 0;
+  for (size_t i = 0; i < sequence.frames().size(); ++i) {
+    gray(i).copyTo(buffer);  // same allocation every frame
+    const FlowStep step = tracker.Next(buffer);
+    if (i == 0) {
+      EXPECT_TRUE(step.from.empty());
+      continue;
+    }
+    const std::vector<cv::Point2f> corners = FlowCorners(gray(i - 1), 400, 8.0);
+    ASSERT_EQ(step.from, corners) << "frame " << i;
+    const FlowCheckResult fresh = CheckFlow(gray(i - 1), gray(i), corners);
+    ASSERT_EQ(step.result.tracked, fresh.tracked) << "frame " << i;
+    ASSERT_EQ(step.result.dynamic, fresh.dynamic) << "frame " << i;
+    for (size_t k = 0; k < corners.size(); ++k) {
+      ASSERT_EQ(step.result.current[k], fresh.current[k]) << "frame " << i << " point " << k;
+    }
+    ++compared;
+  }
+  EXPECT_EQ(compared, sequence.frames().size() - 1);
+
+  // Half-resolution corners, mapped back, lie within a pixel of a full-resolution corner
+  // response maximum: the minimum eigenvalue there is well above the image's median.
+  const cv::Mat image = gray(5);
+  cv::Mat response;
+  cv::cornerMinEigenVal(image, response, 3);
+  std::vector<float> all(response.begin<float>(), response.end<float>());
+  std::nth_element(all.begin(), all.begin() + static_cast<long>(all.size() / 2), all.end());
+  const float median = all[all.size() / 2];
+  const std::vector<cv::Point2f> corners = FlowCorners(image, 400, 8.0);
+  ASSERT_GE(corners.size(), 100u);
+  size_t strong = 0;
+  for (const cv::Point2f& corner : corners) {
+    double best = 0.0;
+    const cv::Rect around(cv::Point(corner) - cv::Point(1, 1), cv::Size(3, 3));
+    cv::minMaxLoc(response(around & cv::Rect(cv::Point(), image.size())), nullptr, &best);
+    strong += best > 10.0 * median ? 1 : 0;
+  }
+  EXPECT_GE(strong, corners.size() * 9 / 10);
+}
+
 }  // namespace
 }  // namespace stillmap

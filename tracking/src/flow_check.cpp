@@ -1,6 +1,7 @@
 #include "stillmap/tracking/flow_check.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -65,6 +66,22 @@ std::vector<cv::Point2f> FlowCorners(const cv::Mat& gray, int count, double min_
   // Pixel centres: half-resolution pixel (x, y) covers full-resolution 2x .. 2x + 1.
   for (cv::Point2f& corner : corners) corner = corner * 2.0f + cv::Point2f(0.5f, 0.5f);
   return corners;
+}
+
+FlowStep FlowTracker::Next(const cv::Mat& gray) {
+  const auto start = std::chrono::steady_clock::now();
+  FlowStep step;
+  FlowPyramid pyramid = BuildFlowPyramid(gray, options_);
+  if (!previous_pyramid_.empty() && previous_pyramid_.size == pyramid.size &&
+      previous_corners_.size() >= 8) {
+    step.result = CheckFlow(previous_pyramid_, pyramid, previous_corners_, options_);
+    step.from = std::move(previous_corners_);
+  }
+  previous_pyramid_ = std::move(pyramid);
+  previous_corners_ = FlowCorners(gray, corners_, 8.0);
+  step.ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return step;
 }
 
 FlowCheckResult CheckFlow(const cv::Mat& previous_gray, const cv::Mat& gray,

@@ -74,6 +74,8 @@ struct DynamicMaskOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+  // Flow is tracked (for the flow check, or to carry detections between detector runs).
+  bool TracksFlow() const { return flow_check || semantics; }
 };
 
 // A keyframe as a reference for the depth check.
@@ -138,9 +140,13 @@ class DynamicMasker {
   // The mask of one frame. `world_from_camera`: its (predicted) pose, or nothing (no depth
   // check). `detections`: this frame's, or nullptr on frames the detector skipped (the last ones
   // are carried by the flow of their points).
+  // `flow`: this frame's step of a FlowTracker run by the caller (for example ahead, on another
+  // thread), or nullptr to let the masker run its own; either way every frame must pass through
+  // the same tracker, in order.
   DynamicMaskResult Compute(const cv::Mat& gray, const cv::Mat& depth_m,
                             const std::optional<Eigen::Isometry3d>& world_from_camera,
-                            const std::vector<Detection>* detections);
+                            const std::vector<Detection>* detections,
+                            const FlowStep* flow = nullptr);
 
   // A keyframe becomes a depth-check reference (kept: the newest and older ones spread in time).
   void AddReference(MaskReference reference);
@@ -150,16 +156,15 @@ class DynamicMasker {
   const GeometricMasker& geometry() const { return geometry_; }
 
  private:
-  std::vector<cv::Point> FlowSeeds(const FlowPyramid& pyramid, const cv::Mat& depth_m,
+  std::vector<cv::Point> FlowSeeds(const FlowStep& flow, const cv::Mat& depth_m,
                                    std::vector<cv::Point2f>* moved_from,
-                                   std::vector<cv::Point2f>* moved_to);
+                                   std::vector<cv::Point2f>* moved_to) const;
 
   Camera camera_;
   DynamicMaskOptions options_;
   GeometricMasker geometry_;
   std::deque<MaskReference> references_;  // newest first
-  FlowPyramid previous_pyramid_;
-  std::vector<cv::Point2f> previous_points_;
+  FlowTracker flow_tracker_;              // used when Compute is given no flow step
   std::vector<Detection> carried_;
 };
 

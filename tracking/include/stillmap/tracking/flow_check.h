@@ -58,6 +58,29 @@ FlowCheckResult CheckFlow(const cv::Mat& previous_gray, const cv::Mat& gray,
 // (cv::goodFeaturesToTrack, measured on bonn_crowd_a; stillmap_masking_benchmark).
 std::vector<cv::Point2f> FlowCorners(const cv::Mat& gray, int count, double min_distance_px);
 
+// The image-only part of the flow check over a stream of frames, taken in order: each frame's
+// pyramid, the check of the previous frame's corners against it, and its own corners for the
+// next frame. It needs nothing from tracking, so a pipeline may run it ahead, on the thread that
+// decodes the frames.
+struct FlowStep {
+  std::vector<cv::Point2f> from;  // the previous frame's corners (empty on the first frame)
+  FlowCheckResult result;         // their check against this frame
+  double ms = 0.0;                // time taken
+};
+
+class FlowTracker {
+ public:
+  FlowTracker(int corners, const FlowCheckOptions& options)
+      : corners_(corners), options_(options) {}
+  FlowStep Next(const cv::Mat& gray);
+
+ private:
+  int corners_;
+  FlowCheckOptions options_;
+  FlowPyramid previous_pyramid_;
+  std::vector<cv::Point2f> previous_corners_;
+};
+
 // DBSCAN over 2-D points: a cluster label per point (0, 1, ...) or -1 for noise.
 std::vector<int> Dbscan(const std::vector<cv::Point2f>& points, double epsilon, int min_points);
 
