@@ -26,6 +26,7 @@
 #include "stillmap/mapping/map_io.h"
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/mapping/occupancy_grid.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
@@ -554,6 +555,22 @@ BuildSummary RunBuild(const BuildRequest& request) {
   if (mapper.occupancy() != nullptr) {
     mapper.WriteOccupancy(outputs.TemporaryPath("map.bt"), outputs.TemporaryPath("map.ot"));
   }
+  // The 2-D grid for planners, from the OctoMap; the floor is fitted to it and checked against
+  // the fused cameras' mean up direction (camera -y).
+  std::optional<OccupancyGrid> grid;
+  double grid_ms = 0.0;
+  if (config.grid.enabled && mapper.occupancy() != nullptr) {
+    const Clock::time_point grid_start = Clock::now();
+    Eigen::Vector3d cameras_up = Eigen::Vector3d::Zero();
+    for (const StampedPose& pose : keyframe_poses) {
+      cameras_up -= pose.world_from_camera.linear().col(1);
+    }
+    const FloorPlane floor = FindFloor(*mapper.occupancy(), cameras_up, config.grid);
+    grid = ProjectToGrid(*mapper.occupancy(), floor, config.grid);
+    WriteGrid(*grid, outputs.TemporaryPath("grid.pgm"), outputs.TemporaryPath("grid.yaml"),
+              "grid.pgm");
+    grid_ms = Seconds(grid_start) * 1000.0;
+  }
   trajectory.WriteTum(outputs.TemporaryPath("trajectory.txt"),
                       tracking ? "stillmap trajectory (camera-to-world, every tracked frame)"
                                : "stillmap trajectory (camera-to-world, ground-truth poses)");
@@ -632,7 +649,41 @@ BuildSummary RunBuild(const BuildRequest& request) {
                    {"octomap_leaves", summary.octomap_leaves},
                    {"octomap_occupied_leaves",
                     mapper.occupancy() ? mapper.occupancy()->OccupiedLeafCount() : 0}};
+  if (grid) {
+    const Eigen::Matrix4d m = grid->world_from_grid.matrix();
+    std::vector<double> world_from_map;
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) world_from_map.push_back(m(r, c));
+    }
+    const FloorPlane& floor = grid->floor;
+    report["grid"] = {{"files", {"grid.pgm", "grid.yaml"}},
+                      {"width", grid->width},
+                      {"height", grid->height},
+                      {"resolution_m", grid->resolution},
+                      {"origin_m", {grid->origin.x(), grid->origin.y()}},
+                      {"band_m", {grid->min_height, grid->max_height}},
+                      {"cells",
+                       {{"free", grid->Count(kGridFree)},
+                        {"occupied", grid->Count(kGridOccupied)},
+                        {"unknown", grid->Count(kGridUnknown)}}},
+                      {"frame",
+                       "x, y in the floor plane, z up from the floor, origin on the floor below "
+                       "the world origin"},
+                      {"world_from_map", world_from_map},
+                      {"floor",
+                       {{"source", floor.source},
+                        {"up", {floor.up.x(), floor.up.y(), floor.up.z()}},
+                        {"offset_m", floor.offset},
+                        {"world_origin_height_m", floor.offset},
+                        {"tilt_to_cameras_up_deg", floor.tilt_to_cameras_deg},
+                        {"plane_voxels", floor.inliers}}}};
+  } else {
+    report["grid"] = nullptr;
+    report["grid_note"] = config.grid.enabled ? "not written: the OctoMap is off (octomap.enabled)"
+                                              : "not written: grid.enabled=false";
+  }
   nlohmann::json timing = {{"load_wait_total", reader.wait_s() * 1000.0},
+                           {"grid", grid_ms},
                            {"back_projection_total", stats.back_projection_ms},
                            {"voxel_total", stats.voxel_ms},
                            {"octomap_total", stats.occupancy_ms},
@@ -743,7 +794,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
     std::vector<VoxelPoint> points = mapper.cloud().Points();
     const Eigen::Isometry3f transform = groundtruth_from_map->cast<float>();
     for (VoxelPoint& point : points) point.position = transform * point.position;
-    const MapQuality quality = EvaluateMap(points, ReadCloud(static_groundtruth.string()));
+    const std::vector<VoxelPoint> truth = ReadCloud(static_groundtruth.string());
+    const MapQuality quality = EvaluateMap(points, truth);
     summary.map_quality = quality;
     report["map_quality"] = {
         {"groundtruth", static_groundtruth.string()},
@@ -756,6 +808,22 @@ BuildSummary RunBuild(const BuildRequest& request) {
         {"completeness", quality.completeness},
         {"ghost_share", quality.ghost_share},
         {"evaluation_s", Seconds(evaluation_start)}};
+    if (grid) {
+      // The truth's occupancy over the same band, in the map's frame.
+      const Eigen::Isometry3d map_from_groundtruth = groundtruth_from_map->inverse();
+      std::vector<Eigen::Vector3d> truth_in_map;
+      truth_in_map.reserve(truth.size());
+      for (const VoxelPoint& point : truth) {
+        truth_in_map.push_back(map_from_groundtruth * point.position.cast<double>());
+      }
+      const GridQuality grid_quality = EvaluateGrid(*grid, truth_in_map);
+      summary.grid_quality = grid_quality;
+      report["grid_quality"] = {{"observed_cells", grid_quality.observed_cells},
+                                {"agreement", grid_quality.agreement},
+                                {"occupied_cells", grid_quality.occupied_cells},
+                                {"occupied_without_static_truth", grid_quality.false_occupied},
+                                {"free_where_truth_occupied", grid_quality.missed_occupied}};
+    }
   }
   {
     std::ofstream out(outputs.TemporaryPath("report.json"));

@@ -366,6 +366,41 @@ const std::vector<ConfigKey>& Keys() {
                         "re-run the depth check on each keyframe against its neighbours (both "
                         "sides in time, final poses) before fusing it",
                         [](BuildConfig& c) -> bool& { return c.map_recheck; }));
+    k.push_back(BoolKey("grid.enabled", "write the 2-D occupancy grid (grid.pgm, grid.yaml)",
+                        [](BuildConfig& c) -> bool& { return c.grid.enabled; }));
+    k.push_back(DoubleKey("grid.min_height",
+                          "lowest height above the floor that blocks a grid cell [m]",
+                          [](BuildConfig& c) -> double& { return c.grid.min_height; }));
+    k.push_back(DoubleKey("grid.max_height", "robot height: highest blocking height [m]",
+                          [](BuildConfig& c) -> double& { return c.grid.max_height; }));
+    k.push_back(DoubleKey("grid.max_floor_tilt_deg",
+                          "a fitted floor's normal is within this of the cameras' up",
+                          [](BuildConfig& c) -> double& { return c.grid.max_floor_tilt_deg; }));
+    k.push_back({"grid.floor",
+                 "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 in "
+                 "the world frame, (a, b, c) pointing up",
+                 [](BuildConfig* c, const std::string& v, const std::string& where) {
+                   if (v == "auto") {
+                     c->grid.floor.reset();
+                     return;
+                   }
+                   std::stringstream in(v);
+                   Eigen::Vector4d plane;
+                   for (int i = 0; i < 4; ++i) {
+                     std::string item;
+                     if (!(in >> item)) BadValue(where, "grid.floor", v, "auto or four numbers");
+                     plane[i] = ToDouble("grid.floor", item, where);
+                   }
+                   std::string extra;
+                   if (in >> extra) BadValue(where, "grid.floor", v, "auto or four numbers");
+                   c->grid.floor = plane;
+                 },
+                 [](const BuildConfig& c) {
+                   if (!c.grid.floor) return std::string("auto");
+                   const Eigen::Vector4d& p = *c.grid.floor;
+                   return "\"" + Number(p[0]) + " " + Number(p[1]) + " " + Number(p[2]) + " " +
+                          Number(p[3]) + "\"";
+                 }});
     k.push_back(BoolKey("keyframes.selection",
                         "fuse only valid, non-redundant keyframes (paper 000)",
                         [](BuildConfig& c) -> bool& { return c.selection.enabled; }));
@@ -437,6 +472,7 @@ void BuildConfig::Validate() const {
   tracking.Validate();
   masking.Validate();
   selection.Validate();
+  grid.Validate();
   if (!(yolox.score_threshold > 0.0 && yolox.score_threshold < 1.0)) {
     throw InputError("detector.score_threshold must be in (0, 1)");
   }

@@ -63,6 +63,16 @@ double OccupancyMap::Occupancy(const Eigen::Vector3d& point_in_world) const {
   return node == nullptr ? -1.0 : node->getOccupancy();
 }
 
+void OccupancyMap::ForEachLeaf(const std::function<void(const Eigen::Vector3d& centre, double size,
+                                                        bool occupied)>& visit) const {
+  const octomap::OcTree& tree = impl_->tree;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    const octomap::point3d centre = it.getCoordinate();
+    visit(Eigen::Vector3d(centre.x(), centre.y(), centre.z()), it.getSize(),
+          tree.isNodeOccupied(*it));
+  }
+}
+
 size_t OccupancyMap::LeafCount() const { return impl_->tree.getNumLeafNodes(); }
 
 size_t OccupancyMap::OccupiedLeafCount() const {

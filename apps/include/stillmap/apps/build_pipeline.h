@@ -7,6 +7,7 @@
 
 #include "stillmap/apps/config.h"
 #include "stillmap/mapping/map_quality.h"
+#include "stillmap/mapping/occupancy_grid.h"
 
 namespace stillmap {
 
@@ -40,6 +41,7 @@ struct BuildSummary {
   double peak_memory_mib = 0.0;
   // Against the sequence's static_gt.ply, when it has one (synthetic sequences).
   std::optional<MapQuality> map_quality;
+  std::optional<GridQuality> grid_quality;  // when grid.pgm was written and static_gt.ply exists
   // ATE RMSE [m] of the tracked trajectory, when the sequence has ground truth.
   std::optional<double> ate_rmse;
   size_t keyframes_invalid = 0;    // not fused: too much of the frame masked

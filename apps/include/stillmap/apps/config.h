@@ -9,6 +9,7 @@
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/mapping/occupancy_grid.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
@@ -41,6 +42,7 @@ struct BuildConfig {
   // first keyframe).
   bool map_recheck = true;
   KeyframeSelectionOptions selection;
+  GridOptions grid;
   YoloxOptions yolox;
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;

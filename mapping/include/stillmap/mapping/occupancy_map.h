@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +37,11 @@ class OccupancyMap {
 
   // Occupancy probability of the leaf at `point_in_world`, or a negative value when unknown.
   double Occupancy(const Eigen::Vector3d& point_in_world) const;
+
+  // Every known leaf: its centre [m], edge length [m] (pruned leaves are larger than the
+  // resolution) and whether it is occupied (occupancy probability above 0.5).
+  void ForEachLeaf(const std::function<void(const Eigen::Vector3d& centre, double size,
+                                            bool occupied)>& visit) const;
 
   size_t LeafCount() const;
   size_t OccupiedLeafCount() const;

@@ -1,0 +1,102 @@
+// The 2-D occupancy grid for navigation planners: the OctoMap projected over a height band above
+// the floor, written as the ROS map_server pair grid.pgm + grid.yaml.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/mapping/occupancy_map.h"
+
+namespace stillmap {
+
+struct GridOptions {
+  bool enabled = true;
+  // The band above the floor that the robot occupies [m]: an occupied voxel in it blocks the
+  // cell. Below min_height lie the floor itself and what a robot drives over; above max_height,
+  // what it passes under.
+  double min_height = 0.10;
+  double max_height = 1.50;
+  // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
+  // (grid.floor "a b c d"); otherwise fitted to the map.
+  std::optional<Eigen::Vector4d> floor;
+  // A fitted floor's normal must lie within this angle of the cameras' mean up direction.
+  double max_floor_tilt_deg = 30.0;
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+};
+
+struct FloorPlane {
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // unit normal, pointing away from the floor
+  double offset = 0.0;                            // height above the floor = up.x + offset
+  std::string source;                             // "fitted", "given", or the fallback used
+  double tilt_to_cameras_deg = 0.0;               // angle between up and the cameras' mean up
+  size_t inliers = 0;                             // occupied voxels on the fitted plane
+  double Height(const Eigen::Vector3d& point) const { return up.dot(point) + offset; }
+};
+
+// The floor: among near-horizontal planes (normal within max_floor_tilt_deg of `cameras_up`)
+// found by RANSAC in the occupied voxels, the lowest that holds at least a quarter as many
+// voxels as the largest. With no such plane, the 2nd percentile of the voxels' heights along
+// `cameras_up` (source says so). `cameras_up`: the mean of the cameras' up (-y) axes.
+FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
+                     const GridOptions& options);
+
+// Cell values as ROS nav_msgs/OccupancyGrid has them.
+constexpr std::int8_t kGridUnknown = -1;
+constexpr std::int8_t kGridFree = 0;
+constexpr std::int8_t kGridOccupied = 100;
+
+struct OccupancyGrid {
+  int width = 0;  // cells along the grid's x
+  int height = 0;
+  double resolution = 0.05;  // cell edge [m]
+  // The grid frame (ROS's "map" frame for this grid): origin on the floor below the world origin
+  // (the first camera when tracking), z up, x along the world x axis projected onto the floor (or
+  // the world z axis when x points nearly up). Cell (i, j) covers
+  // x in origin.x + [i, i+1) * resolution, y in origin.y + [j, j+1) * resolution.
+  Eigen::Isometry3d world_from_grid = Eigen::Isometry3d::Identity();
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();  // lower-left corner of cell (0, 0) [m]
+  std::vector<std::int8_t> cells;                    // row-major, j = 0 first (the lowest y)
+  FloorPlane floor;
+  double min_height = 0.0, max_height = 0.0;
+
+  std::int8_t At(int i, int j) const {
+    return cells[static_cast<size_t>(j) * static_cast<size_t>(width) + static_cast<size_t>(i)];
+  }
+  // The cell holding a world point's projection, or nothing outside the grid.
+  std::optional<Eigen::Vector2i> CellOf(const Eigen::Vector3d& point_in_world) const;
+  size_t Count(std::int8_t value) const;
+};
+
+// Occupied where any occupied voxel lies in the band; free where nothing in the band is occupied
+// and either the floor or the band's lowest voxels (up to two above min_height) were seen free;
+// unknown elsewhere (space seen free only higher up, as in the shadow of a box, may hide a low
+// obstacle). Each cell's
+// column is looked up in the OctoMap at the cell's centre, every half voxel in height.
+OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
+                            const GridOptions& options);
+
+// grid.pgm (trinary: 0 occupied, 254 free, 205 unknown; the top row is the highest y) and
+// grid.yaml (image, resolution, origin [x, y, yaw], negate, occupied_thresh, free_thresh, mode,
+// and the grid's frame in the map's world frame). `image_name` is written into the YAML.
+void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
+               const std::string& image_name);
+
+// Agreement of a grid with occupancy computed the same way from ground-truth static points
+// (in the same world frame): a cell is truly occupied when a point lies in the band over it.
+struct GridQuality {
+  size_t observed_cells = 0;   // free or occupied in the grid
+  size_t agreeing_cells = 0;   // of those, occupied exactly where the truth is
+  double agreement = 0.0;      // agreeing / observed
+  size_t occupied_cells = 0;   // occupied in the grid
+  size_t false_occupied = 0;   // occupied with no true occupied cell within one cell
+  size_t missed_occupied = 0;  // observed free, truly occupied (no grid-occupied neighbour)
+};
+GridQuality EvaluateGrid(const OccupancyGrid& grid,
+                         const std::vector<Eigen::Vector3d>& static_points_in_world);
+
+}  // namespace stillmap

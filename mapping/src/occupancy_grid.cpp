@@ -1,0 +1,343 @@
+#include "stillmap/mapping/occupancy_grid.h"
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <opencv2/core/utility.hpp>
+#include <stdexcept>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+namespace {
+
+constexpr double kDegree = M_PI / 180.0;
+
+// The rotation from world to grid axes: rows x, y, up.
+Eigen::Matrix3d GridAxes(const Eigen::Vector3d& up) {
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  if (std::abs(up.dot(x)) > 0.9) x = Eigen::Vector3d::UnitZ();
+  x = (x - up.dot(x) * up).normalized();
+  const Eigen::Vector3d y = up.cross(x);
+  Eigen::Matrix3d rows;
+  rows.row(0) = x.transpose();
+  rows.row(1) = y.transpose();
+  rows.row(2) = up.transpose();
+  return rows;
+}
+
+}  // namespace
+
+void GridOptions::Validate() const {
+  if (!(min_height >= 0.0 && max_height > min_height)) {
+    throw InputError("grid.min_height must be >= 0 and grid.max_height above it");
+  }
+  if (!(max_floor_tilt_deg > 0.0 && max_floor_tilt_deg < 90.0)) {
+    throw InputError("grid.max_floor_tilt_deg must be in (0, 90)");
+  }
+  if (floor && !(floor->head<3>().norm() > 0.0 && floor->allFinite())) {
+    throw InputError("grid.floor: the plane 'a b c d' needs a non-zero normal (a, b, c)");
+  }
+}
+
+FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
+                     const GridOptions& options) {
+  FloorPlane floor;
+  if (options.floor) {
+    const double norm = options.floor->head<3>().norm();
+    floor.up = options.floor->head<3>() / norm;
+    floor.offset = (*options.floor)[3] / norm;
+    floor.source = "given (grid.floor)";
+  }
+  const Eigen::Vector3d hint =
+      cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
+  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  map.ForEachLeaf([&](const Eigen::Vector3d& centre, double, bool occupied) {
+    if (occupied)
+      cloud->push_back(pcl::PointXYZ(static_cast<float>(centre.x()), static_cast<float>(centre.y()),
+                                     static_cast<float>(centre.z())));
+  });
+  if (options.floor) {
+    floor.tilt_to_cameras_deg = std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
+    return floor;
+  }
+  if (cloud->empty()) {
+    floor.up = hint;
+    floor.offset = 0.0;
+    floor.source =
+        "none found (empty map): the plane through the world origin, normal to the "
+        "cameras' mean up";
+    return floor;
+  }
+
+  struct Candidate {
+    Eigen::Vector3d up;
+    double offset;
+    size_t inliers;
+    double mean_height;  // along the hint
+  };
+  std::vector<Candidate> candidates;
+  std::vector<int> remaining(cloud->size());
+  for (size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
+  const double threshold = map.resolution();
+  for (int round = 0; round < 4 && remaining.size() >= 50; ++round) {
+    auto model = pcl::make_shared<pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>>(
+        cloud, remaining);
+    model->setAxis(hint.cast<float>());
+    model->setEpsAngle(options.max_floor_tilt_deg * kDegree);
+    pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold);
+    ransac.setMaxIterations(500);
+    if (!ransac.computeModel()) break;
+    std::vector<int> inliers;
+    ransac.getInliers(inliers);
+    Eigen::VectorXf coefficients;
+    ransac.getModelCoefficients(coefficients);
+    if (inliers.size() < std::max<size_t>(50, cloud->size() / 50) || coefficients.size() != 4) {
+      break;
+    }
+    Eigen::Vector3d up = coefficients.head<3>().cast<double>();
+    double offset = coefficients[3];
+    const double norm = up.norm();
+    up /= norm;
+    offset /= norm;
+    if (up.dot(hint) < 0.0) {
+      up = -up;
+      offset = -offset;
+    }
+    double sum = 0.0;
+    for (int index : inliers)
+      sum += hint.dot(cloud->points[static_cast<size_t>(index)].getVector3fMap().cast<double>());
+    candidates.push_back({up, offset, inliers.size(), sum / static_cast<double>(inliers.size())});
+    std::vector<int> rest;
+    std::sort(inliers.begin(), inliers.end());
+    std::set_difference(remaining.begin(), remaining.end(), inliers.begin(), inliers.end(),
+                        std::back_inserter(rest));
+    remaining.swap(rest);
+  }
+  size_t largest = 0;
+  for (const Candidate& c : candidates) largest = std::max(largest, c.inliers);
+  const Candidate* best = nullptr;
+  for (const Candidate& c : candidates) {
+    if (4 * c.inliers < largest) continue;
+    if (best == nullptr || c.mean_height < best->mean_height) best = &c;
+  }
+  if (best != nullptr) {
+    floor.up = best->up;
+    floor.offset = best->offset;
+    floor.inliers = best->inliers;
+    floor.source = "fitted";
+  } else {
+    std::vector<double> heights;
+    heights.reserve(cloud->size());
+    for (const pcl::PointXYZ& p : cloud->points) {
+      heights.push_back(hint.dot(p.getVector3fMap().cast<double>()));
+    }
+    const auto nth = heights.begin() + static_cast<long>(heights.size() / 50);
+    std::nth_element(heights.begin(), nth, heights.end());
+    floor.up = hint;
+    floor.offset = -*nth;
+    floor.source =
+        "no horizontal plane found: the 2nd percentile of the map's heights along the cameras' up";
+  }
+  floor.tilt_to_cameras_deg = std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
+  return floor;
+}
+
+std::optional<Eigen::Vector2i> OccupancyGrid::CellOf(const Eigen::Vector3d& point_in_world) const {
+  const Eigen::Vector3d g = world_from_grid.inverse() * point_in_world;
+  const int i = static_cast<int>(std::floor((g.x() - origin.x()) / resolution));
+  const int j = static_cast<int>(std::floor((g.y() - origin.y()) / resolution));
+  if (i < 0 || j < 0 || i >= width || j >= height) return std::nullopt;
+  return Eigen::Vector2i(i, j);
+}
+
+size_t OccupancyGrid::Count(std::int8_t value) const {
+  return static_cast<size_t>(std::count(cells.begin(), cells.end(), value));
+}
+
+OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
+                            const GridOptions& options) {
+  options.Validate();
+  OccupancyGrid grid;
+  grid.resolution = map.resolution();
+  grid.floor = floor;
+  grid.min_height = options.min_height;
+  grid.max_height = options.max_height;
+  // Grid frame: rotation rows x, y, up; the world origin lands at height offset above the floor.
+  const Eigen::Matrix3d axes = GridAxes(floor.up);
+  Eigen::Isometry3d grid_from_world = Eigen::Isometry3d::Identity();
+  grid_from_world.linear() = axes;
+  grid_from_world.translation() = Eigen::Vector3d(0.0, 0.0, floor.offset);
+  grid.world_from_grid = grid_from_world.inverse();
+
+  const double resolution = grid.resolution;
+  // Occupied voxels this far below min_height (and above the plane's fit error) count as floor.
+  const double floor_low = -std::max(2.0 * resolution, 0.1);
+  // The grid's extent: the known voxels near the band, projected.
+  Eigen::Vector2d low(std::numeric_limits<double>::infinity(),
+                      std::numeric_limits<double>::infinity());
+  Eigen::Vector2d high = -low;
+  map.ForEachLeaf([&](const Eigen::Vector3d& centre, double size, bool) {
+    const Eigen::Vector3d g = grid_from_world * centre;
+    const double reach = 0.87 * size;  // half the cube's diagonal
+    if (g.z() + reach < floor_low || g.z() - reach > options.max_height) return;
+    low = low.cwiseMin(g.head<2>() - Eigen::Vector2d::Constant(reach));
+    high = high.cwiseMax(g.head<2>() + Eigen::Vector2d::Constant(reach));
+  });
+  if (!(low.x() <= high.x())) return grid;  // nothing near the band: an empty grid
+  const int i_min = static_cast<int>(std::floor(low.x() / resolution));
+  const int j_min = static_cast<int>(std::floor(low.y() / resolution));
+  grid.width = static_cast<int>(std::floor(high.x() / resolution)) - i_min + 1;
+  grid.height = static_cast<int>(std::floor(high.y() / resolution)) - j_min + 1;
+  grid.origin = Eigen::Vector2d(i_min * resolution, j_min * resolution);
+  grid.cells.assign(static_cast<size_t>(grid.width) * static_cast<size_t>(grid.height),
+                    kGridUnknown);
+
+  // Each cell's column is looked up in the OctoMap at its centre, every half voxel in height:
+  // the grid gets exactly what lies over each cell, whatever its angle to the OctoMap's axes
+  // (splatting voxels instead either leaves gaps or grows obstacles by up to a cell).
+  const double step = resolution / 2.0;
+  std::vector<double> band, floor_band;
+  for (double h = options.min_height; h <= options.max_height + 1e-9; h += step) band.push_back(h);
+  for (double h = floor_low; h < options.min_height; h += step) floor_band.push_back(h);
+  cv::parallel_for_(cv::Range(0, grid.height), [&](const cv::Range& rows) {
+    for (int j = rows.start; j < rows.end; ++j) {
+      for (int i = 0; i < grid.width; ++i) {
+        const double x = grid.origin.x() + (i + 0.5) * resolution;
+        const double y = grid.origin.y() + (j + 0.5) * resolution;
+        auto at = [&](double h) {
+          return map.Occupancy(grid.world_from_grid * Eigen::Vector3d(x, y, h));
+        };
+        // Free needs evidence near the floor: the band's lowest voxels seen free, or the floor
+        // itself seen (below). Space seen free only higher up (over a box, into its shadow) may
+        // hide a low obstacle, and stays unknown.
+        bool occupied = false, free = false;
+        for (double h : band) {
+          const double p = at(h);
+          if (p > 0.5) {
+            occupied = true;
+            break;
+          }
+          free = free || (p >= 0.0 && h < options.min_height + 2.0 * resolution);
+        }
+        if (!occupied && !free) {
+          for (double h : floor_band) {
+            if (at(h) > 0.5) {
+              free = true;  // the floor, with nothing known above it in the band
+              break;
+            }
+          }
+        }
+        grid.cells[static_cast<size_t>(j) * static_cast<size_t>(grid.width) +
+                   static_cast<size_t>(i)] = occupied ? kGridOccupied
+                                             : free   ? kGridFree
+                                                      : kGridUnknown;
+      }
+    }
+  });
+  return grid;
+}
+
+void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
+               const std::string& image_name) {
+  {
+    std::ofstream out(pgm_path, std::ios::binary);
+    out << "P5\n# stillmap occupancy grid: 0 occupied, 254 free, 205 unknown\n"
+        << grid.width << " " << grid.height << "\n255\n";
+    std::vector<unsigned char> row(static_cast<size_t>(grid.width));
+    for (int j = grid.height - 1; j >= 0; --j) {  // the image's top row is the highest y
+      for (int i = 0; i < grid.width; ++i) {
+        const std::int8_t value = grid.At(i, j);
+        row[static_cast<size_t>(i)] = value == kGridOccupied ? 0 : value == kGridFree ? 254 : 205;
+      }
+      out.write(reinterpret_cast<const char*>(row.data()),
+                static_cast<std::streamsize>(row.size()));
+    }
+    if (!out.flush()) throw std::runtime_error(pgm_path + ": could not write the grid image");
+  }
+  std::ofstream out(yaml_path);
+  out << std::setprecision(9);
+  const Eigen::Matrix4d m = grid.world_from_grid.matrix();
+  out << "# stillmap 2-D occupancy grid (ROS map_server format).\n"
+      << "# Frame: x, y in the floor plane, z up from the floor; the origin lies on the floor\n"
+      << "# below stillmap's world origin (the first camera when tracking). world_from_map is\n"
+      << "# this frame in stillmap's world frame (row-major 4x4; trajectory.txt, map.ply).\n"
+      << "# Occupied: an occupied OctoMap voxel between min_height and max_height above the\n"
+      << "# floor; free: that band observed free, or the floor seen with nothing above it.\n"
+      << "image: " << image_name << "\n"
+      << "resolution: " << grid.resolution << "\n"
+      << "origin: [" << grid.origin.x() << ", " << grid.origin.y() << ", 0.0]\n"
+      << "negate: 0\n"
+      << "occupied_thresh: 0.65\n"
+      << "free_thresh: 0.196\n"
+      << "mode: trinary\n"
+      << "min_height: " << grid.min_height << "\n"
+      << "max_height: " << grid.max_height << "\n"
+      << "floor_source: \"" << grid.floor.source << "\"\n"
+      << "world_from_map: [";
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) out << (r + c > 0 ? ", " : "") << m(r, c);
+  }
+  out << "]\n";
+  if (!out.flush()) throw std::runtime_error(yaml_path + ": could not write the grid description");
+}
+
+GridQuality EvaluateGrid(const OccupancyGrid& grid,
+                         const std::vector<Eigen::Vector3d>& static_points_in_world) {
+  GridQuality quality;
+  const size_t width = static_cast<size_t>(grid.width), height = static_cast<size_t>(grid.height);
+  std::vector<std::uint8_t> truth(width * height, 0);
+  const Eigen::Isometry3d grid_from_world = grid.world_from_grid.inverse();
+  for (const Eigen::Vector3d& point : static_points_in_world) {
+    const Eigen::Vector3d g = grid_from_world * point;
+    if (g.z() < grid.min_height || g.z() > grid.max_height) continue;
+    const int i = static_cast<int>(std::floor((g.x() - grid.origin.x()) / grid.resolution));
+    const int j = static_cast<int>(std::floor((g.y() - grid.origin.y()) / grid.resolution));
+    if (i < 0 || j < 0 || i >= grid.width || j >= grid.height) continue;
+    truth[static_cast<size_t>(j) * width + static_cast<size_t>(i)] = 1;
+  }
+  auto near = [&](int i, int j, auto&& is) {
+    for (int dj = -1; dj <= 1; ++dj) {
+      for (int di = -1; di <= 1; ++di) {
+        const int a = i + di, b = j + dj;
+        if (a >= 0 && b >= 0 && a < grid.width && b < grid.height && is(a, b)) return true;
+      }
+    }
+    return false;
+  };
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const std::int8_t value = grid.At(i, j);
+      if (value == kGridUnknown) continue;
+      const bool truly = truth[static_cast<size_t>(j) * width + static_cast<size_t>(i)] != 0;
+      const bool occupied = value == kGridOccupied;
+      ++quality.observed_cells;
+      quality.agreeing_cells += occupied == truly ? 1 : 0;
+      if (occupied) {
+        ++quality.occupied_cells;
+        const bool explained = near(i, j, [&](int a, int b) {
+          return truth[static_cast<size_t>(b) * width + static_cast<size_t>(a)] != 0;
+        });
+        quality.false_occupied += explained ? 0 : 1;
+      } else if (truly) {
+        const bool nearby =
+            near(i, j, [&](int a, int b) { return grid.At(a, b) == kGridOccupied; });
+        quality.missed_occupied += nearby ? 0 : 1;
+      }
+    }
+  }
+  quality.agreement = quality.observed_cells > 0 ? static_cast<double>(quality.agreeing_cells) /
+                                                       static_cast<double>(quality.observed_cells)
+                                                 : 0.0;
+  return quality;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,205 @@
+// The 2-D occupancy grid against a hand-made room with exact truth: a floor, a box standing on it
+// (blocks), a cable lying on it (below the band: drivable), a shelf above the robot's height
+// (passable), all seen from a camera whose world frame is tilted and turned against the room, as
+// a tracked map's first-camera frame is. Also the files as ROS map_server reads them.
+#include "stillmap/mapping/occupancy_grid.h"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+
+#include "stillmap/io/error.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+// Room frame: z up, floor z = 0. Points every 1 cm on each surface.
+struct Room {
+  std::vector<Eigen::Vector3d> points;
+  void Rectangle(const Eigen::Vector3d& corner, const Eigen::Vector3d& a,
+                 const Eigen::Vector3d& b) {
+    const int na = static_cast<int>(a.norm() / 0.01), nb = static_cast<int>(b.norm() / 0.01);
+    for (int i = 0; i <= na; ++i) {
+      for (int j = 0; j <= nb; ++j) points.push_back(corner + a * i / na + b * j / nb);
+    }
+  }
+};
+
+Room MakeRoom() {
+  Room room;
+  using V = Eigen::Vector3d;
+  room.Rectangle(V(-1.5, 0.5, 0.0), V(3.0, 0, 0), V(0, 3.0, 0));  // floor
+  // A box 0.5 x 0.5 x 0.8 m at x 0.5..1.0, y 2.0..2.5: top and the four sides.
+  room.Rectangle(V(0.5, 2.0, 0.8), V(0.5, 0, 0), V(0, 0.5, 0));
+  room.Rectangle(V(0.5, 2.0, 0.0), V(0.5, 0, 0), V(0, 0, 0.8));
+  room.Rectangle(V(0.5, 2.5, 0.0), V(0.5, 0, 0), V(0, 0, 0.8));
+  room.Rectangle(V(0.5, 2.0, 0.0), V(0, 0.5, 0), V(0, 0, 0.8));
+  room.Rectangle(V(1.0, 2.0, 0.0), V(0, 0.5, 0), V(0, 0, 0.8));
+  // A cable 3 cm high across the floor at y = 1.5, x -1.0..0.0.
+  room.Rectangle(V(-1.0, 1.5, 0.03), V(1.0, 0, 0), V(0, 0.03, 0));
+  // A shelf board at 1.8 m over x -1.0..-0.5, y 2.0..2.4.
+  room.Rectangle(V(-1.0, 2.0, 1.8), V(0.5, 0, 0), V(0, 0.4, 0));
+  return room;
+}
+
+class OccupancyGridTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // World = a camera frame (y down, z forward), pitched 20 degrees down and turned 30 degrees,
+    // 1.2 m above the floor at the room's origin.
+    Eigen::Matrix3d camera_axes;  // room_from_camera for a level camera looking along room +y
+    camera_axes << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+    const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.52, Eigen::Vector3d::UnitZ()).matrix() *
+                                     camera_axes *
+                                     Eigen::AngleAxisd(-0.35, Eigen::Vector3d::UnitX()).matrix();
+    room_from_world_.linear() = rotation;
+    room_from_world_.translation() = Eigen::Vector3d(0.0, 0.0, 1.2);
+    const Eigen::Isometry3d world_from_room = room_from_world_.inverse();
+    for (const Eigen::Vector3d& p : MakeRoom().points) truth_.push_back(world_from_room * p);
+    // Seen from three places along the room's x, 1.2 m up: per place, the nearest point in each
+    // 0.3-degree direction bin (what a depth camera sees; the rest is hidden).
+    for (double x : {-0.5, 0.0, 0.5}) {
+      const Eigen::Vector3d origin = world_from_room * Eigen::Vector3d(x, 0.0, 1.2);
+      std::map<std::pair<int, int>, Eigen::Vector3d> nearest;
+      for (const Eigen::Vector3d& p : truth_) {
+        const Eigen::Vector3d ray = room_from_world_.linear() * (p - origin);
+        const double bin = 0.3 * M_PI / 180.0;
+        const std::pair<int, int> key(
+            static_cast<int>(std::floor(std::atan2(ray.y(), ray.x()) / bin)),
+            static_cast<int>(std::floor(std::asin(ray.z() / ray.norm()) / bin)));
+        const auto it = nearest.find(key);
+        if (it == nearest.end() || (p - origin).norm() < (it->second - origin).norm()) {
+          nearest[key] = p;
+        }
+      }
+      std::vector<Eigen::Vector3f> scan;
+      for (const auto& [key, p] : nearest) scan.push_back(p.cast<float>());
+      for (int k = 0; k < 2; ++k) map_.InsertScan(scan, origin.cast<float>());
+    }
+    // The cameras' mean up, 5 degrees off the truth (as a tilted hand-held camera gives it).
+    cameras_up_ = world_from_room.linear() *
+                  (Eigen::AngleAxisd(0.087, Eigen::Vector3d::UnitX()) * Eigen::Vector3d::UnitZ());
+  }
+
+  // A room point's grid cell value.
+  std::int8_t CellAt(const OccupancyGrid& grid, double x, double y) const {
+    const auto cell = grid.CellOf(room_from_world_.inverse() * Eigen::Vector3d(x, y, 0.0));
+    return cell ? grid.At(cell->x(), cell->y()) : kGridUnknown;
+  }
+
+  Eigen::Isometry3d room_from_world_ = Eigen::Isometry3d::Identity();
+  std::vector<Eigen::Vector3d> truth_;
+  OccupancyMap map_;
+  Eigen::Vector3d cameras_up_;
+};
+
+TEST_F(OccupancyGridTest, FindsTheFloorAndProjectsTheBand) {
+  const GridOptions options;
+  const FloorPlane floor = FindFloor(map_, cameras_up_, options);
+  EXPECT_EQ(floor.source, "fitted");
+  const Eigen::Vector3d true_up = room_from_world_.linear().transpose() * Eigen::Vector3d::UnitZ();
+  EXPECT_LT(std::acos(std::min(1.0, floor.up.dot(true_up))) * 180.0 / M_PI, 1.0);
+  EXPECT_NEAR(floor.offset, 1.2, 0.03);  // the world origin (the camera) is 1.2 m up
+  EXPECT_NEAR(floor.tilt_to_cameras_deg, 5.0, 1.0);
+
+  const OccupancyGrid grid = ProjectToGrid(map_, floor, options);
+  EXPECT_EQ(CellAt(grid, 0.75, 2.25), kGridOccupied);  // the box
+  EXPECT_EQ(CellAt(grid, 0.0, 1.0), kGridFree);        // open floor
+  EXPECT_EQ(CellAt(grid, -0.5, 1.51), kGridFree);      // the cable, below min_height
+  EXPECT_EQ(CellAt(grid, -0.75, 2.2), kGridFree);      // under the shelf, above max_height
+  EXPECT_EQ(CellAt(grid, 0.75, 2.45), kGridOccupied);  // the box's far edge
+  EXPECT_EQ(CellAt(grid, 0.75, 2.9), kGridUnknown);    // hidden behind the box
+
+  const GridQuality quality = EvaluateGrid(grid, truth_);
+  EXPECT_GE(quality.agreement, 0.97);
+  EXPECT_EQ(quality.false_occupied, 0u);
+  EXPECT_EQ(quality.missed_occupied, 0u);
+
+  // A given floor is used as given; a lower band then lets the cable block.
+  GridOptions given = options;
+  given.floor = Eigen::Vector4d(true_up.x(), true_up.y(), true_up.z(), 1.2);
+  given.min_height = 0.02;
+  const FloorPlane stated = FindFloor(map_, cameras_up_, given);
+  EXPECT_EQ(stated.source, "given (grid.floor)");
+  EXPECT_EQ(CellAt(ProjectToGrid(map_, stated, given), -0.5, 1.51), kGridOccupied);
+}
+
+// The files as map_server (ROS 1 and Nav2) reads them: the YAML keys, and each pixel's value
+// giving the cell's state through occ = (255 - p) / 255 against the thresholds, with the image's
+// bottom-left pixel at `origin`.
+TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
+  const GridOptions options;
+  const OccupancyGrid grid = ProjectToGrid(map_, FindFloor(map_, cameras_up_, options), options);
+  testing::TempDir dir;
+  WriteGrid(grid, dir / "grid.pgm", dir / "grid.yaml", "grid.pgm");
+  const YAML::Node yaml = YAML::LoadFile(dir / "grid.yaml");
+  EXPECT_EQ(yaml["image"].as<std::string>(), "grid.pgm");
+  const double resolution = yaml["resolution"].as<double>();
+  EXPECT_DOUBLE_EQ(resolution, grid.resolution);
+  const auto origin = yaml["origin"].as<std::vector<double>>();
+  ASSERT_EQ(origin.size(), 3u);
+  EXPECT_EQ(origin[2], 0.0);
+  EXPECT_EQ(yaml["negate"].as<int>(), 0);
+  const double occupied_thresh = yaml["occupied_thresh"].as<double>();
+  const double free_thresh = yaml["free_thresh"].as<double>();
+  EXPECT_EQ(yaml["mode"].as<std::string>(), "trinary");
+  const auto world_from_map = yaml["world_from_map"].as<std::vector<double>>();
+  ASSERT_EQ(world_from_map.size(), 16u);
+  Eigen::Matrix4d m;
+  for (int k = 0; k < 16; ++k) m(k / 4, k % 4) = world_from_map[static_cast<size_t>(k)];
+
+  const cv::Mat image = cv::imread(dir / "grid.pgm", cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(image.type(), CV_8UC1);
+  ASSERT_EQ(image.cols, grid.width);
+  ASSERT_EQ(image.rows, grid.height);
+  size_t occupied = 0, free = 0, unknown = 0;
+  for (int row = 0; row < image.rows; ++row) {
+    for (int col = 0; col < image.cols; ++col) {
+      const double occ = (255.0 - image.at<std::uint8_t>(row, col)) / 255.0;
+      const std::int8_t value = grid.At(col, image.rows - 1 - row);
+      if (occ > occupied_thresh) {
+        ++occupied;
+        EXPECT_EQ(value, kGridOccupied);
+      } else if (occ < free_thresh) {
+        ++free;
+        EXPECT_EQ(value, kGridFree);
+      } else {
+        ++unknown;
+        EXPECT_EQ(value, kGridUnknown);
+      }
+    }
+  }
+  EXPECT_GT(occupied, 50u);
+  EXPECT_GT(free, 1000u);
+  EXPECT_GT(unknown, 10u);
+  // The box's centre, through the YAML alone: room -> world -> map -> pixel.
+  const Eigen::Vector4d box(0.75, 2.25, 0.4, 1.0);
+  const Eigen::Vector4d in_world = room_from_world_.inverse().matrix() * box;
+  const Eigen::Vector4d in_map = m.inverse() * in_world;
+  EXPECT_NEAR(in_map.z(), 0.4, 0.03);  // map z is the height above the floor
+  const int col = static_cast<int>(std::floor((in_map.x() - origin[0]) / resolution));
+  const int row =
+      image.rows - 1 - static_cast<int>(std::floor((in_map.y() - origin[1]) / resolution));
+  EXPECT_EQ(image.at<std::uint8_t>(row, col), 0);
+}
+
+TEST(GridOptionsTest, ImpossibleValuesAreRejectedByName) {
+  GridOptions options;
+  options.max_height = 0.05;
+  EXPECT_THROW(options.Validate(), InputError);
+  options = GridOptions();
+  options.floor = Eigen::Vector4d(0, 0, 0, 1);
+  try {
+    options.Validate();
+    FAIL() << "a zero normal was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("grid.floor"), std::string::npos);
+  }
+}
+
+}  // namespace
+}  // namespace stillmap
