@@ -373,6 +373,9 @@ const std::vector<ConfigKey>& Keys() {
                           [](BuildConfig& c) -> double& { return c.grid.min_height; }));
     k.push_back(DoubleKey("grid.max_height", "robot height: highest blocking height [m]",
                           [](BuildConfig& c) -> double& { return c.grid.max_height; }));
+    k.push_back(DoubleKey("grid.occupied_probability",
+                          "a voxel blocks its grid cell above this occupancy probability",
+                          [](BuildConfig& c) -> double& { return c.grid.occupied_probability; }));
     k.push_back(DoubleKey("grid.max_floor_tilt_deg",
                           "a fitted floor's normal is within this of the cameras' up",
                           [](BuildConfig& c) -> double& { return c.grid.max_floor_tilt_deg; }));

@@ -40,6 +40,9 @@ void GridOptions::Validate() const {
   if (!(min_height >= 0.0 && max_height > min_height)) {
     throw InputError("grid.min_height must be >= 0 and grid.max_height above it");
   }
+  if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
+    throw InputError("grid.occupied_probability must be in [0.5, 1)");
+  }
   if (!(max_floor_tilt_deg > 0.0 && max_floor_tilt_deg < 90.0)) {
     throw InputError("grid.max_floor_tilt_deg must be in (0, 90)");
   }
@@ -222,7 +225,7 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
         bool occupied = false, free = false;
         for (double h : band) {
           const double p = at(h);
-          if (p > 0.5) {
+          if (p > options.occupied_probability) {
             occupied = true;
             break;
           }
