@@ -30,6 +30,7 @@
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
+#include "stillmap/viewer/map_mesh.h"
 
 namespace stillmap {
 namespace {
@@ -555,6 +556,21 @@ BuildSummary RunBuild(const BuildRequest& request) {
   if (mapper.occupancy() != nullptr) {
     mapper.WriteOccupancy(outputs.TemporaryPath("map.bt"), outputs.TemporaryPath("map.ot"));
   }
+  // The mesh, from the voxel cloud, on another thread while the grid and the rest are written.
+  std::optional<ColoredMesh> mesh;
+  double mesh_ms = 0.0;
+  std::future<void> mesh_job;
+  if (config.mesh.enabled) {
+    const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
+    const VoxelCloud& cloud = mapper.cloud();  // fusion has finished: read-only from here on
+    mesh_job = std::async(request.threads > 1 ? std::launch::async : std::launch::deferred,
+                          [&mesh, &mesh_ms, &cloud, &config, mesh_path] {
+                            const Clock::time_point mesh_start = Clock::now();
+                            mesh = VoxelSurfaceMesh(cloud.Points(), config.mesh);
+                            WriteColoredMesh(mesh_path, *mesh, config.mesh.format);
+                            mesh_ms = Seconds(mesh_start) * 1000.0;
+                          });
+  }
   // The 2-D grid for planners, from the OctoMap; the floor is fitted to it and checked against
   // the fused cameras' mean up direction (camera -y).
   std::optional<OccupancyGrid> grid;
@@ -583,6 +599,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
     out << ConfigToYaml(config);
     if (!out.flush()) throw std::runtime_error("could not write config.yaml");
   }
+  if (mesh_job.valid()) mesh_job.get();
   const double write_s = Seconds(write_start);
 
   const MapperStatistics& stats = mapper.statistics();
@@ -649,6 +666,16 @@ BuildSummary RunBuild(const BuildRequest& request) {
                    {"octomap_leaves", summary.octomap_leaves},
                    {"octomap_occupied_leaves",
                     mapper.occupancy() ? mapper.occupancy()->OccupiedLeafCount() : 0}};
+  if (mesh) {
+    report["mesh"] = {{"file", config.mesh.FileName()},
+                      {"voxel_m", config.mesh.voxel},
+                      {"voxels", mesh->voxels},
+                      {"vertices", mesh->vertices.size()},
+                      {"triangles", mesh->faces.size()},
+                      {"method", "exposed faces of the occupied voxels, colored per voxel"}};
+  } else {
+    report["mesh"] = nullptr;
+  }
   if (grid) {
     const Eigen::Matrix4d m = grid->world_from_grid.matrix();
     std::vector<double> world_from_map;
@@ -684,6 +711,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
   }
   nlohmann::json timing = {{"load_wait_total", reader.wait_s() * 1000.0},
                            {"grid", grid_ms},
+                           {"mesh", mesh_ms},
                            {"back_projection_total", stats.back_projection_ms},
                            {"voxel_total", stats.voxel_ms},
                            {"octomap_total", stats.occupancy_ms},

@@ -366,6 +366,16 @@ const std::vector<ConfigKey>& Keys() {
                         "re-run the depth check on each keyframe against its neighbours (both "
                         "sides in time, final poses) before fusing it",
                         [](BuildConfig& c) -> bool& { return c.map_recheck; }));
+    k.push_back(BoolKey("mesh.enabled", "write the mesh (mesh.glb, or mesh.obj / mesh.ply)",
+                        [](BuildConfig& c) -> bool& { return c.mesh.enabled; }));
+    k.push_back(
+        {"mesh.format", "glb, obj or ply",
+         [](BuildConfig* c, const std::string& v, const std::string&) { c->mesh.format = v; },
+         [](const BuildConfig& c) { return c.mesh.format; }});
+    k.push_back(DoubleKey("mesh.voxel", "edge of the mesh's voxels [m]",
+                          [](BuildConfig& c) -> double& { return c.mesh.voxel; }));
+    k.push_back(IntKey("mesh.min_points", "map points a mesh voxel needs",
+                       [](BuildConfig& c) -> int& { return c.mesh.min_points; }));
     k.push_back(BoolKey("grid.enabled", "write the 2-D occupancy grid (grid.pgm, grid.yaml)",
                         [](BuildConfig& c) -> bool& { return c.grid.enabled; }));
     k.push_back(DoubleKey("grid.min_height",
@@ -476,6 +486,7 @@ void BuildConfig::Validate() const {
   masking.Validate();
   selection.Validate();
   grid.Validate();
+  mesh.Validate();
   if (!(yolox.score_threshold > 0.0 && yolox.score_threshold < 1.0)) {
     throw InputError("detector.score_threshold must be in (0, 1)");
   }

@@ -13,6 +13,7 @@
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
+#include "stillmap/viewer/map_mesh.h"
 
 namespace stillmap {
 
@@ -43,6 +44,7 @@ struct BuildConfig {
   bool map_recheck = true;
   KeyframeSelectionOptions selection;
   GridOptions grid;
+  MapMeshOptions mesh;
   YoloxOptions yolox;
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;

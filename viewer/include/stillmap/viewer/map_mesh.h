@@ -1,0 +1,42 @@
+// The static map as a colored triangle mesh for other tools (Blender, MeshLab, glTF viewers):
+// the exposed faces of the occupied voxels of the voxel cloud at a coarser edge, each face
+// colored by its voxel, written through assimp as glTF binary (.glb), OBJ or PLY.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+#include "stillmap/mapping/voxel_cloud.h"
+
+namespace stillmap {
+
+struct MapMeshOptions {
+  bool enabled = true;
+  std::string format = "glb";  // glb | obj | ply
+  double voxel = 0.03;         // edge of the mesh's voxels [m]
+  int min_points = 2;          // map points a voxel needs (isolated specks are left out)
+
+  // Throws InputError naming the first impossible value.
+  void Validate() const;
+  std::string FileName() const { return "mesh." + format; }
+};
+
+struct ColoredMesh {
+  std::vector<Eigen::Vector3f> vertices;  // [m], world frame
+  std::vector<Eigen::Vector3f> colors;    // per vertex, RGB in [0, 1]
+  std::vector<std::array<int, 3>> faces;  // counter-clockwise seen from outside
+  size_t voxels = 0;                      // voxels meshed
+};
+
+// The boundary of the union of occupied voxels: one quad (two triangles) per voxel face whose
+// neighbour is empty, with its own four vertices (flat color per voxel).
+ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMeshOptions& options);
+
+// Writes the mesh with assimp's exporter (format "glb", "obj" or "ply"; PLY is ASCII: Debian's
+// assimp 5.2 crashed reading back the binary PLY it wrote, in map_mesh_test). Throws
+// std::runtime_error naming the file and assimp's message.
+void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format);
+
+}  // namespace stillmap
