@@ -31,6 +31,8 @@
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
 #include "stillmap/viewer/map_mesh.h"
+#include "stillmap/viewer/renders.h"
+#include "stillmap/viewer/trajectory_plot.h"
 
 namespace stillmap {
 namespace {
@@ -129,6 +131,16 @@ class FrameReader {
   double wait_s_ = 0.0;
   std::vector<double> flow_ms_;
 };
+
+// Encodes a PNG into `path` (an output set's temporary name, whose extension is not ".png").
+void WritePng(const std::string& path, const cv::Mat& image) {
+  std::vector<unsigned char> bytes;
+  if (!cv::imencode(".png", image, bytes)) throw std::runtime_error(path + ": could not encode");
+  std::ofstream out(path, std::ios::binary);
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
+  if (!out.flush()) throw std::runtime_error(path + ": could not write the image");
+}
 
 double Median(std::vector<double> values) {
   if (values.empty()) return 0.0;
@@ -786,6 +798,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
       groundtruth_from_map = *world_from_first * first.world_from_camera.inverse();
     }
   }
+  std::optional<AteResult> ate_result;
   report["trajectory_error"] = nullptr;
   if (!tracking) {
     report["trajectory_error_note"] = "not evaluated: the poses are the ground truth";
@@ -795,6 +808,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
     try {
       const AteResult ate = ComputeAte(*sequence.groundtruth(), trajectory, config.ate);
       summary.ate_rmse = ate.translation.rmse;
+      ate_result = ate;
       nlohmann::json error = {{"ate_m", StatisticsJson(ate.translation, 1.0)},
                               {"ate_max_time_difference_s", config.ate.max_time_difference}};
       try {
@@ -852,6 +866,37 @@ BuildSummary RunBuild(const BuildRequest& request) {
                                 {"occupied_without_static_truth", grid_quality.false_occupied},
                                 {"free_where_truth_occupied", grid_quality.missed_occupied}};
     }
+  }
+  // Renders (renders/), not counted in the frames per second above.
+  if (config.render.enabled) {
+    const Clock::time_point render_start = Clock::now();
+    RenderInput input;
+    input.cloud = mapper.cloud().Points();
+    input.grid = grid;
+    for (const StampedPose& pose : trajectory.poses()) {
+      input.trajectory.push_back(pose.world_from_camera);
+    }
+    for (const StampedPose& pose : keyframe_poses)
+      input.keyframes.push_back(pose.world_from_camera);
+    input.title = fs::path(request.sequence_dir).filename().string();
+    if (input.title.empty()) {
+      input.title = fs::path(request.sequence_dir).parent_path().filename().string();
+    }
+    fs::create_directories(fs::path(request.output_dir) / "renders");
+    std::vector<std::string> names;
+    for (const auto& [name, image] : RenderViews(input)) {
+      WritePng(outputs.TemporaryPath("renders/" + name), image);
+      names.push_back("renders/" + name);
+    }
+    if (ate_result) {
+      WritePng(outputs.TemporaryPath("renders/trajectory_error.png"),
+               DrawTrajectoryPlot(*ate_result));
+      names.push_back("renders/trajectory_error.png");
+    }
+    report["renders"] = names;
+    report["timing_ms"]["renders"] = Seconds(render_start) * 1000.0;
+  } else {
+    report["renders"] = nullptr;
   }
   {
     std::ofstream out(outputs.TemporaryPath("report.json"));

@@ -366,6 +366,8 @@ const std::vector<ConfigKey>& Keys() {
                         "re-run the depth check on each keyframe against its neighbours (both "
                         "sides in time, final poses) before fusing it",
                         [](BuildConfig& c) -> bool& { return c.map_recheck; }));
+    k.push_back(BoolKey("render.enabled", "write the renders (renders/*.png) at the end of a build",
+                        [](BuildConfig& c) -> bool& { return c.render.enabled; }));
     k.push_back(BoolKey("mesh.enabled", "write the mesh (mesh.glb, or mesh.obj / mesh.ply)",
                         [](BuildConfig& c) -> bool& { return c.mesh.enabled; }));
     k.push_back(

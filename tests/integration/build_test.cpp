@@ -28,9 +28,20 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* kOutputs[] = {"map.ply",        "map.pcd",       "map.bt",     "map.ot",
-                                    "trajectory.txt", "keyframes.txt", "grid.pgm",   "grid.yaml",
-                                    "mesh.glb",       "report.json",   "config.yaml"};
+constexpr const char* kOutputs[] = {"map.ply",
+                                    "map.pcd",
+                                    "map.bt",
+                                    "map.ot",
+                                    "trajectory.txt",
+                                    "keyframes.txt",
+                                    "grid.pgm",
+                                    "grid.yaml",
+                                    "mesh.glb",
+                                    "report.json",
+                                    "config.yaml",
+                                    "renders/grid_top.png",
+                                    "renders/cloud_view_1.png",
+                                    "renders/cloud_view_2.png"};
 
 TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   testing::TempDir dir;
@@ -53,7 +64,7 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   EXPECT_EQ(summary.frames_without_pose, 0u);
 
   for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
-  for (const auto& entry : fs::directory_iterator(dir / "out")) {
+  for (const auto& entry : fs::recursive_directory_iterator(dir / "out")) {
     EXPECT_NE(entry.path().extension(), ".tmp") << "temporary file left: " << entry.path();
   }
 

@@ -10,9 +10,7 @@
 #include "stillmap/io/image_io.h"
 
 namespace stillmap {
-namespace {
 
-// A 1-2-5 step giving about `target` intervals over `span`.
 double NiceStep(double span, int target) {
   const double raw = span / target;
   const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
@@ -21,8 +19,6 @@ double NiceStep(double span, int target) {
   }
   return 10.0 * magnitude;
 }
-
-}  // namespace
 
 cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& options) {
   const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kGrid(225, 225, 225);

@@ -45,6 +45,9 @@ struct BuildConfig {
   KeyframeSelectionOptions selection;
   GridOptions grid;
   MapMeshOptions mesh;
+  struct {
+    bool enabled = true;  // renders/ at the end of the build
+  } render;
   YoloxOptions yolox;
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;

@@ -14,6 +14,9 @@ struct TrajectoryPlotOptions {
   std::string title;  // drawn above the plot; empty: "ATE RMSE ..." from the result
 };
 
+// A 1-2-5 step giving about `target` intervals over `span` (axis ticks, scale bars).
+double NiceStep(double span, int target);
+
 // Draws the associated ground-truth positions (black), the aligned estimate (blue) and the error
 // of every pair (red segments) seen from above: the two world axes along which the ground truth
 // extends most, equal scale, axes and grid in metres, legend. Deterministic for the same input.

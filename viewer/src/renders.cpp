@@ -1,0 +1,260 @@
+#include "stillmap/viewer/renders.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "stillmap/viewer/trajectory_plot.h"
+
+namespace stillmap {
+namespace {
+
+const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kText(40, 40, 40);
+const cv::Scalar kTrajectory(200, 90, 20), kKeyframe(0, 120, 255), kFloorGrid(200, 200, 200);
+const cv::Scalar kUnknownCell(205, 205, 205), kBackground(246, 246, 246);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+void Text(cv::Mat* image, const std::string& text, cv::Point at, double scale = 0.55,
+          const cv::Scalar& color = kText) {
+  cv::putText(*image, text, at, kFont, scale, color, 1, cv::LINE_AA);
+}
+
+// Legend rows (a swatch and a label) from `corner` downwards; `dot` swatches are circles.
+struct LegendRow {
+  cv::Scalar color;
+  std::string label;
+  bool dot = false;
+};
+void Legend(cv::Mat* image, cv::Point corner, const std::vector<LegendRow>& rows) {
+  const int row_height = 24;
+  cv::rectangle(*image, corner - cv::Point(8, 8),
+                corner + cv::Point(262, static_cast<int>(rows.size()) * row_height), kWhite,
+                cv::FILLED);
+  cv::rectangle(*image, corner - cv::Point(8, 8),
+                corner + cv::Point(262, static_cast<int>(rows.size()) * row_height), kText, 1);
+  for (size_t k = 0; k < rows.size(); ++k) {
+    const cv::Point at = corner + cv::Point(0, static_cast<int>(k) * row_height);
+    if (rows[k].dot) {
+      cv::circle(*image, at + cv::Point(8, 8), 5, rows[k].color, cv::FILLED, cv::LINE_AA);
+    } else {
+      cv::rectangle(*image, at, at + cv::Point(16, 14), rows[k].color, cv::FILLED);
+      cv::rectangle(*image, at, at + cv::Point(16, 14), kText, 1);
+    }
+    Text(image, rows[k].label, at + cv::Point(26, 13), 0.5);
+  }
+}
+
+// The up direction: the grid's floor normal, else the mean of the cameras' up (-y) axes.
+Eigen::Vector3d UpOf(const RenderInput& input) {
+  if (input.grid) return input.grid->floor.up;
+  Eigen::Vector3d up = Eigen::Vector3d::Zero();
+  for (const Eigen::Isometry3d& pose : input.trajectory) up -= pose.linear().col(1);
+  return up.norm() > 0.0 ? up.normalized() : Eigen::Vector3d(0, -1, 0);
+}
+
+cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
+  const OccupancyGrid& grid = *input.grid;
+  cv::Mat image(options.height, options.width, CV_8UC3, kBackground);
+  const int top = 60, margin = 30;
+  const int area_w = options.width - 2 * margin, area_h = options.height - top - margin;
+  if (grid.width <= 0 || grid.height <= 0) return image;
+  const double scale =
+      std::min(static_cast<double>(area_w) / grid.width, static_cast<double>(area_h) / grid.height);
+  const int draw_w = static_cast<int>(grid.width * scale);
+  const int draw_h = static_cast<int>(grid.height * scale);
+  const cv::Point offset(margin + (area_w - draw_w) / 2, top + (area_h - draw_h) / 2);
+  cv::Mat cells(grid.height, grid.width, CV_8UC3);
+  for (int j = 0; j < grid.height; ++j) {
+    for (int i = 0; i < grid.width; ++i) {
+      const std::int8_t value = grid.At(i, j);
+      cells.at<cv::Vec3b>(grid.height - 1 - j, i) = value == kGridOccupied ? cv::Vec3b(0, 0, 0)
+                                                    : value == kGridFree ? cv::Vec3b(255, 255, 255)
+                                                                         : cv::Vec3b(205, 205, 205);
+    }
+  }
+  cv::Mat scaled;
+  cv::resize(cells, scaled, cv::Size(draw_w, draw_h), 0, 0, cv::INTER_NEAREST);
+  scaled.copyTo(image(cv::Rect(offset, scaled.size())));
+  const Eigen::Isometry3d grid_from_world = grid.world_from_grid.inverse();
+  auto to_pixel = [&](const Eigen::Vector3d& world) {
+    const Eigen::Vector3d g = grid_from_world * world;
+    return cv::Point(
+        offset.x + static_cast<int>((g.x() - grid.origin.x()) / grid.resolution * scale),
+        offset.y + draw_h - static_cast<int>((g.y() - grid.origin.y()) / grid.resolution * scale));
+  };
+  std::vector<cv::Point> path;
+  for (const Eigen::Isometry3d& pose : input.trajectory)
+    path.push_back(to_pixel(pose.translation()));
+  if (path.size() >= 2) cv::polylines(image, path, false, kTrajectory, 2, cv::LINE_AA);
+  for (const Eigen::Isometry3d& pose : input.keyframes) {
+    cv::circle(image, to_pixel(pose.translation()), 4, kKeyframe, cv::FILLED, cv::LINE_AA);
+  }
+  // Scale bar: a 1-2-5 length near a fifth of the drawn width.
+  const double metres_per_pixel = grid.resolution / scale;
+  const double bar_m = NiceStep(draw_w * metres_per_pixel / 5.0, 1);
+  const int bar_px = static_cast<int>(bar_m / metres_per_pixel);
+  const cv::Point bar(margin + 10, options.height - margin - 10);
+  cv::rectangle(image, bar - cv::Point(6, 26), bar + cv::Point(bar_px + 70, 8), kWhite, cv::FILLED);
+  cv::line(image, bar, bar + cv::Point(bar_px, 0), kBlack, 3);
+  cv::line(image, bar - cv::Point(0, 6), bar + cv::Point(0, 6), kBlack, 2);
+  cv::line(image, bar + cv::Point(bar_px, -6), bar + cv::Point(bar_px, 6), kBlack, 2);
+  Text(&image, fmt::format("{:g} m", bar_m), bar + cv::Point(bar_px + 8, 5));
+  Text(&image,
+       fmt::format("{}2-D occupancy grid, {:.0f} cm cells, band {:.2f}-{:.2f} m above the floor",
+                   input.title.empty() ? "" : input.title + ": ", grid.resolution * 100.0,
+                   grid.min_height, grid.max_height),
+       cv::Point(margin, 35), 0.6);
+  Legend(&image, cv::Point(options.width - margin - 257, top + 10),
+         {{kBlack, "occupied"},
+          {kWhite, "free"},
+          {kUnknownCell, "unknown"},
+          {kTrajectory, "camera trajectory"},
+          {kKeyframe, "keyframes fused", true}});
+  return image;
+}
+
+// A perspective view of the cloud from `azimuth_deg` around the up axis (0: along the floor's
+// x axis), 35 degrees above the floor, framing the cloud's central 98 %.
+cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double azimuth_deg,
+                  const std::string& name) {
+  cv::Mat image(options.height, options.width, CV_8UC3, kBackground);
+  const Eigen::Vector3d up = UpOf(input);
+  // Floor axes: x along the world x projected (or z), y = up x x.
+  Eigen::Vector3d ex = std::abs(up.x()) > 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
+  ex = (ex - up.dot(ex) * up).normalized();
+  const Eigen::Vector3d ey = up.cross(ex);
+  // Robust extent: per axis the 1st and 99th percentiles.
+  std::vector<double> xs, ys, zs;
+  const size_t stride = std::max<size_t>(1, input.cloud.size() / 200000);
+  for (size_t i = 0; i < input.cloud.size(); i += stride) {
+    const Eigen::Vector3d p = input.cloud[i].position.cast<double>();
+    xs.push_back(ex.dot(p));
+    ys.push_back(ey.dot(p));
+    zs.push_back(up.dot(p));
+  }
+  auto percentile = [](std::vector<double> v, double q) {
+    const auto nth = v.begin() + static_cast<long>(q * static_cast<double>(v.size() - 1));
+    std::nth_element(v.begin(), nth, v.end());
+    return *nth;
+  };
+  const Eigen::Vector3d low(percentile(xs, 0.01), percentile(ys, 0.01), percentile(zs, 0.01));
+  const Eigen::Vector3d high(percentile(xs, 0.99), percentile(ys, 0.99), percentile(zs, 0.99));
+  const Eigen::Vector3d centre_f = 0.5 * (low + high);
+  const double radius = 0.5 * (high - low).norm() + 0.1;
+  const Eigen::Vector3d centre = centre_f.x() * ex + centre_f.y() * ey + centre_f.z() * up;
+  const double azimuth = azimuth_deg * M_PI / 180.0, elevation = 35.0 * M_PI / 180.0;
+  const Eigen::Vector3d back =
+      std::cos(elevation) * (std::cos(azimuth) * ex + std::sin(azimuth) * ey) +
+      std::sin(elevation) * up;
+  const double half_fov = 25.0 * M_PI / 180.0;  // vertical
+  const double focal = 0.5 * options.height / std::tan(half_fov);
+  const Eigen::Vector3d eye = centre + back * (radius / std::sin(half_fov));
+  const Eigen::Vector3d forward = (centre - eye).normalized();
+  const Eigen::Vector3d down = -(up - up.dot(forward) * forward).normalized();
+  const Eigen::Vector3d right = down.cross(forward);
+  Eigen::Matrix3d rotation;  // camera_from_world rows
+  rotation.row(0) = right.transpose();
+  rotation.row(1) = down.transpose();
+  rotation.row(2) = forward.transpose();
+  const double cx = 0.5 * options.width, cy = 0.5 * options.height;
+  auto project = [&](const Eigen::Vector3d& world, double* depth) {
+    const Eigen::Vector3d c = rotation * (world - eye);
+    *depth = c.z();
+    return cv::Point2d(focal * c.x() / c.z() + cx, focal * c.y() / c.z() + cy);
+  };
+
+  // The floor's 1 m grid first (points draw over it).
+  if (input.grid) {
+    const double floor_height = -input.grid->floor.offset;  // up . x on the floor
+    for (int axis = 0; axis < 2; ++axis) {
+      const double a0 = std::floor(axis == 0 ? low.x() : low.y());
+      const double a1 = std::ceil(axis == 0 ? high.x() : high.y());
+      const double b0 = std::floor(axis == 0 ? low.y() : low.x());
+      const double b1 = std::ceil(axis == 0 ? high.y() : high.x());
+      for (double a = a0; a <= a1 + 1e-9; a += 1.0) {
+        const Eigen::Vector3d p0 =
+            (axis == 0 ? a * ex + b0 * ey : b0 * ex + a * ey) + floor_height * up;
+        const Eigen::Vector3d p1 =
+            (axis == 0 ? a * ex + b1 * ey : b1 * ex + a * ey) + floor_height * up;
+        double d0 = 0.0, d1 = 0.0;
+        const cv::Point2d q0 = project(p0, &d0), q1 = project(p1, &d1);
+        if (d0 > 0.1 && d1 > 0.1) cv::line(image, q0, q1, kFloorGrid, 1, cv::LINE_AA);
+      }
+    }
+  }
+  // Points, z-buffered, as squares that shrink with distance (about a 1.5 cm footprint).
+  cv::Mat depth_buffer(options.height, options.width, CV_32FC1, cv::Scalar(0));
+  for (const VoxelPoint& point : input.cloud) {
+    double depth = 0.0;
+    const cv::Point2d q = project(point.position.cast<double>(), &depth);
+    if (depth < 0.1) continue;
+    const int size = std::clamp(static_cast<int>(std::ceil(focal * 0.015 / depth)), 1, 8);
+    const int u0 = static_cast<int>(q.x) - size / 2, v0 = static_cast<int>(q.y) - size / 2;
+    for (int v = std::max(0, v0); v < std::min(options.height, v0 + size); ++v) {
+      float* z = depth_buffer.ptr<float>(v);
+      cv::Vec3b* pixel = image.ptr<cv::Vec3b>(v);
+      for (int u = std::max(0, u0); u < std::min(options.width, u0 + size); ++u) {
+        if (z[u] != 0.0f && z[u] <= depth) continue;
+        z[u] = static_cast<float>(depth);
+        pixel[u] = cv::Vec3b(point.rgb[2], point.rgb[1], point.rgb[0]);  // RGB -> BGR
+      }
+    }
+  }
+  // Trajectory and keyframes on top.
+  std::vector<cv::Point> path;
+  for (const Eigen::Isometry3d& pose : input.trajectory) {
+    double depth = 0.0;
+    const cv::Point2d q = project(pose.translation(), &depth);
+    if (depth > 0.1) path.emplace_back(q);
+  }
+  if (path.size() >= 2) cv::polylines(image, path, false, kTrajectory, 2, cv::LINE_AA);
+  for (const Eigen::Isometry3d& pose : input.keyframes) {
+    double depth = 0.0;
+    const cv::Point2d q = project(pose.translation(), &depth);
+    if (depth <= 0.1) continue;
+    cv::circle(image, q, 5, kKeyframe, cv::FILLED, cv::LINE_AA);
+    // The viewing direction, 0.25 m long.
+    double d2 = 0.0;
+    const cv::Point2d tip = project(pose * Eigen::Vector3d(0, 0, 0.25), &d2);
+    if (d2 > 0.1) cv::line(image, q, tip, kKeyframe, 2, cv::LINE_AA);
+  }
+  Text(&image,
+       fmt::format("{}colored cloud, {} points ({})", input.title.empty() ? "" : input.title + ": ",
+                   input.cloud.size(), name),
+       cv::Point(30, 35), 0.6);
+  std::vector<LegendRow> rows = {{kTrajectory, "camera trajectory"},
+                                 {kKeyframe, "keyframes fused (and view)", true}};
+  if (input.grid) rows.push_back({kFloorGrid, "floor grid: 1 m squares"});
+  Legend(&image, cv::Point(options.width - 290, 60), rows);
+  return image;
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, cv::Mat>> RenderViews(const RenderInput& input,
+                                                         const RenderOptions& options) {
+  std::vector<std::pair<std::string, cv::Mat>> views;
+  if (input.grid) views.emplace_back("grid_top.png", GridTopView(input, options));
+  if (!input.cloud.empty()) {
+    // From behind the start (opposite the first camera's view) and from the side.
+    double azimuth = 225.0;
+    if (!input.trajectory.empty()) {
+      const Eigen::Vector3d up = UpOf(input);
+      Eigen::Vector3d ex =
+          std::abs(up.x()) > 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
+      ex = (ex - up.dot(ex) * up).normalized();
+      const Eigen::Vector3d ey = up.cross(ex);
+      const Eigen::Vector3d view = input.trajectory.front().linear().col(2);
+      azimuth = std::atan2(-ey.dot(view), -ex.dot(view)) * 180.0 / M_PI;
+    }
+    views.emplace_back("cloud_view_1.png",
+                       CloudView(input, options, azimuth, "seen from behind the first camera"));
+    views.emplace_back("cloud_view_2.png",
+                       CloudView(input, options, azimuth + 90.0, "seen from the side"));
+  }
+  return views;
+}
+
+}  // namespace stillmap
