@@ -17,6 +17,7 @@
 #include <unordered_set>
 
 #include "stillmap/apps/progress.h"
+#include "stillmap/apps/report_html.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/file_list.h"
@@ -449,7 +450,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
     std::deque<MaskReference> recent;  // keyframes already considered, final poses, oldest first
     std::unordered_set<int> selected_landmarks;
     const double spacing = config.masking.reference_spacing_s;
-    const size_t max_references = static_cast<size_t>(2 * config.masking.reference_keyframes);
+    const size_t max_references = 2 * static_cast<size_t>(config.masking.reference_keyframes);
     auto fuse = [&](const std::vector<FinalKeyframe>& finals) {
       const Clock::time_point fuse_start = Clock::now();
       for (const FinalKeyframe& keyframe : finals) {
@@ -902,6 +903,11 @@ BuildSummary RunBuild(const BuildRequest& request) {
     std::ofstream out(outputs.TemporaryPath("report.json"));
     out << report.dump(2) << "\n";
     if (!out.flush()) throw std::runtime_error("could not write report.json");
+  }
+  {
+    std::ofstream out(outputs.TemporaryPath("report.html"));
+    out << ReportHtml(report);
+    if (!out.flush()) throw std::runtime_error("could not write report.html");
   }
   outputs.Commit();
   folder_guard.Commit();

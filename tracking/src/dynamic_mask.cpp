@@ -14,8 +14,6 @@ namespace stillmap {
 
 namespace {
 
-constexpr float kNoDepth = std::numeric_limits<float>::infinity();
-
 // Axial noise of Kinect-class sensors (Nguyen et al., 3DIMPVT 2012) [m].
 float DepthSigma(float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
 
@@ -178,7 +176,7 @@ GeometricMasker::GeometricMasker(const Camera& camera, const DynamicMaskOptions&
   if (!camera.HasDistortion()) {
     for (int v = 0; v < camera.height; ++v) {
       for (int u = 0; u < camera.width; ++u) {
-        rays_[static_cast<size_t>(v * camera.width + u)] =
+        rays_[static_cast<size_t>(v) * static_cast<size_t>(camera.width) + static_cast<size_t>(u)] =
             Eigen::Vector2f(static_cast<float>((u - camera.cx) / camera.fx),
                             static_cast<float>((v - camera.cy) / camera.fy));
       }

@@ -11,9 +11,14 @@
 namespace stillmap {
 namespace {
 
-const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kText(40, 40, 40);
-const cv::Scalar kTrajectory(200, 90, 20), kKeyframe(0, 120, 255), kFloorGrid(200, 200, 200);
-const cv::Scalar kUnknownCell(205, 205, 205), kBackground(246, 246, 246);
+// A BGR color usable where OpenCV takes a cv::Scalar (cv::Scalar itself is not a literal type).
+struct Bgr {
+  double b, g, r;
+  operator cv::Scalar() const { return {b, g, r}; }  // NOLINT(google-explicit-constructor)
+};
+constexpr Bgr kWhite{255, 255, 255}, kBlack{0, 0, 0}, kText{40, 40, 40};
+constexpr Bgr kTrajectory{200, 90, 20}, kKeyframe{0, 120, 255}, kFloorGrid{200, 200, 200};
+constexpr Bgr kUnknownCell{205, 205, 205}, kBackground{246, 246, 246};
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 
 void Text(cv::Mat* image, const std::string& text, cv::Point at, double scale = 0.55,
