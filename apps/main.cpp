@@ -105,6 +105,14 @@ int Run(int argc, char** argv) {
   synth_cmd->add_flag("--no-noise", no_noise, "exact depth and color (no sensor model)");
   synth_cmd->add_option("--threads", synth.threads, "frames rendered in parallel (default 2)");
 
+  // view
+  std::string view_dir;
+  bool view_png = false;
+  CLI::App* view_cmd = app.add_subcommand(
+      "view", "Look at a build: --png draws the renders (renders/*.png) again from its files.");
+  view_cmd->add_option("OUT_DIR", view_dir, "a folder 'stillmap build' wrote")->required();
+  view_cmd->add_flag("--png", view_png, "write renders/*.png (no display needed)");
+
   // info
   std::string info_dir;
   std::string info_preset;
@@ -179,6 +187,15 @@ int Run(int argc, char** argv) {
           "pixels dynamic; written to {}",
           summary.frames, synth.scenario, summary.seconds, summary.static_gt_points,
           100.0 * summary.dynamic_pixel_share, synth_dir);
+    } else if (*view_cmd) {
+      if (!view_png) {
+        throw stillmap::InputError(
+            "view: the interactive window is not part of this build yet; use 'stillmap view " +
+            view_dir + " --png' to write the renders, and open report.html");
+      }
+      for (const std::string& path : stillmap::RenderBuildFolder(view_dir)) {
+        spdlog::info("wrote {}", path);
+      }
     } else if (*info_cmd) {
       std::cout << stillmap::DescribeSequence(info_dir, info_preset);
     }

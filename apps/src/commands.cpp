@@ -4,11 +4,17 @@
 #include <fmt/ranges.h>
 
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "stillmap/io/camera.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/image_io.h"
 #include "stillmap/io/sequence.h"
+#include "stillmap/io/trajectory.h"
+#include "stillmap/mapping/map_io.h"
+#include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/viewer/renders.h"
 #include "stillmap/viewer/trajectory_plot.h"
 
 namespace stillmap {
@@ -120,6 +126,42 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
     text += "groundtruth: none\n";
   }
   return text;
+}
+
+std::vector<std::string> RenderBuildFolder(const std::string& out_dir) {
+  namespace fs = std::filesystem;
+  const fs::path out(out_dir);
+  if (!fs::exists(out / "map.ply")) {
+    throw InputError(out_dir + ": no map.ply here; give the folder a 'stillmap build' wrote");
+  }
+  RenderInput input;
+  input.cloud = ReadCloud((out / "map.ply").string());
+  if (fs::exists(out / "grid.yaml")) input.grid = ReadGrid((out / "grid.yaml").string());
+  for (const char* name : {"trajectory.txt", "keyframes.txt"}) {
+    if (!fs::exists(out / name)) continue;
+    std::vector<Eigen::Isometry3d>& poses =
+        std::string(name) == "trajectory.txt" ? input.trajectory : input.keyframes;
+    const Trajectory trajectory = Trajectory::ReadTum((out / name).string());
+    for (const StampedPose& pose : trajectory.poses()) {
+      poses.push_back(pose.world_from_camera);
+    }
+  }
+  if (fs::exists(out / "report.json")) {
+    try {
+      std::ifstream in(out / "report.json");
+      const nlohmann::json report = nlohmann::json::parse(in);
+      input.title = fs::path(report.value("sequence", std::string())).filename().string();
+    } catch (const nlohmann::json::exception&) {
+      // The title is only a caption; a damaged report does not stop the renders.
+    }
+  }
+  fs::create_directories(out / "renders");
+  std::vector<std::string> written;
+  for (const auto& [name, image] : RenderViews(input)) {
+    WriteImageAtomically((out / "renders" / name).string(), image);
+    written.push_back((out / "renders" / name).string());
+  }
+  return written;
 }
 
 }  // namespace stillmap

@@ -4,13 +4,16 @@
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <limits>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
@@ -291,6 +294,60 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
   }
   out << "]\n";
   if (!out.flush()) throw std::runtime_error(yaml_path + ": could not write the grid description");
+}
+
+OccupancyGrid ReadGrid(const std::string& yaml_path) {
+  YAML::Node yaml;
+  try {
+    yaml = YAML::LoadFile(yaml_path);
+  } catch (const YAML::Exception& e) {
+    throw InputError(yaml_path + ": cannot read the grid description (" + e.what() + ")");
+  }
+  auto need = [&](const char* key) {
+    if (!yaml[key]) throw InputError(yaml_path + ": missing key '" + key + "'");
+    return yaml[key];
+  };
+  OccupancyGrid grid;
+  try {
+    grid.resolution = need("resolution").as<double>();
+    const auto origin = need("origin").as<std::vector<double>>();
+    if (origin.size() != 3) throw InputError(yaml_path + ": 'origin' needs [x, y, yaw]");
+    grid.origin = Eigen::Vector2d(origin[0], origin[1]);
+    grid.min_height = need("min_height").as<double>();
+    grid.max_height = need("max_height").as<double>();
+    const auto m = need("world_from_map").as<std::vector<double>>();
+    if (m.size() != 16) throw InputError(yaml_path + ": 'world_from_map' needs 16 numbers");
+    Eigen::Matrix4d matrix;
+    for (int k = 0; k < 16; ++k) matrix(k / 4, k % 4) = m[static_cast<size_t>(k)];
+    grid.world_from_grid.matrix() = matrix;
+    if (yaml["floor_source"]) grid.floor.source = yaml["floor_source"].as<std::string>();
+  } catch (const YAML::Exception& e) {
+    throw InputError(yaml_path + ": malformed grid description (" + e.what() + ")");
+  }
+  // The map frame's z is the floor's normal and its origin lies on the floor.
+  grid.floor.up = grid.world_from_grid.linear().col(2);
+  grid.floor.offset = -grid.floor.up.dot(grid.world_from_grid.translation());
+  const std::string image_path =
+      (std::filesystem::path(yaml_path).parent_path() / need("image").as<std::string>()).string();
+  const cv::Mat image = cv::imread(image_path, cv::IMREAD_UNCHANGED);
+  if (image.empty() || image.type() != CV_8UC1) {
+    throw InputError(image_path + ": missing, unreadable or not an 8-bit gray image");
+  }
+  grid.width = image.cols;
+  grid.height = image.rows;
+  grid.cells.assign(static_cast<size_t>(grid.width) * static_cast<size_t>(grid.height),
+                    kGridUnknown);
+  for (int row = 0; row < image.rows; ++row) {
+    for (int col = 0; col < image.cols; ++col) {
+      const std::uint8_t p = image.at<std::uint8_t>(row, col);
+      const size_t j = static_cast<size_t>(grid.height - 1 - row);
+      grid.cells[j * static_cast<size_t>(grid.width) + static_cast<size_t>(col)] =
+          p == 0     ? kGridOccupied
+          : p == 254 ? kGridFree
+                     : kGridUnknown;
+    }
+  }
+  return grid;
 }
 
 GridQuality EvaluateGrid(const OccupancyGrid& grid,

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
@@ -96,6 +97,25 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   const TriangleMesh mesh = LoadMesh(dir / "out/mesh.glb");
   ASSERT_GT(mesh.faces.size(), 100u);
   for (const Eigen::Vector3f& v : mesh.vertices) EXPECT_NEAR(v.z(), 2.0, 0.031);
+
+  // `stillmap view OUT --png` draws the same renders again from the files (poses and the grid
+  // frame come back rounded to the files' precision: nearly the same pixels).
+  std::vector<cv::Mat> rendered;
+  for (const char* name : {"grid_top.png", "cloud_view_1.png", "cloud_view_2.png"}) {
+    rendered.push_back(cv::imread(dir / "out/renders/" + name));
+  }
+  std::string output;
+  ASSERT_EQ(testing::RunStillmap("view " + (dir / "out") + " --png", &output), 0) << output;
+  int k = 0;
+  for (const char* name : {"grid_top.png", "cloud_view_1.png", "cloud_view_2.png"}) {
+    const cv::Mat again = cv::imread(dir / "out/renders/" + name);
+    ASSERT_EQ(again.size(), rendered[static_cast<size_t>(k)].size()) << name;
+    cv::Mat difference;
+    cv::absdiff(again, rendered[static_cast<size_t>(k++)], difference);
+    EXPECT_LT(cv::mean(difference)[0], 2.0) << name;
+  }
+  EXPECT_NE(testing::RunStillmap("view " + (dir / "out"), &output), 0);
+  EXPECT_NE(output.find("--png"), std::string::npos) << output;
 
   const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "out/report.json"));
   EXPECT_EQ(report["mesh"]["triangles"], mesh.faces.size());

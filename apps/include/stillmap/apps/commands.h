@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "stillmap/io/evaluation.h"
 
@@ -22,6 +23,11 @@ struct EvalRequest {
 // Computes ATE and RPE, writes the plot when asked, and returns the text (or JSON) to print.
 // Throws InputError for unreadable or non-overlapping trajectories.
 std::string RunEval(const EvalRequest& request);
+
+// `stillmap view OUT --png`: the renders of a build folder drawn again from its files (map.ply,
+// grid.yaml + grid.pgm when present, trajectory.txt, keyframes.txt) into OUT/renders/. Returns
+// the files written. Throws InputError when OUT is not a build folder.
+std::vector<std::string> RenderBuildFolder(const std::string& out_dir);
 
 // A description of a sequence: pairs, duration, camera, ground-truth coverage.
 std::string DescribeSequence(const std::string& sequence_dir, const std::string& camera_preset);

@@ -92,6 +92,10 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
 void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
                const std::string& image_name);
 
+// Reads back what WriteGrid wrote (grid.yaml and the image it names, beside it). Throws
+// InputError naming the file and the missing or malformed key.
+OccupancyGrid ReadGrid(const std::string& yaml_path);
+
 // Agreement of a grid with occupancy computed the same way from ground-truth static points
 // (in the same world frame): a cell is truly occupied when a point lies in the band over it.
 struct GridQuality {
