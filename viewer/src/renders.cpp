@@ -65,11 +65,32 @@ cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
   const int top = 60, margin = 30;
   const int area_w = options.width - 2 * margin, area_h = options.height - top - margin;
   if (grid.width <= 0 || grid.height <= 0) return image;
+  // The drawn extent in cells: the grid, grown to hold the trajectory (the floor right below the
+  // camera is seldom in view, so the path often runs outside the grid) and a margin for the scale
+  // bar below.
+  const Eigen::Isometry3d grid_from_world = grid.world_from_grid.inverse();
+  double i_low = 0.0, j_low = 0.0, i_high = grid.width, j_high = grid.height;
+  for (const Eigen::Isometry3d& pose : input.trajectory) {
+    const Eigen::Vector3d g = grid_from_world * pose.translation();
+    const double i = (g.x() - grid.origin.x()) / grid.resolution;
+    const double j = (g.y() - grid.origin.y()) / grid.resolution;
+    i_low = std::min(i_low, i - 2.0);
+    i_high = std::max(i_high, i + 2.0);
+    j_low = std::min(j_low, j - 2.0);
+    j_high = std::max(j_high, j + 2.0);
+  }
+  j_low -= 0.08 * (j_high - j_low);  // room for the scale bar
   const double scale =
-      std::min(static_cast<double>(area_w) / grid.width, static_cast<double>(area_h) / grid.height);
+      std::min(area_w / (i_high - i_low), area_h / (j_high - j_low));  // pixels per cell
   const int draw_w = static_cast<int>(grid.width * scale);
   const int draw_h = static_cast<int>(grid.height * scale);
-  const cv::Point offset(margin + (area_w - draw_w) / 2, top + (area_h - draw_h) / 2);
+  const int extent_w = static_cast<int>((i_high - i_low) * scale);
+  const int extent_h = static_cast<int>((j_high - j_low) * scale);
+  // Pixel of the grid's lower-left corner.
+  const cv::Point corner(
+      margin + (area_w - extent_w) / 2 + static_cast<int>(-i_low * scale),
+      top + (area_h - extent_h) / 2 + extent_h + static_cast<int>(j_low * scale));
+  const cv::Point offset(corner.x, corner.y - draw_h);
   cv::Mat cells(grid.height, grid.width, CV_8UC3);
   for (int j = 0; j < grid.height; ++j) {
     for (int i = 0; i < grid.width; ++i) {
@@ -82,7 +103,6 @@ cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
   cv::Mat scaled;
   cv::resize(cells, scaled, cv::Size(draw_w, draw_h), 0, 0, cv::INTER_NEAREST);
   scaled.copyTo(image(cv::Rect(offset, scaled.size())));
-  const Eigen::Isometry3d grid_from_world = grid.world_from_grid.inverse();
   auto to_pixel = [&](const Eigen::Vector3d& world) {
     const Eigen::Vector3d g = grid_from_world * world;
     return cv::Point(
