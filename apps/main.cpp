@@ -12,6 +12,7 @@
 #include "stillmap/apps/build_pipeline.h"
 #include "stillmap/apps/commands.h"
 #include "stillmap/apps/progress.h"
+#include "stillmap/apps/view_window.h"
 #include "stillmap/io/error.h"
 #include "stillmap/viewer/synthetic.h"
 
@@ -108,10 +109,16 @@ int Run(int argc, char** argv) {
   // view
   std::string view_dir;
   bool view_png = false;
+  std::string view_screenshot;
   CLI::App* view_cmd = app.add_subcommand(
-      "view", "Look at a build: --png draws the renders (renders/*.png) again from its files.");
+      "view",
+      "Look at a build: a window with the cloud, the OctoMap's occupied voxels, the trajectory "
+      "and the keyframes; --png draws the renders (renders/*.png) again instead.");
   view_cmd->add_option("OUT_DIR", view_dir, "a folder 'stillmap build' wrote")->required();
   view_cmd->add_flag("--png", view_png, "write renders/*.png (no display needed)");
+  view_cmd->add_option("--screenshot", view_screenshot,
+                       "render the window once into this PNG and close it");
+  view_cmd->footer(std::string("Keys: ") + stillmap::kViewWindowKeys);
 
   // info
   std::string info_dir;
@@ -188,13 +195,13 @@ int Run(int argc, char** argv) {
           summary.frames, synth.scenario, summary.seconds, summary.static_gt_points,
           100.0 * summary.dynamic_pixel_share, synth_dir);
     } else if (*view_cmd) {
-      if (!view_png) {
-        throw stillmap::InputError(
-            "view: the interactive window is not part of this build yet; use 'stillmap view " +
-            view_dir + " --png' to write the renders, and open report.html");
-      }
-      for (const std::string& path : stillmap::RenderBuildFolder(view_dir)) {
-        spdlog::info("wrote {}", path);
+      if (view_png) {
+        for (const std::string& path : stillmap::RenderBuildFolder(view_dir)) {
+          spdlog::info("wrote {}", path);
+        }
+      } else {
+        stillmap::RunViewWindow(view_dir, view_screenshot);
+        if (!view_screenshot.empty()) spdlog::info("wrote {}", view_screenshot);
       }
     } else if (*info_cmd) {
       std::cout << stillmap::DescribeSequence(info_dir, info_preset);

@@ -10,6 +10,7 @@ packages=(
   libceres-dev libflann-dev libassimp-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  xvfb
 )
 
 missing=()

@@ -123,8 +123,9 @@ Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, cons
   return trajectory;
 }
 
-int RunStillmap(const std::string& arguments, std::string* output) {
-  const std::string command = std::string(STILLMAP_BINARY) + " " + arguments + " 2>&1";
+int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix) {
+  const std::string command =
+      (prefix.empty() ? "" : prefix + " ") + STILLMAP_BINARY + " " + arguments + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return -1;
   std::array<char, 4096> buffer{};

@@ -55,6 +55,7 @@ std::string ReadText(const std::string& path);
 
 // Runs the stillmap binary with `arguments` (shell-quoted here); returns its exit status and puts
 // stderr (and stdout) in `output`.
-int RunStillmap(const std::string& arguments, std::string* output);
+// `prefix` runs it under another command (xvfb-run -a).
+int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix = "");
 
 }  // namespace stillmap::testing
