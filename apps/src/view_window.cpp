@@ -151,7 +151,7 @@ class Window {
   }
   void OnKey(const pcl::visualization::KeyboardEvent& event) {
     if (!event.keyDown()) return;
-    const std::string key = event.getKeySym();
+    const std::string& key = event.getKeySym();
     if (key == "v") ShowVoxels(!voxels_on_);
     if (key == "t") ShowTrajectory(!trajectory_on_);
     if (key == "m") ShowCloud(!cloud_on_);
