@@ -705,7 +705,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
                       {"cells",
                        {{"free", grid->Count(kGridFree)},
                         {"occupied", grid->Count(kGridOccupied)},
-                        {"unknown", grid->Count(kGridUnknown)}}},
+                        {"unknown", grid->Count(kGridUnknown)},
+                        {"occupied_unconfirmed_made_unknown", grid->unconfirmed_cells}}},
                       {"frame",
                        "x, y in the floor plane, z up from the floor, origin on the floor below "
                        "the world origin"},

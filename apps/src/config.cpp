@@ -388,6 +388,10 @@ const std::vector<ConfigKey>& Keys() {
     k.push_back(DoubleKey("grid.occupied_probability",
                           "a voxel blocks its grid cell above this occupancy probability",
                           [](BuildConfig& c) -> double& { return c.grid.occupied_probability; }));
+    k.push_back(DoubleKey(
+        "grid.confirm_probability",
+        "occupied cells stay occupied only when connected to one above this (else unknown)",
+        [](BuildConfig& c) -> double& { return c.grid.confirm_probability; }));
     k.push_back(DoubleKey("grid.max_floor_tilt_deg",
                           "a fitted floor's normal is within this of the cameras' up",
                           [](BuildConfig& c) -> double& { return c.grid.max_floor_tilt_deg; }));

@@ -46,6 +46,9 @@ void GridOptions::Validate() const {
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError("grid.occupied_probability must be in [0.5, 1)");
   }
+  if (!(confirm_probability >= 0.5 && confirm_probability < 1.0)) {
+    throw InputError("grid.confirm_probability must be in [0.5, 1)");
+  }
   if (!(max_floor_tilt_deg > 0.0 && max_floor_tilt_deg < 90.0)) {
     throw InputError("grid.max_floor_tilt_deg must be in (0, 90)");
   }
@@ -214,6 +217,8 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
   std::vector<double> band, floor_band;
   for (double h = options.min_height; h <= options.max_height + 1e-9; h += step) band.push_back(h);
   for (double h = floor_low; h < options.min_height; h += step) floor_band.push_back(h);
+  // The strongest occupancy probability in each cell's band.
+  std::vector<float> support(grid.cells.size(), -1.0f);
   cv::parallel_for_(cv::Range(0, grid.height), [&](const cv::Range& rows) {
     for (int j = rows.start; j < rows.end; ++j) {
       for (int i = 0; i < grid.width; ++i) {
@@ -226,14 +231,15 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
         // itself seen (below). Space seen free only higher up (over a box, into its shadow) may
         // hide a low obstacle, and stays unknown.
         bool occupied = false, free = false;
+        double strongest = -1.0;
         for (double h : band) {
           const double p = at(h);
-          if (p > options.occupied_probability) {
-            occupied = true;
-            break;
-          }
+          strongest = std::max(strongest, p);
+          occupied = occupied || p > options.occupied_probability;
           free = free || (p >= 0.0 && h < options.min_height + 2.0 * resolution);
         }
+        support[static_cast<size_t>(j) * static_cast<size_t>(grid.width) + static_cast<size_t>(i)] =
+            static_cast<float>(strongest);
         if (!occupied && !free) {
           for (double h : floor_band) {
             if (at(h) > 0.5) {
@@ -249,6 +255,39 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
       }
     }
   });
+  // Hysteresis: an occupied cell whose voxels were hit only weakly (about once, as the remnant of
+  // a person at a mask's edge is) stays occupied only when connected (8-neighbours, through
+  // occupied cells) to a cell confirmed above confirm_probability; otherwise it is unknown.
+  if (options.confirm_probability > options.occupied_probability) {
+    std::vector<std::uint8_t> reached(grid.cells.size(), 0);
+    std::vector<int> queue;
+    for (size_t k = 0; k < grid.cells.size(); ++k) {
+      if (grid.cells[k] == kGridOccupied && support[k] > options.confirm_probability) {
+        reached[k] = 1;
+        queue.push_back(static_cast<int>(k));
+      }
+    }
+    for (size_t head = 0; head < queue.size(); ++head) {
+      const int i = queue[head] % grid.width, j = queue[head] / grid.width;
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const int a = i + di, b = j + dj;
+          if (a < 0 || b < 0 || a >= grid.width || b >= grid.height) continue;
+          const size_t k =
+              static_cast<size_t>(b) * static_cast<size_t>(grid.width) + static_cast<size_t>(a);
+          if (reached[k] != 0 || grid.cells[k] != kGridOccupied) continue;
+          reached[k] = 1;
+          queue.push_back(static_cast<int>(k));
+        }
+      }
+    }
+    for (size_t k = 0; k < grid.cells.size(); ++k) {
+      if (grid.cells[k] == kGridOccupied && reached[k] == 0) {
+        grid.cells[k] = kGridUnknown;
+        ++grid.unconfirmed_cells;
+      }
+    }
+  }
   return grid;
 }
 

@@ -128,6 +128,38 @@ TEST_F(OccupancyGridTest, FindsTheFloorAndProjectsTheBand) {
   EXPECT_EQ(CellAt(ProjectToGrid(map_, stated, given), -0.5, 1.51), kGridOccupied);
 }
 
+// A remnant hit once (as the edge of a person a mask missed is, where no later ray passes)
+// standing alone becomes unknown; the same once-hit voxels touching confirmed structure (in the
+// box's shadow, against its top) stay occupied; with the hysteresis off, both are occupied.
+TEST_F(OccupancyGridTest, WeaklyHitCellsNeedConfirmedNeighbours) {
+  const Eigen::Isometry3d world_from_room = room_from_world_.inverse();
+  std::vector<Eigen::Vector3f> remnant, ledge;
+  for (int i = 0; i < 5; ++i) {
+    for (int k = 0; k < 20; ++k) {
+      remnant.push_back(
+          (world_from_room * Eigen::Vector3d(-2.0 + 0.01 * i, 2.0, 0.2 + 0.02 * k)).cast<float>());
+      ledge.push_back(
+          (world_from_room * Eigen::Vector3d(0.75, 2.52 + 0.01 * i, 0.2 + 0.02 * k)).cast<float>());
+    }
+  }
+  std::vector<Eigen::Vector3f> once = remnant;
+  once.insert(once.end(), ledge.begin(), ledge.end());
+  map_.InsertScan(once, (world_from_room * Eigen::Vector3d(0.0, 0.0, 1.2)).cast<float>());
+
+  GridOptions options;
+  const FloorPlane floor = FindFloor(map_, cameras_up_, options);
+  const OccupancyGrid grid = ProjectToGrid(map_, floor, options);
+  EXPECT_EQ(CellAt(grid, -1.98, 2.0), kGridUnknown);
+  EXPECT_EQ(CellAt(grid, 0.75, 2.54), kGridOccupied);
+  EXPECT_EQ(CellAt(grid, 0.75, 2.25), kGridOccupied);  // the box itself, seen six times
+  EXPECT_GT(grid.unconfirmed_cells, 0u);
+
+  options.confirm_probability = 0.5;  // off
+  const OccupancyGrid plain = ProjectToGrid(map_, floor, options);
+  EXPECT_EQ(CellAt(plain, -1.98, 2.0), kGridOccupied);
+  EXPECT_EQ(plain.unconfirmed_cells, 0u);
+}
+
 // The files as map_server (ROS 1 and Nav2) reads them: the YAML keys, and each pixel's value
 // giving the cell's state through occ = (255 - p) / 255 against the thresholds, with the image's
 // bottom-left pixel at `origin`.

@@ -28,6 +28,10 @@ struct GridOptions {
   // true obstacle; 0.75 removes those 31 but turns 66 truly occupied cells free. A missed
   // obstacle is the worse error for a planner, so the default stays at 0.5.
   double occupied_probability = 0.5;
+  // Hysteresis: occupied cells stay occupied only when connected to a cell whose voxels exceed
+  // this (hit at least twice more than missed); the others become unknown. <= occupied_probability:
+  // off.
+  double confirm_probability = 0.8;
   // A fitted floor's normal must lie within this angle of the cameras' mean up direction.
   double max_floor_tilt_deg = 30.0;
 
@@ -69,6 +73,7 @@ struct OccupancyGrid {
   std::vector<std::int8_t> cells;                    // row-major, j = 0 first (the lowest y)
   FloorPlane floor;
   double min_height = 0.0, max_height = 0.0;
+  size_t unconfirmed_cells = 0;  // occupied but not connected to confirmed structure: unknown
 
   std::int8_t At(int i, int j) const {
     return cells[static_cast<size_t>(j) * static_cast<size_t>(width) + static_cast<size_t>(i)];
