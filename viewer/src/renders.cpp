@@ -141,9 +141,9 @@ cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
 }
 
 // A perspective view of the cloud from `azimuth_deg` around the up axis (0: along the floor's
-// x axis), 35 degrees above the floor, framing the cloud's central 98 %.
+// x axis), `elevation_deg` above the floor, framing the cloud's central 98 %.
 cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double azimuth_deg,
-                  const std::string& name) {
+                  double elevation_deg, const std::string& name) {
   cv::Mat image(options.height, options.width, CV_8UC3, kBackground);
   const Eigen::Vector3d up = UpOf(input);
   // Floor axes: x along the world x projected (or z), y = up x x.
@@ -169,7 +169,7 @@ cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double
   const Eigen::Vector3d centre_f = 0.5 * (low + high);
   const double radius = 0.5 * (high - low).norm() + 0.1;
   const Eigen::Vector3d centre = centre_f.x() * ex + centre_f.y() * ey + centre_f.z() * up;
-  const double azimuth = azimuth_deg * M_PI / 180.0, elevation = 35.0 * M_PI / 180.0;
+  const double azimuth = azimuth_deg * M_PI / 180.0, elevation = elevation_deg * M_PI / 180.0;
   const Eigen::Vector3d back =
       std::cos(elevation) * (std::cos(azimuth) * ex + std::sin(azimuth) * ey) +
       std::sin(elevation) * up;
@@ -274,10 +274,12 @@ std::vector<std::pair<std::string, cv::Mat>> RenderViews(const RenderInput& inpu
       const Eigen::Vector3d view = input.trajectory.front().linear().col(2);
       azimuth = std::atan2(-ey.dot(view), -ex.dot(view)) * 180.0 / M_PI;
     }
-    views.emplace_back("cloud_view_1.png",
-                       CloudView(input, options, azimuth, "seen from behind the first camera"));
-    views.emplace_back("cloud_view_2.png",
-                       CloudView(input, options, azimuth + 90.0, "seen from the side"));
+    // The second view from high up and turned 60 degrees: a room's near walls, which hide its
+    // inside from a low side view, do not hide it from there.
+    views.emplace_back("cloud_view_1.png", CloudView(input, options, azimuth, 35.0,
+                                                     "seen from behind the first camera"));
+    views.emplace_back("cloud_view_2.png", CloudView(input, options, azimuth + 60.0, 65.0,
+                                                     "seen from above, turned 60 degrees"));
   }
   return views;
 }

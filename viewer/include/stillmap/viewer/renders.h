@@ -29,8 +29,9 @@ struct RenderOptions {
   int height = 900;
 };
 
-// "grid_top.png" (when there is a grid), "cloud_view_1.png" and "cloud_view_2.png" (from two
-// sides, 35 degrees above the floor), in that order. Empty cloud: no cloud views.
+// "grid_top.png" (when there is a grid), "cloud_view_1.png" (from behind the first camera, 35
+// degrees above the floor) and "cloud_view_2.png" (turned 60 degrees, 65 degrees above), in that
+// order. Empty cloud: no cloud views.
 std::vector<std::pair<std::string, cv::Mat>> RenderViews(const RenderInput& input,
                                                          const RenderOptions& options = {});
 
