@@ -21,6 +21,7 @@
 #include "stillmap/io/error.h"
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/file_list.h"
+#include "stillmap/io/image_io.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
@@ -132,16 +133,6 @@ class FrameReader {
   double wait_s_ = 0.0;
   std::vector<double> flow_ms_;
 };
-
-// Encodes a PNG into `path` (an output set's temporary name, whose extension is not ".png").
-void WritePng(const std::string& path, const cv::Mat& image) {
-  std::vector<unsigned char> bytes;
-  if (!cv::imencode(".png", image, bytes)) throw std::runtime_error(path + ": could not encode");
-  std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()),
-            static_cast<std::streamsize>(bytes.size()));
-  if (!out.flush()) throw std::runtime_error(path + ": could not write the image");
-}
 
 double Median(std::vector<double> values) {
   if (values.empty()) return 0.0;
@@ -569,17 +560,23 @@ BuildSummary RunBuild(const BuildRequest& request) {
   if (mapper.occupancy() != nullptr) {
     mapper.WriteOccupancy(outputs.TemporaryPath("map.bt"), outputs.TemporaryPath("map.ot"));
   }
+  // The cloud's points and the fused keyframes' poses, once, for the mesh, the grid, the map
+  // quality and the renders.
+  std::vector<VoxelPoint> cloud_points = mapper.cloud().Points();
+  std::vector<Eigen::Isometry3d> keyframes_in_world;
+  keyframes_in_world.reserve(keyframe_poses.size());
+  for (const StampedPose& pose : keyframe_poses)
+    keyframes_in_world.push_back(pose.world_from_camera);
   // The mesh, from the voxel cloud, on another thread while the grid and the rest are written.
   std::optional<ColoredMesh> mesh;
   double mesh_ms = 0.0;
   std::future<void> mesh_job;
   if (config.mesh.enabled) {
     const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
-    const VoxelCloud& cloud = mapper.cloud();  // fusion has finished: read-only from here on
     mesh_job = std::async(request.threads > 1 ? std::launch::async : std::launch::deferred,
-                          [&mesh, &mesh_ms, &cloud, &config, mesh_path] {
+                          [&mesh, &mesh_ms, &cloud_points, &config, mesh_path] {
                             const Clock::time_point mesh_start = Clock::now();
-                            mesh = VoxelSurfaceMesh(cloud.Points(), config.mesh);
+                            mesh = VoxelSurfaceMesh(cloud_points, config.mesh);
                             WriteColoredMesh(mesh_path, *mesh, config.mesh.format);
                             mesh_ms = Seconds(mesh_start) * 1000.0;
                           });
@@ -590,11 +587,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
   double grid_ms = 0.0;
   if (config.grid.enabled && mapper.occupancy() != nullptr) {
     const Clock::time_point grid_start = Clock::now();
-    Eigen::Vector3d cameras_up = Eigen::Vector3d::Zero();
-    for (const StampedPose& pose : keyframe_poses) {
-      cameras_up -= pose.world_from_camera.linear().col(1);
-    }
-    const FloorPlane floor = FindFloor(*mapper.occupancy(), cameras_up, config.grid);
+    const FloorPlane floor =
+        FindFloor(*mapper.occupancy(), MeanCameraUp(keyframes_in_world), config.grid);
     grid = ProjectToGrid(*mapper.occupancy(), floor, config.grid);
     WriteGrid(*grid, outputs.TemporaryPath("grid.pgm"), outputs.TemporaryPath("grid.yaml"),
               "grid.pgm");
@@ -835,7 +829,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
         "not evaluated: the first tracked frame has no ground-truth pose to anchor the map";
   } else if (fs::exists(static_groundtruth)) {
     const Clock::time_point evaluation_start = Clock::now();
-    std::vector<VoxelPoint> points = mapper.cloud().Points();
+    std::vector<VoxelPoint> points = cloud_points;
     const Eigen::Isometry3f transform = groundtruth_from_map->cast<float>();
     for (VoxelPoint& point : points) point.position = transform * point.position;
     const std::vector<VoxelPoint> truth = ReadCloud(static_groundtruth.string());
@@ -873,26 +867,22 @@ BuildSummary RunBuild(const BuildRequest& request) {
   if (config.render.enabled) {
     const Clock::time_point render_start = Clock::now();
     RenderInput input;
-    input.cloud = mapper.cloud().Points();
+    input.cloud = std::move(cloud_points);  // its last use
     input.grid = grid;
     for (const StampedPose& pose : trajectory.poses()) {
       input.trajectory.push_back(pose.world_from_camera);
     }
-    for (const StampedPose& pose : keyframe_poses)
-      input.keyframes.push_back(pose.world_from_camera);
-    input.title = fs::path(request.sequence_dir).filename().string();
-    if (input.title.empty()) {
-      input.title = fs::path(request.sequence_dir).parent_path().filename().string();
-    }
+    input.keyframes = std::move(keyframes_in_world);
+    input.title = SequenceName(request.sequence_dir);
     fs::create_directories(fs::path(request.output_dir) / "renders");
     std::vector<std::string> names;
     for (const auto& [name, image] : RenderViews(input)) {
-      WritePng(outputs.TemporaryPath("renders/" + name), image);
+      WriteImage(outputs.TemporaryPath("renders/" + name), image, ".png");
       names.push_back("renders/" + name);
     }
     if (ate_result) {
-      WritePng(outputs.TemporaryPath("renders/trajectory_error.png"),
-               DrawTrajectoryPlot(*ate_result));
+      WriteImage(outputs.TemporaryPath("renders/trajectory_error.png"),
+                 DrawTrajectoryPlot(*ate_result), ".png");
       names.push_back("renders/trajectory_error.png");
     }
     report["renders"] = names;

@@ -128,7 +128,7 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
   return text;
 }
 
-std::vector<std::string> RenderBuildFolder(const std::string& out_dir) {
+RenderInput ReadBuildFolder(const std::string& out_dir) {
   namespace fs = std::filesystem;
   const fs::path out(out_dir);
   if (!fs::exists(out / "map.ply")) {
@@ -150,11 +150,18 @@ std::vector<std::string> RenderBuildFolder(const std::string& out_dir) {
     try {
       std::ifstream in(out / "report.json");
       const nlohmann::json report = nlohmann::json::parse(in);
-      input.title = fs::path(report.value("sequence", std::string())).filename().string();
+      input.title = SequenceName(report.value("sequence", std::string()));
     } catch (const nlohmann::json::exception&) {
       // The title is only a caption; a damaged report does not stop the renders.
     }
   }
+  return input;
+}
+
+std::vector<std::string> RenderBuildFolder(const std::string& out_dir) {
+  namespace fs = std::filesystem;
+  const fs::path out(out_dir);
+  const RenderInput input = ReadBuildFolder(out_dir);
   fs::create_directories(out / "renders");
   std::vector<std::string> written;
   for (const auto& [name, image] : RenderViews(input)) {

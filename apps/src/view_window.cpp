@@ -10,10 +10,10 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 
+#include "stillmap/apps/commands.h"
 #include "stillmap/io/error.h"
-#include "stillmap/io/trajectory.h"
-#include "stillmap/mapping/map_io.h"
 
 namespace stillmap {
 
@@ -24,35 +24,33 @@ using ColorCloud = pcl::PointCloud<pcl::PointXYZRGB>;
 struct Scene {
   ColorCloud::Ptr cloud = pcl::make_shared<ColorCloud>();
   ColorCloud::Ptr voxels = pcl::make_shared<ColorCloud>();  // occupied, colored by height
-  double voxel_size = 0.05;
   std::vector<Eigen::Isometry3d> trajectory, keyframes;
 };
 
 Scene LoadScene(const std::filesystem::path& out) {
-  if (!std::filesystem::exists(out / "map.ply")) {
-    throw InputError(out.string() + ": no map.ply here; give the folder a 'stillmap build' wrote");
-  }
+  RenderInput folder = ReadBuildFolder(out.string());
   Scene scene;
-  for (const VoxelPoint& p : ReadCloud((out / "map.ply").string())) {
+  for (const VoxelPoint& p : folder.cloud) {
     pcl::PointXYZRGB point(p.rgb[0], p.rgb[1], p.rgb[2]);
     point.x = p.position.x();
     point.y = p.position.y();
     point.z = p.position.z();
     scene.cloud->push_back(point);
   }
+  scene.trajectory = std::move(folder.trajectory);
+  scene.keyframes = std::move(folder.keyframes);
   if (std::filesystem::exists(out / "map.bt")) {
     octomap::OcTree tree(0.05);
     if (!tree.readBinary((out / "map.bt").string())) {
       throw InputError((out / "map.bt").string() + ": not a readable OctoMap (.bt)");
     }
-    scene.voxel_size = tree.getResolution();
-    double low = 0.0, high = 0.0;
     std::vector<octomap::point3d> centres;
+    double low = std::numeric_limits<double>::infinity(), high = -low;
     for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
       if (!tree.isNodeOccupied(*it)) continue;
       centres.push_back(it.getCoordinate());
-      low = centres.size() == 1 ? centres.back().y() : std::min<double>(low, centres.back().y());
-      high = centres.size() == 1 ? centres.back().y() : std::max<double>(high, centres.back().y());
+      low = std::min<double>(low, centres.back().y());
+      high = std::max<double>(high, centres.back().y());
     }
     for (const octomap::point3d& c : centres) {
       // Camera-style worlds have y down: color from blue (high) to orange (low).
@@ -64,13 +62,6 @@ Scene LoadScene(const std::filesystem::path& out) {
       point.z = c.z();
       scene.voxels->push_back(point);
     }
-  }
-  for (const auto& [name, poses] : {std::pair<const char*, std::vector<Eigen::Isometry3d>*>(
-                                        "trajectory.txt", &scene.trajectory),
-                                    {"keyframes.txt", &scene.keyframes}}) {
-    if (!std::filesystem::exists(out / name)) continue;
-    const Trajectory trajectory = Trajectory::ReadTum((out / name).string());
-    for (const StampedPose& pose : trajectory.poses()) poses->push_back(pose.world_from_camera);
   }
   return scene;
 }
@@ -96,23 +87,22 @@ class Window {
   }
 
  private:
+  // Adds (on) or removes the colored points `cloud` under `id`, drawn `size` pixels wide.
+  void ShowPoints(const ColorCloud::Ptr& cloud, const std::string& id, int size, bool on) {
+    viewer_.removePointCloud(id);
+    if (!on || cloud->empty()) return;
+    const pcl::visualization::PointCloudColorHandlerRGBField<pcl::PointXYZRGB> rgb(cloud);
+    viewer_.addPointCloud<pcl::PointXYZRGB>(cloud, rgb, id);
+    viewer_.setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, size,
+                                             id);
+  }
   void ShowCloud(bool on) {
-    viewer_.removePointCloud("cloud");
     cloud_on_ = on;
-    if (!on || scene_.cloud->empty()) return;
-    const pcl::visualization::PointCloudColorHandlerRGBField<pcl::PointXYZRGB> rgb(scene_.cloud);
-    viewer_.addPointCloud<pcl::PointXYZRGB>(scene_.cloud, rgb, "cloud");
-    viewer_.setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, 2,
-                                             "cloud");
+    ShowPoints(scene_.cloud, "cloud", 2, on);
   }
   void ShowVoxels(bool on) {
-    viewer_.removePointCloud("voxels");
     voxels_on_ = on;
-    if (!on || scene_.voxels->empty()) return;
-    const pcl::visualization::PointCloudColorHandlerRGBField<pcl::PointXYZRGB> rgb(scene_.voxels);
-    viewer_.addPointCloud<pcl::PointXYZRGB>(scene_.voxels, rgb, "voxels");
-    viewer_.setPointCloudRenderingProperties(pcl::visualization::PCL_VISUALIZER_POINT_SIZE, 6,
-                                             "voxels");
+    ShowPoints(scene_.voxels, "voxels", 6, on);
   }
   void ShowTrajectory(bool on) {
     for (const std::string& id : trajectory_ids_) viewer_.removeShape(id);

@@ -92,21 +92,24 @@ cv::Mat ReadDepthImage(const std::string& path, double depth_factor) {
   return depth_m;
 }
 
-void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
-  const std::string temp = TemporaryPathFor(path);
-  const std::string extension = path.substr(path.find_last_of('.'));
+void WriteImage(const std::string& path, const cv::Mat& image, const std::string& extension) {
   std::vector<unsigned char> bytes;
   if (!cv::imencode(extension, image, bytes)) {
     throw std::runtime_error(path + ": could not encode the image");
   }
-  {
-    std::ofstream out(temp, std::ios::binary);
-    if (!out.write(reinterpret_cast<const char*>(bytes.data()),
-                   static_cast<std::streamsize>(bytes.size()))) {
-      std::remove(temp.c_str());
-      throw std::runtime_error(path + ": could not write the image (is the folder writable?)");
-    }
+  std::ofstream out(path, std::ios::binary);
+  if (!out.write(reinterpret_cast<const char*>(bytes.data()),
+                 static_cast<std::streamsize>(bytes.size())) ||
+      !out.flush()) {
+    out.close();
+    std::remove(path.c_str());
+    throw std::runtime_error(path + ": could not write the image (is the folder writable?)");
   }
+}
+
+void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
+  const std::string temp = TemporaryPathFor(path);
+  WriteImage(temp, image, path.substr(path.find_last_of('.')));
   CommitTemporary(temp, path);
 }
 

@@ -104,4 +104,10 @@ Frame Sequence::LoadFrame(size_t index) const {
   return frame;
 }
 
+std::string SequenceName(const std::string& sequence_dir) {
+  fs::path path(sequence_dir);
+  if (path.filename().empty()) path = path.parent_path();  // a trailing separator
+  return path.filename().string();
+}
+
 }  // namespace stillmap

@@ -24,8 +24,9 @@ namespace {
 
 constexpr double kDegree = M_PI / 180.0;
 
-// The rotation from world to grid axes: rows x, y, up.
-Eigen::Matrix3d GridAxes(const Eigen::Vector3d& up) {
+}  // namespace
+
+Eigen::Matrix3d FloorAxes(const Eigen::Vector3d& up) {
   Eigen::Vector3d x = Eigen::Vector3d::UnitX();
   if (std::abs(up.dot(x)) > 0.9) x = Eigen::Vector3d::UnitZ();
   x = (x - up.dot(x) * up).normalized();
@@ -37,7 +38,11 @@ Eigen::Matrix3d GridAxes(const Eigen::Vector3d& up) {
   return rows;
 }
 
-}  // namespace
+Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_cameras) {
+  Eigen::Vector3d up = Eigen::Vector3d::Zero();
+  for (const Eigen::Isometry3d& pose : world_from_cameras) up -= pose.linear().col(1);
+  return up;
+}
 
 void GridOptions::Validate() const {
   if (!(min_height >= 0.0 && max_height > min_height)) {
@@ -60,24 +65,22 @@ void GridOptions::Validate() const {
 FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
                      const GridOptions& options) {
   FloorPlane floor;
+  const Eigen::Vector3d hint =
+      cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
   if (options.floor) {
     const double norm = options.floor->head<3>().norm();
     floor.up = options.floor->head<3>() / norm;
     floor.offset = (*options.floor)[3] / norm;
     floor.source = "given (grid.floor)";
+    floor.tilt_to_cameras_deg = std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
+    return floor;
   }
-  const Eigen::Vector3d hint =
-      cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
   auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   map.ForEachLeaf([&](const Eigen::Vector3d& centre, double, bool occupied) {
     if (occupied)
       cloud->push_back(pcl::PointXYZ(static_cast<float>(centre.x()), static_cast<float>(centre.y()),
                                      static_cast<float>(centre.z())));
   });
-  if (options.floor) {
-    floor.tilt_to_cameras_deg = std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
-    return floor;
-  }
   if (cloud->empty()) {
     floor.up = hint;
     floor.offset = 0.0;
@@ -181,7 +184,7 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
   grid.min_height = options.min_height;
   grid.max_height = options.max_height;
   // Grid frame: rotation rows x, y, up; the world origin lands at height offset above the floor.
-  const Eigen::Matrix3d axes = GridAxes(floor.up);
+  const Eigen::Matrix3d axes = FloorAxes(floor.up);
   Eigen::Isometry3d grid_from_world = Eigen::Isometry3d::Identity();
   grid_from_world.linear() = axes;
   grid_from_world.translation() = Eigen::Vector3d(0.0, 0.0, floor.offset);

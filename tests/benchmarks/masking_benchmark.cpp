@@ -57,32 +57,25 @@ bool Skip(benchmark::State& state, const Input& in) {
   return true;
 }
 
-// Shi-Tomasi corners at full resolution, as cv::goodFeaturesToTrack gives them (the former way).
-void BM_CornersFullResolution(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
-  const Input& in = GetInput();
-  if (Skip(state, in)) return;
-  std::vector<cv::Point2f> corners;
-  size_t k = 0;
-  for (auto _ : state) {
-    cv::goodFeaturesToTrack(in.grays[k++ % in.grays.size()], corners, 400, 0.01, 8.0);
-    benchmark::DoNotOptimize(corners.data());
-  }
-  state.counters["corners"] = static_cast<double>(corners.size());
-}
-BENCHMARK(BM_CornersFullResolution)->Unit(benchmark::kMillisecond);
-
+// Shi-Tomasi corners for the flow check. Arg 0: at full resolution, as cv::goodFeaturesToTrack
+// gives them (the former way); 1: FlowCorners, at half resolution.
 void BM_FlowCorners(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
   if (Skip(state, in)) return;
   std::vector<cv::Point2f> corners;
   size_t k = 0;
   for (auto _ : state) {
-    corners = FlowCorners(in.grays[k++ % in.grays.size()], 400, 8.0);
+    const cv::Mat& gray = in.grays[k++ % in.grays.size()];
+    if (state.range(0) == 0) {
+      cv::goodFeaturesToTrack(gray, corners, 400, 0.01, 8.0);
+    } else {
+      corners = FlowCorners(gray, 400, 8.0);
+    }
     benchmark::DoNotOptimize(corners.data());
   }
   state.counters["corners"] = static_cast<double>(corners.size());
 }
-BENCHMARK(BM_FlowCorners)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FlowCorners)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_FlowPyramid(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();

@@ -54,8 +54,7 @@ void Legend(cv::Mat* image, cv::Point corner, const std::vector<LegendRow>& rows
 // The up direction: the grid's floor normal, else the mean of the cameras' up (-y) axes.
 Eigen::Vector3d UpOf(const RenderInput& input) {
   if (input.grid) return input.grid->floor.up;
-  Eigen::Vector3d up = Eigen::Vector3d::Zero();
-  for (const Eigen::Isometry3d& pose : input.trajectory) up -= pose.linear().col(1);
+  const Eigen::Vector3d up = MeanCameraUp(input.trajectory);
   return up.norm() > 0.0 ? up.normalized() : Eigen::Vector3d(0, -1, 0);
 }
 
@@ -146,10 +145,8 @@ cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double
                   double elevation_deg, const std::string& name) {
   cv::Mat image(options.height, options.width, CV_8UC3, kBackground);
   const Eigen::Vector3d up = UpOf(input);
-  // Floor axes: x along the world x projected (or z), y = up x x.
-  Eigen::Vector3d ex = std::abs(up.x()) > 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
-  ex = (ex - up.dot(ex) * up).normalized();
-  const Eigen::Vector3d ey = up.cross(ex);
+  const Eigen::Matrix3d axes = FloorAxes(up);
+  const Eigen::Vector3d ex = axes.row(0).transpose(), ey = axes.row(1).transpose();
   // Robust extent: per axis the 1st and 99th percentiles.
   std::vector<double> xs, ys, zs;
   const size_t stride = std::max<size_t>(1, input.cloud.size() / 200000);
@@ -159,7 +156,8 @@ cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double
     ys.push_back(ey.dot(p));
     zs.push_back(up.dot(p));
   }
-  auto percentile = [](std::vector<double> v, double q) {
+  // In place: nth_element only reorders, so later calls on the same values stay right.
+  auto percentile = [](std::vector<double>& v, double q) {
     const auto nth = v.begin() + static_cast<long>(q * static_cast<double>(v.size() - 1));
     std::nth_element(v.begin(), nth, v.end());
     return *nth;
@@ -266,13 +264,9 @@ std::vector<std::pair<std::string, cv::Mat>> RenderViews(const RenderInput& inpu
     // From behind the start (opposite the first camera's view) and from the side.
     double azimuth = 225.0;
     if (!input.trajectory.empty()) {
-      const Eigen::Vector3d up = UpOf(input);
-      Eigen::Vector3d ex =
-          std::abs(up.x()) > 0.9 ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
-      ex = (ex - up.dot(ex) * up).normalized();
-      const Eigen::Vector3d ey = up.cross(ex);
-      const Eigen::Vector3d view = input.trajectory.front().linear().col(2);
-      azimuth = std::atan2(-ey.dot(view), -ex.dot(view)) * 180.0 / M_PI;
+      const Eigen::Vector3d view =
+          FloorAxes(UpOf(input)) * input.trajectory.front().linear().col(2);
+      azimuth = std::atan2(-view.y(), -view.x()) * 180.0 / M_PI;
     }
     // The second view from high up and turned 60 degrees: a room's near walls, which hide its
     // inside from a low side view, do not hide it from there.

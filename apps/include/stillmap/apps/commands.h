@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "stillmap/io/evaluation.h"
+#include "stillmap/viewer/renders.h"
 
 namespace stillmap {
 
@@ -23,6 +24,11 @@ struct EvalRequest {
 // Computes ATE and RPE, writes the plot when asked, and returns the text (or JSON) to print.
 // Throws InputError for unreadable or non-overlapping trajectories.
 std::string RunEval(const EvalRequest& request);
+
+// What a build folder holds for looking at it: map.ply, grid.yaml + grid.pgm when present,
+// trajectory.txt and keyframes.txt, and the sequence's name from report.json. Throws InputError
+// when OUT_DIR has no map.ply.
+RenderInput ReadBuildFolder(const std::string& out_dir);
 
 // `stillmap view OUT --png`: the renders of a build folder drawn again from its files (map.ply,
 // grid.yaml + grid.pgm when present, trajectory.txt, keyframes.txt) into OUT/renders/. Returns

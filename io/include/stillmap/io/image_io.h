@@ -16,6 +16,10 @@ cv::Mat ReadColorImage(const std::string& path);
 // reading). Throws InputError for a missing or truncated file and for an 8-bit or color image.
 cv::Mat ReadDepthImage(const std::string& path, double depth_factor);
 
+// Encodes an image in the format of `extension` (".png") and writes it to `path` as named (an
+// output set's temporary name, say); throws std::runtime_error on failure, leaving no file.
+void WriteImage(const std::string& path, const cv::Mat& image, const std::string& extension);
+
 // Writes an image under a temporary name and renames it; throws std::runtime_error on failure.
 void WriteImageAtomically(const std::string& path, const cv::Mat& image);
 

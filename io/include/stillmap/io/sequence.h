@@ -28,6 +28,10 @@ struct CameraOverrides {
 // the camera when none of these exists.
 Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& overrides);
 
+// The sequence's name for captions: the folder's last path component ("bonn_crowd_a" for
+// "../shared/data/bonn_crowd_a/").
+std::string SequenceName(const std::string& sequence_dir);
+
 struct SequenceOptions {
   double max_pair_time_difference = 0.02;  // color/depth association window [s] (TUM associate.py)
   double max_groundtruth_gap = 0.1;  // widest ground-truth gap a pose is interpolated across [s]

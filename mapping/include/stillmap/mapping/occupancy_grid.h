@@ -48,6 +48,14 @@ struct FloorPlane {
   double Height(const Eigen::Vector3d& point) const { return up.dot(point) + offset; }
 };
 
+// The rotation from world to floor axes, rows x, y, up: x is the world x axis projected onto the
+// floor (the world z axis when x points nearly up), y = up x x. The grid's and the renders' frame.
+Eigen::Matrix3d FloorAxes(const Eigen::Vector3d& up);
+
+// The sum of the cameras' up (-y) axes: a direction for FindFloor to check the floor against
+// (zero for no cameras).
+Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_cameras);
+
 // The floor: among near-horizontal planes (normal within max_floor_tilt_deg of `cameras_up`)
 // found by RANSAC in the occupied voxels, the lowest that holds at least a quarter as many
 // voxels as the largest. With no such plane, the 2nd percentile of the voxels' heights along
