@@ -554,7 +554,11 @@ BuildSummary RunBuild(const BuildRequest& request) {
   progress.Finish();
   const double processing_s = Seconds(start);
 
-  // Outputs, each under a temporary name until all are written.
+  // The cloud cleaned once the OctoMap is final, then the outputs, each under a temporary name
+  // until all are written.
+  const Clock::time_point clean_start = Clock::now();
+  const MapCleaningResult cleaning = mapper.CleanCloud();
+  const double clean_ms = Seconds(clean_start) * 1000.0;
   const Clock::time_point write_start = Clock::now();
   mapper.WriteCloud(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"));
   if (mapper.occupancy() != nullptr) {
@@ -665,6 +669,11 @@ BuildSummary RunBuild(const BuildRequest& request) {
                    {"points_fused", stats.points},
                    {"voxels", mapper.cloud().size()},
                    {"voxels_written", summary.map_points},
+                   {"voxels_removed_seen_through", cleaning.seen_through},
+                   {"voxels_removed_outliers", cleaning.outliers},
+                   {"clear_seen_through",
+                    config.mapping.cleaning.clear_seen_through && config.mapping.occupancy_enabled},
+                   {"outlier_removal", config.mapping.cleaning.outlier_removal},
                    {"min_points_per_voxel", config.mapping.voxel.min_points_per_voxel},
                    {"voxels_out_of_range", mapper.cloud().rejected_count()},
                    {"voxel_table_mib", mapper.cloud().MemoryBytes() / (1024.0 * 1024.0)},
@@ -720,6 +729,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
   nlohmann::json timing = {{"load_wait_total", reader.wait_s() * 1000.0},
                            {"grid", grid_ms},
                            {"mesh", mesh_ms},
+                           {"map_cleaning", clean_ms},
                            {"back_projection_total", stats.back_projection_ms},
                            {"voxel_total", stats.voxel_ms},
                            {"octomap_total", stats.occupancy_ms},

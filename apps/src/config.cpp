@@ -210,6 +210,20 @@ const std::vector<ConfigKey>& Keys() {
     k.push_back(IntKey(
         "mapping.min_points_per_voxel", "voxels with fewer points are left out of map.ply/map.pcd",
         [](BuildConfig& c) -> int& { return c.mapping.voxel.min_points_per_voxel; }));
+    k.push_back(
+        BoolKey("mapping.clear_seen_through",
+                "drop cloud voxels the OctoMap ends up calling free (later rays saw through them)",
+                [](BuildConfig& c) -> bool& { return c.mapping.cleaning.clear_seen_through; }));
+    k.push_back(
+        BoolKey("mapping.outlier_removal", "PCL statistical outlier removal on the cloud",
+                [](BuildConfig& c) -> bool& { return c.mapping.cleaning.outlier_removal; }));
+    k.push_back(
+        IntKey("mapping.outlier_neighbors", "outlier removal: neighbours averaged per voxel",
+               [](BuildConfig& c) -> int& { return c.mapping.cleaning.outlier_neighbors; }));
+    k.push_back(DoubleKey(
+        "mapping.outlier_std_ratio",
+        "outlier removal: voxels this many standard deviations above the mean distance go",
+        [](BuildConfig& c) -> double& { return c.mapping.cleaning.outlier_std_ratio; }));
     k.push_back(BoolKey("octomap.enabled", "build the OctoMap (map.bt, map.ot)",
                         [](BuildConfig& c) -> bool& { return c.mapping.occupancy_enabled; }));
     k.push_back(

@@ -18,6 +18,7 @@ void MapperOptions::Validate() const {
   back_projection.Validate();
   voxel.Validate();
   occupancy.Validate();
+  cleaning.Validate();
 }
 
 Mapper::Mapper(const Camera& camera, const MapperOptions& options)
@@ -107,6 +108,11 @@ void Mapper::Fuse(const MapperFrame& frame) {
   statistics_.voxel_ms += MillisecondsSince(start);
   ++statistics_.frames;
   statistics_.points += scratch_.size();
+}
+
+MapCleaningResult Mapper::CleanCloud() {
+  Finish();
+  return stillmap::CleanCloud(options_.cleaning, occupancy_.get(), &cloud_);
 }
 
 void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) {

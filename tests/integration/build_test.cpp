@@ -306,6 +306,14 @@ TEST(BuildTest, GridOfAWalkingSequenceAgreesWithTheStaticScene) {
   EXPECT_LT(2 * quality.at("occupied_without_static_truth").get<size_t>(),
             without.at("occupied_without_static_truth").get<size_t>());
   EXPECT_LE(quality.at("free_where_truth_occupied").get<size_t>(), 5u);
+  // With the OctoMap on, cloud voxels its rays later saw through are dropped (issue 5's 0.5 %
+  // ghost target; measured 0.19 %, 0.54 % with mapping.clear_seen_through=false).
+  std::cout << "walking_xyz map: ghosts "
+            << 100.0 * masked.at("map_quality").at("ghost_share").get<double>() << " %, "
+            << masked.at("map").at("voxels_removed_seen_through") << " voxels seen through\n";
+  EXPECT_GT(masked.at("map").at("voxels_removed_seen_through").get<size_t>(), 0u);
+  EXPECT_LE(masked.at("map_quality").at("ghost_share").get<double>(), 0.005);
+  EXPECT_GT(masked.at("map_quality").at("completeness").get<double>(), 0.9);
   // The map_server pair: the YAML names the image, which has the grid's size.
   const std::string yaml = testing::ReadText(dir / "masked/grid.yaml");
   EXPECT_NE(yaml.find("image: grid.pgm"), std::string::npos);

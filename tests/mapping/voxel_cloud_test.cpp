@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <random>
@@ -33,6 +34,33 @@ TEST(VoxelCloudTest, PointsOfOneVoxelAverage) {
   EXPECT_NEAR(p.position.y(), 0.005f, 1e-6);
   EXPECT_EQ(p.rgb, (std::array<std::uint8_t, 3>{5, 105, 205}));
   EXPECT_EQ(p.count, 2u);
+}
+
+TEST(VoxelCloudTest, RemovedVoxelsLeaveTheOutputAndStartAfreshWhenSeenAgain) {
+  VoxelCloud cloud;  // 1 cm
+  std::vector<Eigen::Vector3f> positions;
+  for (int i = 0; i < 10; ++i)
+    positions.emplace_back(0.01f * static_cast<float>(i) + 0.005f, 0.0f, 0.0f);
+  cloud.Insert(MakePoints(positions, 100));
+  ASSERT_EQ(cloud.size(), 10u);
+  // Points come sorted by key: the x index runs 0..9, so the first three are x < 0.03.
+  std::vector<float> seen;
+  const size_t removed = cloud.RemoveIf([&seen](const VoxelPoint& p) {
+    seen.push_back(p.position.x());
+    return p.position.x() < 0.03f;
+  });
+  EXPECT_EQ(removed, 3u);
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_EQ(cloud.size(), 7u);
+  EXPECT_EQ(cloud.OutputSize(), 7u);
+  for (const VoxelPoint& p : cloud.Points()) EXPECT_GE(p.position.x(), 0.03f);
+  // A removed voxel seen again holds only its new points.
+  cloud.Insert(MakePoints({{0.001f, 0.0f, 0.0f}}, 200));
+  EXPECT_EQ(cloud.size(), 8u);
+  const VoxelPoint first = cloud.Points().front();
+  EXPECT_EQ(first.count, 1u);
+  EXPECT_NEAR(first.position.x(), 0.001f, 1e-6);
+  EXPECT_EQ(first.rgb[0], 200);
 }
 
 TEST(VoxelCloudTest, NegativeCoordinatesFloorIntoTheirOwnVoxel) {

@@ -10,6 +10,7 @@
 
 #include "stillmap/io/camera.h"
 #include "stillmap/mapping/back_projection.h"
+#include "stillmap/mapping/map_cleaning.h"
 #include "stillmap/mapping/occupancy_map.h"
 #include "stillmap/mapping/voxel_cloud.h"
 
@@ -19,6 +20,7 @@ struct MapperOptions {
   BackProjectionOptions back_projection;
   VoxelCloudOptions voxel;
   OccupancyMapOptions occupancy;
+  MapCleaningOptions cleaning;
   bool occupancy_enabled = true;  // build the OctoMap (ray casting is the costliest stage)
   // Fuse on worker threads: the caller hands a frame over and goes on (tracking the next frames),
   // and the OctoMap insertion of one frame overlaps the voxelization of the next (the two stages
@@ -64,6 +66,9 @@ class Mapper {
   // Waits for the background work still running (rethrowing its failure). Called by every
   // accessor below.
   void Finish();
+
+  // Cleans the finished voxel cloud (MapCleaningOptions); call once, before writing.
+  MapCleaningResult CleanCloud();
 
   // Writes map.ply/map.pcd (voxel cloud) and, when enabled, map.bt/map.ot to the given paths.
   void WriteCloud(const std::string& ply_path, const std::string& pcd_path);

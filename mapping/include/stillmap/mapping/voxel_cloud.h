@@ -46,10 +46,14 @@ class VoxelCloud {
   // (sorted by voxel key), without materializing the cloud.
   void ForEachPoint(const std::function<void(const VoxelPoint&)>& visit) const;
 
+  // Removes every output voxel for which `drop` returns true; `drop` sees them in ForEachPoint's
+  // order. A removed voxel that receives points again starts afresh. Returns how many it removed.
+  size_t RemoveIf(const std::function<bool(const VoxelPoint&)>& drop);
+
   // The same points as a vector (tests and small clouds).
   std::vector<VoxelPoint> Points() const;
 
-  size_t size() const { return size_; }
+  size_t size() const { return size_ - removed_; }
   size_t rejected_count() const { return rejected_; }
   double leaf_size() const { return leaf_size_; }
   // Voxels that reach min_points_per_voxel (what ForEachPoint and Points visit).
@@ -66,15 +70,20 @@ class VoxelCloud {
     std::uint32_t count;
   };
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  static constexpr std::uint32_t kRemoved = ~std::uint32_t{0};  // color_sum[0] of a removed voxel
 
   void Grow();
   size_t FindSlot(std::uint64_t key) const;
+  // Table indices of the output voxels, sorted by key.
+  std::vector<size_t> SortedOutputSlots() const;
+  VoxelPoint PointOf(const Slot& slot) const;
 
   double leaf_size_;
   double inverse_leaf_;
   std::uint32_t min_points_;
   std::vector<Slot> slots_;
-  size_t size_ = 0;
+  size_t size_ = 0;     // keys stored, removed ones included
+  size_t removed_ = 0;  // stored keys emptied by RemoveIf (count 0)
   size_t rejected_ = 0;
 };
 
