@@ -688,7 +688,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
                       {"voxels", mesh->voxels},
                       {"vertices", mesh->vertices.size()},
                       {"triangles", mesh->faces.size()},
-                      {"method", "exposed faces of the occupied voxels, colored per voxel"}};
+                      {"method",
+                       "exposed faces of the occupied voxels, shared corners colored by the voxels "
+                       "meeting there"}};
   } else {
     report["mesh"] = nullptr;
   }

