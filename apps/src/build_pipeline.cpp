@@ -554,37 +554,26 @@ BuildSummary RunBuild(const BuildRequest& request) {
   progress.Finish();
   const double processing_s = Seconds(start);
 
-  // The cloud cleaned once the OctoMap is final, then the outputs, each under a temporary name
-  // until all are written.
-  const Clock::time_point clean_start = Clock::now();
-  const MapCleaningResult cleaning = mapper.CleanCloud();
-  const double clean_ms = Seconds(clean_start) * 1000.0;
+  // The outputs, each under a temporary name until all are written. The cloud is cleaned against
+  // the final OctoMap on another thread while the OctoMap and the grid, which only read the
+  // OctoMap, are written (Bonn: cleaning 0.4 s, OctoMap files and grid 0.3 s).
   const Clock::time_point write_start = Clock::now();
-  mapper.WriteCloud(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"));
+  MapCleaningResult cleaning;
+  double clean_ms = 0.0;
+  std::future<void> clean_job =
+      std::async(request.threads > 1 ? std::launch::async : std::launch::deferred,
+                 [&mapper, &cleaning, &clean_ms] {
+                   const Clock::time_point clean_start = Clock::now();
+                   cleaning = mapper.CleanCloud();
+                   clean_ms = Seconds(clean_start) * 1000.0;
+                 });
   if (mapper.occupancy() != nullptr) {
     mapper.WriteOccupancy(outputs.TemporaryPath("map.bt"), outputs.TemporaryPath("map.ot"));
   }
-  // The cloud's points and the fused keyframes' poses, once, for the mesh, the grid, the map
-  // quality and the renders.
-  std::vector<VoxelPoint> cloud_points = mapper.cloud().Points();
   std::vector<Eigen::Isometry3d> keyframes_in_world;
   keyframes_in_world.reserve(keyframe_poses.size());
   for (const StampedPose& pose : keyframe_poses)
     keyframes_in_world.push_back(pose.world_from_camera);
-  // The mesh, from the voxel cloud, on another thread while the grid and the rest are written.
-  std::optional<ColoredMesh> mesh;
-  double mesh_ms = 0.0;
-  std::future<void> mesh_job;
-  if (config.mesh.enabled) {
-    const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
-    mesh_job = std::async(request.threads > 1 ? std::launch::async : std::launch::deferred,
-                          [&mesh, &mesh_ms, &cloud_points, &config, mesh_path] {
-                            const Clock::time_point mesh_start = Clock::now();
-                            mesh = VoxelSurfaceMesh(cloud_points, config.mesh);
-                            WriteColoredMesh(mesh_path, *mesh, config.mesh.format);
-                            mesh_ms = Seconds(mesh_start) * 1000.0;
-                          });
-  }
   // The 2-D grid for planners, from the OctoMap; the floor is fitted to it and checked against
   // the fused cameras' mean up direction (camera -y).
   std::optional<OccupancyGrid> grid;
@@ -598,6 +587,25 @@ BuildSummary RunBuild(const BuildRequest& request) {
               "grid.pgm");
     grid_ms = Seconds(grid_start) * 1000.0;
   }
+  clean_job.get();
+  // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
+  std::vector<VoxelPoint> cloud_points = mapper.cloud().Points();
+  // The mesh, from the voxel cloud, on another thread while the rest is written.
+  std::optional<ColoredMesh> mesh;
+  double mesh_ms = 0.0;
+  std::future<void> mesh_job;
+  if (config.mesh.enabled) {
+    const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
+    mesh_job = std::async(request.threads > 1 ? std::launch::async : std::launch::deferred,
+                          [&mesh, &mesh_ms, &cloud_points, &config, mesh_path] {
+                            const Clock::time_point mesh_start = Clock::now();
+                            mesh = VoxelSurfaceMesh(cloud_points, config.mesh);
+                            WriteColoredMesh(mesh_path, *mesh, config.mesh.format);
+                            mesh_ms = Seconds(mesh_start) * 1000.0;
+                          });
+  }
+  WriteCloudFiles(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"), cloud_points,
+                  config.mapping.voxel.leaf_size);
   trajectory.WriteTum(outputs.TemporaryPath("trajectory.txt"),
                       tracking ? "stillmap trajectory (camera-to-world, every tracked frame)"
                                : "stillmap trajectory (camera-to-world, ground-truth poses)");

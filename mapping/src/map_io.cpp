@@ -91,6 +91,15 @@ void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
   writer.Finish();
 }
 
+void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
+                     const std::vector<VoxelPoint>& points, double leaf_size) {
+  std::ostringstream comment;
+  comment << "stillmap voxel cloud, leaf " << leaf_size << " m";
+  CloudFileWriter writer(ply_path, pcd_path, points.size(), comment.str());
+  for (const VoxelPoint& p : points) writer.Add(p);
+  writer.Finish();
+}
+
 void WritePly(const std::string& path, const std::vector<VoxelPoint>& points) {
   CloudFileWriter writer(path, "", points.size(), "stillmap point cloud");
   for (const VoxelPoint& p : points) writer.Add(p);

@@ -33,6 +33,9 @@ Mapper::~Mapper() {
 }
 
 void Mapper::Finish() {
+  // Nothing pending: returns without writing anything, so that callers on several threads may
+  // use the finished maps together (the pipeline cleans the cloud while the OctoMap is written).
+  if (!fusion_job_.valid() && !occupancy_job_.valid()) return;
   const auto start = std::chrono::steady_clock::now();
   if (fusion_job_.valid()) {
     try {

@@ -17,6 +17,11 @@ namespace stillmap {
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const VoxelCloud& cloud);
 
+// The same two files from points already taken out of the cloud (VoxelCloud::Points): the
+// pipeline needs them anyway, and this saves a second sort of the table.
+void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
+                     const std::vector<VoxelPoint>& points, double leaf_size);
+
 // Writes points as a binary little-endian PLY (float x, y, z; uchar red, green, blue).
 void WritePly(const std::string& path, const std::vector<VoxelPoint>& points);
 
