@@ -340,6 +340,11 @@ const std::vector<ConfigKey>& Keys() {
                   [](BuildConfig& c) -> double& { return c.masking.flow.dbscan_epsilon_px; }));
     k.push_back(IntKey("masking.flow_min_points", "DBSCAN core-point neighbours (paper 004)",
                        [](BuildConfig& c) -> int& { return c.masking.flow.dbscan_min_points; }));
+    k.push_back(DoubleKey(
+        "masking.flow_min_epipolar_px",
+        "flow check: points outside the camera's cluster flagged only this far off their "
+        "epipolar line [px]",
+        [](BuildConfig& c) -> double& { return c.masking.flow.min_epipolar_distance_px; }));
     masking_int("flow_points", "corners tracked for the flow check",
                 &DynamicMaskOptions::flow_points);
     masking_int("reference_keyframes", "keyframes the depth check compares with",

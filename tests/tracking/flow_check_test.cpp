@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -38,7 +39,8 @@ TEST(DbscanTest, DenseBlobsAreClustersAndStragglersNoise) {
 
 // Corners of rendered walking_xyz frames, checked against the people's masks, comparing each
 // frame with the one 3 frames before (one frame apart, people and camera move about as far, and
-// recall drops to 0.40). Measured with the defaults (DBSCAN epsilon 0.5 px, 6 points): 2177 of
+// recall drops to 0.40). Measured with paper 004 as written (DBSCAN epsilon 0.5 px, 6 points, no
+// epipolar floor): 2177 of
 // 2718 points on people flagged (recall 0.80), 1012 of 14720 static points (6.9 %). Epsilon 1 px:
 // recall 0.58, 4.6 %; 2 px: 0.40, 2.8 %. The check proposes candidates; the fusion of issue 5
 // (detections, region growing) decides.
@@ -50,33 +52,54 @@ TEST(FlowCheckTest, FlagsPointsOnWalkingPeople) {
   };
   auto mask = [&](size_t i) { return testing::MovingObjectMask(dir / "seq", sequence, i); };
   const int gap = 3;
-  const FlowCheckOptions options;
-  size_t true_positive = 0, false_positive = 0, false_negative = 0, static_points = 0;
+  // Paper 004 as written (every point outside the camera's cluster), and the default, which also
+  // asks for 2 px off the epipolar line.
+  FlowCheckOptions paper;
+  paper.min_epipolar_distance_px = 0.0;
+  const std::array<FlowCheckOptions, 2> variants = {paper, FlowCheckOptions()};
+  struct Counts {
+    size_t true_positive = 0, false_positive = 0, false_negative = 0, static_points = 0;
+    double Recall() const {
+      return true_positive / std::max(1.0, double(true_positive + false_negative));
+    }
+    double FalseAlarm() const { return false_positive / std::max(1.0, double(static_points)); }
+  };
+  std::array<Counts, 2> counts;
   for (size_t i = static_cast<size_t>(gap); i < sequence.frames().size(); i += 5) {
     const cv::Mat previous = gray(i - static_cast<size_t>(gap));
+    const cv::Mat current = gray(i);
     std::vector<cv::Point2f> corners;
     cv::goodFeaturesToTrack(previous, corners, 800, 0.01, 7);
-    const FlowCheckResult result = CheckFlow(previous, gray(i), corners, options);
-    ASSERT_TRUE(result.fundamental_found) << "frame " << i;
     const cv::Mat before = mask(i - static_cast<size_t>(gap));
-    for (size_t k = 0; k < corners.size(); ++k) {
-      if (result.tracked[k] == 0) continue;
-      const bool on_person = before.at<std::uint8_t>(cv::Point(corners[k])) != 0;
-      const bool flagged = result.dynamic[k] != 0;
-      true_positive += on_person && flagged;
-      false_positive += !on_person && flagged;
-      false_negative += on_person && !flagged;
-      static_points += !on_person;
+    for (size_t v = 0; v < variants.size(); ++v) {
+      const FlowCheckResult result = CheckFlow(previous, current, corners, variants[v]);
+      ASSERT_TRUE(result.fundamental_found) << "frame " << i;
+      for (size_t k = 0; k < corners.size(); ++k) {
+        if (result.tracked[k] == 0) continue;
+        const bool on_person = before.at<std::uint8_t>(cv::Point(corners[k])) != 0;
+        const bool flagged = result.dynamic[k] != 0;
+        counts[v].true_positive += on_person && flagged;
+        counts[v].false_positive += !on_person && flagged;
+        counts[v].false_negative += on_person && !flagged;
+        counts[v].static_points += !on_person;
+      }
     }
   }
-  const double recall = true_positive / std::max(1.0, double(true_positive + false_negative));
-  const double false_alarm = false_positive / std::max(1.0, double(static_points));
-  std::cout << "gap " << gap << ": points on people flagged " << true_positive << " of "
-            << true_positive + false_negative << " (recall " << recall
-            << "); static points flagged " << false_positive << " of " << static_points << " ("
-            << 100 * false_alarm << " %)\n";
-  EXPECT_GE(recall, 0.75);
-  EXPECT_LE(false_alarm, 0.10);
+  for (size_t v = 0; v < variants.size(); ++v) {
+    std::cout << (v == 0 ? "paper 004" : "default (2 px off the epipolar line)") << ", gap " << gap
+              << ": points on people flagged " << counts[v].true_positive << " of "
+              << counts[v].true_positive + counts[v].false_negative << " (recall "
+              << counts[v].Recall() << "); static points flagged " << counts[v].false_positive
+              << " of " << counts[v].static_points << " (" << 100 * counts[v].FalseAlarm()
+              << " %)\n";
+  }
+  EXPECT_GE(counts[0].Recall(), 0.75);
+  EXPECT_LE(counts[0].FalseAlarm(), 0.10);
+  // The floor drops static points (measured 6.9 -> 4.4 %) and about half the points on people
+  // (0.80 -> 0.43); the region growing of the mask recovers them (whole-build recall 0.961 ->
+  // 0.956 on walking_xyz).
+  EXPECT_LT(counts[1].FalseAlarm(), 0.8 * counts[0].FalseAlarm());
+  EXPECT_GE(counts[1].Recall(), 0.35);
 }
 
 // The pipeline runs the flow ahead on the decoding thread, frame after frame, into one reused gray

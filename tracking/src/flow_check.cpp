@@ -170,7 +170,10 @@ FlowCheckResult CheckFlow(const FlowPyramid& previous, const FlowPyramid& curren
           ? -1
           : static_cast<int>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
   for (size_t k = 0; k < kept.size(); ++k) {
-    result.dynamic[kept[k]] = labels[k] != largest ? 1 : 0;
+    result.dynamic[kept[k]] = labels[k] != largest && result.epipolar_distance_px[kept[k]] >=
+                                                          options.min_epipolar_distance_px
+                                  ? 1
+                                  : 0;
   }
   return result;
 }
