@@ -38,9 +38,9 @@ TEST(VoxelCloudTest, PointsOfOneVoxelAverage) {
 
 TEST(VoxelCloudTest, RemovedVoxelsLeaveTheOutputAndStartAfreshWhenSeenAgain) {
   VoxelCloud cloud;  // 1 cm
-  std::vector<Eigen::Vector3f> positions;
+  std::vector<Eigen::Vector3f> positions(10, Eigen::Vector3f::Zero());
   for (int i = 0; i < 10; ++i)
-    positions.emplace_back(0.01f * static_cast<float>(i) + 0.005f, 0.0f, 0.0f);
+    positions[static_cast<size_t>(i)].x() = 0.01f * static_cast<float>(i) + 0.005f;
   cloud.Insert(MakePoints(positions, 100));
   ASSERT_EQ(cloud.size(), 10u);
   // Points come sorted by key: the x index runs 0..9, so the first three are x < 0.03.
