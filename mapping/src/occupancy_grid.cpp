@@ -393,7 +393,9 @@ OccupancyGrid ReadGrid(const std::string& yaml_path) {
 }
 
 GridQuality EvaluateGrid(const OccupancyGrid& grid,
-                         const std::vector<Eigen::Vector3d>& static_points_in_world) {
+                         const std::vector<Eigen::Vector3d>& static_points_in_world,
+                         const std::vector<Eigen::Vector3d>& moving_positions_in_world,
+                         double path_margin_m) {
   GridQuality quality;
   const size_t width = static_cast<size_t>(grid.width), height = static_cast<size_t>(grid.height);
   std::vector<std::uint8_t> truth(width * height, 0);
@@ -406,6 +408,20 @@ GridQuality EvaluateGrid(const OccupancyGrid& grid,
     if (i < 0 || j < 0 || i >= grid.width || j >= grid.height) continue;
     truth[static_cast<size_t>(j) * width + static_cast<size_t>(i)] = 1;
   }
+  // The moving objects' positions across the floor, in grid metres.
+  std::vector<Eigen::Vector2d> paths;
+  paths.reserve(moving_positions_in_world.size());
+  for (const Eigen::Vector3d& position : moving_positions_in_world) {
+    paths.push_back((grid_from_world * position).head<2>());
+  }
+  auto on_path = [&](int i, int j) {
+    const Eigen::Vector2d centre(grid.origin.x() + (i + 0.5) * grid.resolution,
+                                 grid.origin.y() + (j + 0.5) * grid.resolution);
+    for (const Eigen::Vector2d& p : paths) {
+      if ((p - centre).squaredNorm() <= path_margin_m * path_margin_m) return true;
+    }
+    return false;
+  };
   auto near = [&](int i, int j, auto&& is) {
     for (int dj = -1; dj <= 1; ++dj) {
       for (int di = -1; di <= 1; ++di) {
@@ -429,6 +445,7 @@ GridQuality EvaluateGrid(const OccupancyGrid& grid,
           return truth[static_cast<size_t>(b) * width + static_cast<size_t>(a)] != 0;
         });
         quality.false_occupied += explained ? 0 : 1;
+        quality.false_occupied_on_paths += !explained && on_path(i, j) ? 1 : 0;
       } else if (truly) {
         const bool nearby =
             near(i, j, [&](int a, int b) { return grid.At(a, b) == kGridOccupied; });

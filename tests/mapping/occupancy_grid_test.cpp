@@ -77,6 +77,7 @@ class OccupancyGridTest : public ::testing::Test {
         }
       }
       std::vector<Eigen::Vector3f> scan;
+      scan.reserve(nearest.size());
       for (const auto& [key, p] : nearest) scan.push_back(p.cast<float>());
       for (int k = 0; k < 2; ++k) map_.InsertScan(scan, origin.cast<float>());
     }
@@ -118,6 +119,25 @@ TEST_F(OccupancyGridTest, FindsTheFloorAndProjectsTheBand) {
   EXPECT_GE(quality.agreement, 0.97);
   EXPECT_EQ(quality.false_occupied, 0u);
   EXPECT_EQ(quality.missed_occupied, 0u);
+
+  // Against a truth without the box, the box's cells are occupied without static truth; they
+  // count as on a moving object's path when one stood at the box, not when it passed 2 m away.
+  std::vector<Eigen::Vector3d> without_box;
+  for (const Eigen::Vector3d& p : truth_) {
+    const Eigen::Vector3d r = room_from_world_ * p;
+    const bool in_box =
+        r.x() > 0.45 && r.x() < 1.05 && r.y() > 1.95 && r.y() < 2.55 && r.z() > 0.05;
+    if (!in_box) without_box.push_back(p);
+  }
+  const Eigen::Isometry3d world_from_room = room_from_world_.inverse();
+  const std::vector<Eigen::Vector3d> at_box = {world_from_room * Eigen::Vector3d(0.75, 2.25, 0.0)};
+  const std::vector<Eigen::Vector3d> far_away = {world_from_room * Eigen::Vector3d(-1.0, 0.5, 0.0)};
+  const GridQuality stood_there = EvaluateGrid(grid, without_box, at_box);
+  EXPECT_GT(stood_there.false_occupied, 4u);  // the box is 10 x 10 cells; its outline at least
+  EXPECT_EQ(stood_there.false_occupied_on_paths, stood_there.false_occupied);
+  const GridQuality passed_by = EvaluateGrid(grid, without_box, far_away);
+  EXPECT_EQ(passed_by.false_occupied, stood_there.false_occupied);
+  EXPECT_EQ(passed_by.false_occupied_on_paths, 0u);
 
   // A given floor is used as given; a lower band then lets the cable block.
   GridOptions given = options;

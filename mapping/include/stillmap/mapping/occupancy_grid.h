@@ -118,8 +118,14 @@ struct GridQuality {
   size_t occupied_cells = 0;   // occupied in the grid
   size_t false_occupied = 0;   // occupied with no true occupied cell within one cell
   size_t missed_occupied = 0;  // observed free, truly occupied (no grid-occupied neighbour)
+  // Of false_occupied, the cells whose centre lies within path_margin_m (across the floor) of
+  // where a moving object was at some time: occupied because a person stood there.
+  size_t false_occupied_on_paths = 0;
 };
+// `moving_positions_in_world`: where moving objects were over time (e.g. objects.txt), or empty.
 GridQuality EvaluateGrid(const OccupancyGrid& grid,
-                         const std::vector<Eigen::Vector3d>& static_points_in_world);
+                         const std::vector<Eigen::Vector3d>& static_points_in_world,
+                         const std::vector<Eigen::Vector3d>& moving_positions_in_world = {},
+                         double path_margin_m = 0.5);
 
 }  // namespace stillmap
