@@ -898,7 +898,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
           {"of_those_on_moving_objects_paths",
            moving_in_map.empty() ? nlohmann::json(nullptr)
                                  : nlohmann::json(grid_quality.false_occupied_on_paths)},
-          {"path_margin_m", 0.5},
+          {"path_margin_m", grid_quality.path_margin_m},
           {"free_where_truth_occupied", grid_quality.missed_occupied}};
     }
   }

@@ -80,22 +80,25 @@ class CloudFileWriter {
   std::vector<char> ply_buffer_, pcd_buffer_;
 };
 
+// The header comment of the voxel cloud's files.
+std::string CloudComment(double leaf_size) {
+  std::ostringstream comment;
+  comment << "stillmap voxel cloud, leaf " << leaf_size << " m";
+  return comment.str();
+}
+
 }  // namespace
 
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const VoxelCloud& cloud) {
-  std::ostringstream comment;
-  comment << "stillmap voxel cloud, leaf " << cloud.leaf_size() << " m";
-  CloudFileWriter writer(ply_path, pcd_path, cloud.OutputSize(), comment.str());
+  CloudFileWriter writer(ply_path, pcd_path, cloud.OutputSize(), CloudComment(cloud.leaf_size()));
   cloud.ForEachPoint([&writer](const VoxelPoint& p) { writer.Add(p); });
   writer.Finish();
 }
 
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const std::vector<VoxelPoint>& points, double leaf_size) {
-  std::ostringstream comment;
-  comment << "stillmap voxel cloud, leaf " << leaf_size << " m";
-  CloudFileWriter writer(ply_path, pcd_path, points.size(), comment.str());
+  CloudFileWriter writer(ply_path, pcd_path, points.size(), CloudComment(leaf_size));
   for (const VoxelPoint& p : points) writer.Add(p);
   writer.Finish();
 }

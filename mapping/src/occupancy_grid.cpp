@@ -397,6 +397,7 @@ GridQuality EvaluateGrid(const OccupancyGrid& grid,
                          const std::vector<Eigen::Vector3d>& moving_positions_in_world,
                          double path_margin_m) {
   GridQuality quality;
+  quality.path_margin_m = path_margin_m;
   const size_t width = static_cast<size_t>(grid.width), height = static_cast<size_t>(grid.height);
   std::vector<std::uint8_t> truth(width * height, 0);
   const Eigen::Isometry3d grid_from_world = grid.world_from_grid.inverse();

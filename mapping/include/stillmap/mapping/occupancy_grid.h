@@ -121,6 +121,7 @@ struct GridQuality {
   // Of false_occupied, the cells whose centre lies within path_margin_m (across the floor) of
   // where a moving object was at some time: occupied because a person stood there.
   size_t false_occupied_on_paths = 0;
+  double path_margin_m = 0.0;  // the margin used
 };
 // `moving_positions_in_world`: where moving objects were over time (e.g. objects.txt), or empty.
 GridQuality EvaluateGrid(const OccupancyGrid& grid,
