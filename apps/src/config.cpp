@@ -372,6 +372,10 @@ const std::vector<ConfigKey>& Keys() {
            }
          },
          [](const BuildConfig& c) { return std::string(OutlineModeName(c.masking.outline)); }});
+    masking_bool("outline_whole_box",
+                 "depth outline seeded anywhere in the box, not only its centre, where not "
+                 "confirmed static",
+                 &DynamicMaskOptions::outline_whole_box);
     masking_double("medium_min_moving_share",
                    "medium-level objects are masked when geometry marks this share of them",
                    &DynamicMaskOptions::medium_min_moving_share);

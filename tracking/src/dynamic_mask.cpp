@@ -49,10 +49,12 @@ void Grow(cv::Mat* region, std::vector<int> queue, const Allowed& allowed) {
 }
 
 // The object in `box` cut to its outline. kDepth: the depth-continuous foreground grown from the
-// box's centre (people fill the middle of their boxes); kEdges: the region around the centre
-// bounded by Canny edges (paper 000, section II.C); kBox: the whole box. Box-sized CV_8UC1.
+// box's centre (people fill the middle of their boxes), not into `excluded` readings; kEdges: the
+// region around the centre bounded by Canny edges (paper 000, section II.C); kBox: the whole box.
+// Box-sized CV_8UC1.
 cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excluded,
-                const cv::Rect& box, OutlineMode mode, double continuity) {
+                const cv::Mat& confirmed_static, const cv::Rect& box, OutlineMode mode,
+                double continuity, bool whole_box) {
   cv::Mat region(box.size(), CV_8UC1, cv::Scalar(0));
   if (mode == OutlineMode::kBox || box.area() == 0) {
     region.setTo(255);
@@ -93,9 +95,18 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excl
   std::nth_element(centre_depths.begin(), nth, centre_depths.end());
   const float foreground = *nth;
   const float band = 0.1f + 0.05f * foreground;
-  for (int v = centre.y; v < centre.y + centre.height; ++v) {
-    for (int u = centre.x; u < centre.x + centre.width; ++u) {
+  // With whole_box, readings in that band anywhere in the box seed too, unless the depth check
+  // confirms them static: limbs that background pixels part from the torso (arms, a far leg)
+  // are not reached from the centre. Without a verdict map (no reference yet) only the centre.
+  const bool whole = whole_box && !confirmed_static.empty();
+  const cv::Rect seeded = whole ? cv::Rect(0, 0, box.width, box.height) : centre;
+  const cv::Mat confirmed = whole ? cv::Mat(confirmed_static(box)) : cv::Mat();
+  for (int v = seeded.y; v < seeded.y + seeded.height; ++v) {
+    for (int u = seeded.x; u < seeded.x + seeded.width; ++u) {
       const float z = depth.at<float>(v, u);
+      if (whole && !centre.contains(cv::Point(u, v)) && confirmed.at<std::uint8_t>(v, u) != 0) {
+        continue;
+      }
       if (z > 0.0f && std::abs(z - foreground) < band) {
         region.at<std::uint8_t>(v, u) = 255;
         queue.push_back(v * box.width + u);
@@ -515,12 +526,14 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
       } else if (!detection.mask.empty()) {
         continue;  // a clipped carried mask that no longer matches its box
       } else {
-        outline = Outline(gray, depth_m, cv::Mat(), box, options_.outline, options_.continuity);
+        outline = Outline(gray, depth_m, cv::Mat(), consistent, box, options_.outline,
+                          options_.continuity, options_.outline_whole_box);
         // An object geometry sees moving is trimmed of the readings it confirms as static (the
         // floor at a walker's feet); an object at rest keeps its whole outline.
         if (!consistent.empty() && options_.outline == OutlineMode::kDepth &&
             cv::countNonZero(geometric(box) & outline) > 0) {
-          outline = Outline(gray, depth_m, consistent, box, options_.outline, options_.continuity);
+          outline = Outline(gray, depth_m, consistent, consistent, box, options_.outline,
+                            options_.continuity, options_.outline_whole_box);
         }
       }
       const int area = cv::countNonZero(outline);
