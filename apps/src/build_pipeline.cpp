@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
 
+#include <array>
 #include <chrono>
 #include <deque>
 #include <filesystem>
@@ -180,6 +181,24 @@ nlohmann::json TimingJson(const std::vector<double>& values) {
   return {{"median", Median(values)},
           {"mean", values.empty() ? 0.0 : total / static_cast<double>(values.size())},
           {"total", total}};
+}
+
+nlohmann::json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {
+  if (!options.depth_self_calibration) return {{"enabled", false}};
+  const auto& p = t.depth_correction.coefficients;
+  const DepthCorrectionFit& last = t.last_depth_calibration;
+  return {{"enabled", true},
+          {"model", "z_true = z (1 + p1 x + p2 y + p3 x^2 + p4 y^2 + p5 x y), x, y normalized"},
+          {"coefficients", {p[0], p[1], p[2], p[3], p[4]}},
+          {"fits_accepted", t.depth_calibrations},
+          {"fits_refused", t.depth_calibrations_refused},
+          {"time_ms_total", t.depth_calibration_ms},
+          {"last_fit",
+           {{"accepted", last.ok},
+            {"pairs", last.pairs},
+            {"pairs_used", last.pairs_used},
+            {"spread_before_m", last.spread_before_m},
+            {"spread_after_m", last.spread_after_m}}}};
 }
 
 // Ground-truth masks of moving pixels (synthetic sequences: masks.txt + masks/), by timestamp.
@@ -443,6 +462,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
     std::unordered_set<int> selected_landmarks;
     const double spacing = config.masking.reference_spacing_s;
     const size_t max_references = 2 * static_cast<size_t>(config.masking.reference_keyframes);
+    cv::Mat factor_image;  // per-pixel depth correction factors, for factor_coefficients
+    std::array<double, 5> factor_coefficients{};
     auto fuse = [&](const std::vector<FinalKeyframe>& finals) {
       const Clock::time_point fuse_start = Clock::now();
       for (const FinalKeyframe& keyframe : finals) {
@@ -495,7 +516,18 @@ BuildSummary RunBuild(const BuildRequest& request) {
                 ? SelectionVerdict::kRedundant
                 : SelectionVerdict::kFused;
         if (verdict == SelectionVerdict::kFused) {
-          mapper.Integrate(ToMapperFrame(frame, mask, keyframe.world_from_camera));
+          MapperFrame input = ToMapperFrame(frame, mask, keyframe.world_from_camera);
+          // The depth corrected as the tracker's self-calibration has it now (the poses are
+          // consistent with it).
+          const DepthCorrection correction = tracker.statistics().depth_correction;
+          if (!correction.IsIdentity()) {
+            if (correction.coefficients != factor_coefficients) {
+              factor_image = correction.FactorImage(camera);
+              factor_coefficients = correction.coefficients;
+            }
+            input.depth_m = frame.depth_m.mul(factor_image);
+          }
+          mapper.Integrate(input);
           keyframe_poses.push_back({keyframe.time, keyframe.world_from_camera});
           selected_landmarks.insert(keyframe.landmarks.begin(), keyframe.landmarks.end());
         } else if (verdict == SelectionVerdict::kInvalid) {
@@ -773,6 +805,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
         {"bundle_adjustments", t.bundle_adjustments},
         {"bundle_adjustment_observations_rejected", t.observations_rejected},
         {"tracking_frames_per_second_median", median_track_ms > 0 ? 1000.0 / median_track_ms : 0},
+        {"depth_self_calibration", DepthCalibrationJson(t, config.tracking)},
         {"bundle_adjustment_thread",
          config.tracking.background_bundle_adjustment && request.threads > 1}};
     timing["tracking_ms"] = {

@@ -277,6 +277,16 @@ const std::vector<ConfigKey>& Keys() {
         "far_depth_power",
         "inverse-depth noise times (z / far_depth)^this beyond far_depth (0: off; Bonn/Xtion: 4)",
         &TrackerOptions::far_depth_power);
+    k.push_back(BoolKey(
+        "tracking.depth_self_calibration",
+        "estimate and correct the depth sensor's error over the image (depth_correction.h)",
+        [](BuildConfig& c) -> bool& { return c.tracking.depth_self_calibration; }));
+    tracking_int("depth_calibration_interval", "refit the depth correction every n keyframes",
+                 &TrackerOptions::depth_calibration_interval);
+    k.push_back(DoubleKey(
+        "tracking.depth_calibration_max_delta",
+        "a depth correction beyond this share anywhere in the image is refused",
+        [](BuildConfig& c) -> double& { return c.tracking.depth_calibration.max_delta; }));
     tracking_double("max_landmark_depth", "landmarks are made from depth up to this [m]",
                     &TrackerOptions::max_landmark_depth);
     tracking_double("keyframe_ratio",

@@ -34,6 +34,12 @@ void TrackerOptions::Validate() const {
   require(min_matches >= 6, "tracking.min_matches must be at least 6");
   require(sigma_px > 0.0 && sigma_inverse_depth > 0.0,
           "tracking.sigma_px and tracking.sigma_inverse_depth must be positive");
+  require(depth_calibration_interval > 0,
+          "tracking.depth_calibration_interval must be a positive number of keyframes");
+  require(depth_calibration.min_pairs > 0 && depth_calibration.max_residual_m > 0.0 &&
+              depth_calibration.max_delta > 0.0 && depth_calibration.coefficient_sigma > 0.0 &&
+              depth_calibration.residual_sigma_m > 0.0,
+          "tracking.depth_calibration_* must be positive");
   require(far_depth > 0.0 && far_depth_power >= 0.0,
           "tracking.far_depth must be positive and tracking.far_depth_power not negative");
   require(min_landmark_depth > 0.0 && max_landmark_depth > min_landmark_depth,
@@ -209,6 +215,12 @@ struct Tracker::Impl {
       octave_scale.push_back(scale);
       scale *= options.features.scale_factor;
     }
+    for (const double u : {0.0, 0.5, 1.0}) {
+      for (const double v : {0.0, 0.5, 1.0}) {
+        image_outline.emplace_back((u * (camera.width - 1) - camera.cx) / camera.fx,
+                                   (v * (camera.height - 1) - camera.cy) / camera.fy);
+      }
+    }
     if (options.background_bundle_adjustment) worker = std::thread([this] { WorkerLoop(); });
   }
 
@@ -232,7 +244,7 @@ struct Tracker::Impl {
   RgbdObservation Observation(const FrameFeatures& features, size_t i) const {
     RgbdObservation observation;
     observation.normalized = features.normalized[i];
-    observation.depth_m = features.depth_m[i];
+    observation.depth_m = features.depth_m[i] * DepthFactor(features.normalized[i]);
     observation.sigma_normalized =
         options.sigma_px * OctaveScale(features.keypoints[i].octave) / camera.fx;
     observation.sigma_inverse_depth = options.sigma_inverse_depth;
@@ -241,6 +253,41 @@ struct Tracker::Impl {
           std::pow(observation.depth_m / options.far_depth, options.far_depth_power);
     }
     return observation;
+  }
+
+  double DepthFactor(const Eigen::Vector2d& normalized) const {
+    return stats.depth_correction.Factor(normalized.x(), normalized.y());
+  }
+
+  // Refits the depth correction from every pair of consecutive observations with depth of the
+  // local map's landmarks (raw depths, current keyframe poses).
+  void CalibrateDepth() {
+    const Clock::time_point start = Clock::now();
+    std::vector<DepthPair> pairs;
+    for (const auto& [id, landmark] : landmarks) {
+      const auto& observations = landmark.observations;
+      for (size_t k = 1; k < observations.size(); ++k) {
+        const auto i = keyframes.find(observations[k - 1].first);
+        const auto j = keyframes.find(observations[k].first);
+        if (i == keyframes.end() || j == keyframes.end()) continue;
+        const auto fi = static_cast<size_t>(observations[k - 1].second);
+        const auto fj = static_cast<size_t>(observations[k].second);
+        if (fi >= i->second.features.size() || fj >= j->second.features.size()) continue;
+        const float zi = i->second.features.depth_m[fi], zj = j->second.features.depth_m[fj];
+        if (!UsableDepth(zi) || !UsableDepth(zj)) continue;
+        pairs.push_back({i->second.features.normalized[fi], j->second.features.normalized[fj], zi,
+                         zj, j->second.camera_from_world * i->second.camera_from_world.inverse()});
+      }
+    }
+    DepthCorrectionFit fit = FitDepthCorrection(pairs, image_outline, options.depth_calibration);
+    if (fit.ok) {
+      stats.depth_correction = fit.correction;
+      ++stats.depth_calibrations;
+    } else if (fit.pairs_used >= options.depth_calibration.min_pairs) {
+      ++stats.depth_calibrations_refused;
+    }
+    stats.last_depth_calibration = std::move(fit);
+    stats.depth_calibration_ms += MillisecondsSince(start);
   }
 
   bool UsableDepth(float depth) const {
@@ -493,7 +540,8 @@ struct Tracker::Impl {
       if (!UsableDepth(frame.features().depth_m[i])) continue;
       const int id = next_landmark++;
       Landmark& landmark = landmarks[id];
-      landmark.position = world_from_camera * frame.features().PointInCamera(i);
+      landmark.position = world_from_camera * (frame.features().PointInCamera(i) *
+                                               DepthFactor(frame.features().normalized[i]));
       landmark.descriptor = frame.descriptors()[i];
       landmark.octave = frame.octave(i);
       landmark.created_keyframe = keyframe.id;
@@ -512,6 +560,10 @@ struct Tracker::Impl {
     ++stats.keyframes;
     frames_since_keyframe = 0;
     CullRecentLandmarks(id);
+    if (options.depth_self_calibration && options.depth_calibration_interval > 0 &&
+        map_keyframes.size() % static_cast<size_t>(options.depth_calibration_interval) == 0) {
+      CalibrateDepth();
+    }
     if (map_keyframes.size() >= 2) {
       if (options.background_bundle_adjustment) {
         ba_requested = true;
@@ -883,6 +935,9 @@ struct Tracker::Impl {
   std::vector<int> last_frame_landmarks;
   std::vector<FrameRecord> records;
   TrackerStatistics stats;
+  // Normalized coordinates of the image's corners, edge midpoints and centre: where the depth
+  // correction is bounded.
+  std::vector<Eigen::Vector2d> image_outline;
 
   std::thread worker;
   std::condition_variable wake;     // the worker waits for a request

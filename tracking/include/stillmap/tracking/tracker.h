@@ -17,6 +17,7 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/tracking/bundle_adjustment.h"
+#include "stillmap/tracking/depth_correction.h"
 #include "stillmap/tracking/features.h"
 #include "stillmap/tracking/pose_estimation.h"
 #include "stillmap/tracking/pose_refinement.h"
@@ -54,6 +55,14 @@ struct TrackerOptions {
   // 19.8 mm but teddy 8.9 mm.
   double far_depth = 2.0;  // [m]
   double far_depth_power = 0.0;
+
+  // Depth self-calibration (depth_correction.h): every depth_calibration_interval keyframes the
+  // depth correction is refitted from the local map's landmarks seen with depth in two keyframes,
+  // and used from then on for every depth reading (residuals, new landmarks; the map's
+  // back-projection takes the last one).
+  bool depth_self_calibration = true;
+  int depth_calibration_interval = 1;
+  DepthCorrectionFitOptions depth_calibration;
 
   // Landmarks are created from keyframe depth within this range [m].
   double min_landmark_depth = 0.1;
@@ -137,6 +146,12 @@ struct TrackerStatistics {
   size_t bundle_adjustments = 0;
   double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
   size_t observations_rejected = 0;   // by the bundle adjustment's chi-square test
+  // Depth self-calibration: the correction in use and the last fit.
+  DepthCorrection depth_correction;
+  size_t depth_calibrations = 0;  // fits accepted
+  size_t depth_calibrations_refused = 0;
+  DepthCorrectionFit last_depth_calibration;
+  double depth_calibration_ms = 0.0;  // total, on the tracking thread
 };
 
 class Tracker {

@@ -1,0 +1,127 @@
+#include "stillmap/tracking/depth_correction.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <opencv2/calib3d.hpp>
+
+namespace stillmap {
+namespace {
+
+using Row = Eigen::Matrix<double, 5, 1>;
+
+Row Basis(const Eigen::Vector2d& n) {
+  Row phi;
+  phi << n.x(), n.y(), n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
+  return phi;
+}
+
+double Median(std::vector<double> values) {
+  const auto middle = values.begin() + static_cast<long>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+}  // namespace
+
+bool DepthCorrection::IsIdentity() const {
+  return std::all_of(coefficients.begin(), coefficients.end(), [](double c) { return c == 0.0; });
+}
+
+cv::Mat DepthCorrection::FactorImage(const Camera& camera) const {
+  cv::Mat factors(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f));
+  if (IsIdentity()) return factors;
+  std::vector<cv::Point2f> pixels, rays;
+  pixels.reserve(static_cast<size_t>(camera.width) * static_cast<size_t>(camera.height));
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    }
+  }
+  if (camera.HasDistortion()) {
+    const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+    const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+    cv::undistortPoints(pixels, rays, k, distortion);
+  } else {
+    rays.reserve(pixels.size());
+    for (const cv::Point2f& p : pixels) {
+      rays.emplace_back(static_cast<float>((p.x - camera.cx) / camera.fx),
+                        static_cast<float>((p.y - camera.cy) / camera.fy));
+    }
+  }
+  float* out = factors.ptr<float>();
+  for (size_t i = 0; i < rays.size(); ++i) {
+    out[i] = static_cast<float>(Factor(rays[i].x, rays[i].y));
+  }
+  return factors;
+}
+
+DepthCorrectionFit FitDepthCorrection(const std::vector<DepthPair>& pairs,
+                                      const std::vector<Eigen::Vector2d>& image_corners,
+                                      const DepthCorrectionFitOptions& options) {
+  DepthCorrectionFit fit;
+  fit.pairs = pairs.size();
+  std::vector<Row> rows;
+  std::vector<double> rhs;
+  rows.reserve(pairs.size());
+  rhs.reserve(pairs.size());
+  for (const DepthPair& pair : pairs) {
+    const Eigen::Vector3d ray_i(pair.normalized_i.x(), pair.normalized_i.y(), 1.0);
+    const double a = (pair.j_from_i.linear() * ray_i).z();
+    const double t_z = pair.j_from_i.translation().z();
+    const double disagreement = a * pair.depth_i + t_z - pair.depth_j;
+    if (!(std::abs(disagreement) <= options.max_residual_m)) continue;
+    rows.push_back(pair.depth_j * Basis(pair.normalized_j) -
+                   a * pair.depth_i * Basis(pair.normalized_i));
+    rhs.push_back(disagreement);
+  }
+  if (rows.size() < options.min_pairs) return fit;
+
+  const double prior = std::pow(options.residual_sigma_m / options.coefficient_sigma, 2);
+  Row p = Row::Zero();
+  std::vector<std::uint8_t> used(rows.size(), 1);
+  for (int round = 0; round < 3; ++round) {
+    Eigen::Matrix<double, 5, 5> normal = prior * Eigen::Matrix<double, 5, 5>::Identity();
+    Row right = Row::Zero();
+    for (size_t k = 0; k < rows.size(); ++k) {
+      if (used[k] == 0) continue;
+      normal.noalias() += rows[k] * rows[k].transpose();
+      right += rows[k] * rhs[k];
+    }
+    p = normal.ldlt().solve(right);
+    std::vector<double> magnitudes;
+    magnitudes.reserve(rows.size());
+    for (size_t k = 0; k < rows.size(); ++k)
+      magnitudes.push_back(std::abs(rows[k].dot(p) - rhs[k]));
+    const double limit = 3.0 * 1.4826 * Median(magnitudes);
+    for (size_t k = 0; k < rows.size(); ++k) used[k] = magnitudes[k] <= limit ? 1 : 0;
+  }
+
+  // The pairs' disagreement without and with the correction, as a robust spread over all of them
+  // (the trimmed set would favour the fit that chose it).
+  std::vector<double> raw, corrected;
+  raw.reserve(rows.size());
+  corrected.reserve(rows.size());
+  for (size_t k = 0; k < rows.size(); ++k) {
+    fit.pairs_used += used[k] != 0 ? 1 : 0;
+    raw.push_back(std::abs(rhs[k]));
+    corrected.push_back(std::abs(rows[k].dot(p) - rhs[k]));
+  }
+  if (fit.pairs_used < options.min_pairs) return fit;
+  fit.spread_before_m = 1.4826 * Median(std::move(raw));
+  fit.spread_after_m = 1.4826 * Median(std::move(corrected));
+  if (!(fit.spread_after_m <= (1.0 - options.min_spread_reduction) * fit.spread_before_m)) {
+    return fit;
+  }
+  DepthCorrection correction;
+  for (int i = 0; i < 5; ++i) correction.coefficients[static_cast<size_t>(i)] = p[i];
+  for (const Eigen::Vector2d& corner : image_corners) {
+    if (!(std::abs(correction.Delta(corner.x(), corner.y())) <= options.max_delta)) return fit;
+  }
+  fit.correction = correction;
+  fit.ok = true;
+  return fit;
+}
+
+}  // namespace stillmap
