@@ -111,7 +111,8 @@ DepthCorrectionFit FitDepthCorrection(const std::vector<DepthPair>& pairs,
   if (fit.pairs_used < options.min_pairs) return fit;
   fit.spread_before_m = 1.4826 * Median(std::move(raw));
   fit.spread_after_m = 1.4826 * Median(std::move(corrected));
-  if (!(fit.spread_after_m <= (1.0 - options.min_spread_reduction) * fit.spread_before_m)) {
+  if (!(fit.spread_after_m <= (1.0 - options.min_spread_reduction) * fit.spread_before_m) ||
+      !(fit.spread_before_m - fit.spread_after_m >= options.min_spread_reduction_m)) {
     return fit;
   }
   DepthCorrection correction;

@@ -38,8 +38,10 @@ void TrackerOptions::Validate() const {
           "tracking.depth_calibration_interval must be a positive number of keyframes");
   require(depth_calibration.min_pairs > 0 && depth_calibration.max_residual_m > 0.0 &&
               depth_calibration.max_delta > 0.0 && depth_calibration.coefficient_sigma > 0.0 &&
-              depth_calibration.residual_sigma_m > 0.0,
-          "tracking.depth_calibration_* must be positive");
+              depth_calibration.residual_sigma_m > 0.0 &&
+              depth_calibration.min_spread_reduction >= 0.0 &&
+              depth_calibration.min_spread_reduction_m >= 0.0,
+          "tracking.depth_calibration_* must be positive (the minimum reductions: not negative)");
   require(far_depth > 0.0 && far_depth_power >= 0.0,
           "tracking.far_depth must be positive and tracking.far_depth_power not negative");
   require(min_landmark_depth > 0.0 && max_landmark_depth > min_landmark_depth,

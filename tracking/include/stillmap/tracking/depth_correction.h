@@ -62,6 +62,11 @@ struct DepthCorrectionFitOptions {
   // and feeding that back into the depth makes the poses drift (synthetic static room, ideal
   // depth: ATE 4.4 -> 9.1 mm when every fit was taken).
   double min_spread_reduction = 0.1;
+  // ... and by at least this much [m]: where the pairs already agree to a few millimetres there
+  // is no sensor error to find, and a fit then mostly bends depth to the pose errors (noise-free
+  // rendered room: spread 0.6 -> 0.3 mm with a 5 % tilt "found", camera errors 0.2 -> 178 mm).
+  // Bonn crowd's fits remove 9 mm.
+  double min_spread_reduction_m = 0.002;
 };
 
 struct DepthCorrectionFit {

@@ -48,18 +48,16 @@ struct TrackerOptions {
   //   TUM teddy (Kinect, 0.7-2 m)               4.8 -> 5.6 mm
   //   synthetic static room (ideal z^2 noise)  4.0 -> 9.0 mm  (issue 4's target: 5 mm)
   //   synthetic walking_xyz                    5.2 -> 7.6 mm
-  // Why Bonn needs it is not understood: its matches' inverse-depth spread is flat over 1-4 m
-  // (1.4826 x MAD 0.0032-0.0038 /m, teddy 0.0038-0.0045, synthetic 0.0014), colour/depth
-  // registration is within 1 px, and weakening depth only in the per-frame refinement does not
-  // help (only in the bundle adjustment: 17.1 mm with 0.02 /m there). A uniform 0.01 /m gave Bonn
-  // 19.8 mm but teddy 8.9 mm.
+  // Bonn needed it because of the Xtion's depth error over the image, which the depth
+  // self-calibration below now corrects (Bonn 44.3 -> 18.3 mm with the defaults).
   double far_depth = 2.0;  // [m]
   double far_depth_power = 0.0;
 
   // Depth self-calibration (depth_correction.h): every depth_calibration_interval keyframes the
   // depth correction is refitted from the local map's landmarks seen with depth in two keyframes,
   // and used from then on for every depth reading (residuals, new landmarks; the map's
-  // back-projection takes the last one).
+  // back-projection uses the one current when the keyframe is fused). Bonn crowd: interval 1, 2,
+  // 5 gave 18.3, 18.6, 22.0 mm; a fit takes about 2 ms (45 fits, 95 ms in all).
   bool depth_self_calibration = true;
   int depth_calibration_interval = 1;
   DepthCorrectionFitOptions depth_calibration;
