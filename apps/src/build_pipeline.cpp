@@ -4,7 +4,6 @@
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
 
-#include <array>
 #include <chrono>
 #include <deque>
 #include <filesystem>
@@ -462,8 +461,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
     std::unordered_set<int> selected_landmarks;
     const double spacing = config.masking.reference_spacing_s;
     const size_t max_references = 2 * static_cast<size_t>(config.masking.reference_keyframes);
-    cv::Mat factor_image;  // per-pixel depth correction factors, for factor_coefficients
-    std::array<double, 5> factor_coefficients{};
+    DepthFactorImages factors(camera);  // of the tracker's depth correction
     auto fuse = [&](const std::vector<FinalKeyframe>& finals) {
       const Clock::time_point fuse_start = Clock::now();
       for (const FinalKeyframe& keyframe : finals) {
@@ -520,13 +518,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
           // The depth corrected as the tracker's self-calibration has it now (the poses are
           // consistent with it).
           const DepthCorrection correction = tracker.statistics().depth_correction;
-          if (!correction.IsIdentity()) {
-            if (correction.coefficients != factor_coefficients) {
-              factor_image = correction.FactorImage(camera);
-              factor_coefficients = correction.coefficients;
-            }
-            input.depth_m = frame.depth_m.mul(factor_image);
-          }
+          if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors.For(correction));
           mapper.Integrate(input);
           keyframe_poses.push_back({keyframe.time, keyframe.world_from_camera});
           selected_landmarks.insert(keyframe.landmarks.begin(), keyframe.landmarks.end());

@@ -116,6 +116,16 @@ TEST(DepthCorrectionTest, FactorImageFollowsTheModelPerPixel) {
     EXPECT_NEAR(factors.at<float>(pixel), expected, 1e-6);
   }
   EXPECT_EQ(cv::countNonZero(DepthCorrection().FactorImage(camera) != 1.0f), 0);
+  // The cached images: the same factors, followed when the correction changes.
+  camera.distortion = {0.04, -0.1, 0.0, 0.0, 0.0};
+  DepthFactorImages images(camera);
+  EXPECT_EQ(cv::countNonZero(images.For(DepthCorrection()) != 1.0f), 0);
+  EXPECT_EQ(cv::norm(images.For(correction), correction.FactorImage(camera), cv::NORM_INF), 0.0);
+  DepthCorrection other = correction;
+  other.coefficients[2] = 0.2;
+  EXPECT_EQ(cv::norm(images.For(other), other.FactorImage(camera), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(other.FactorImage(camera), correction.FactorImage(camera), cv::NORM_INF),
+            0.01);
 }
 
 }  // namespace

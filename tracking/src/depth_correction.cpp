@@ -29,9 +29,10 @@ bool DepthCorrection::IsIdentity() const {
   return std::all_of(coefficients.begin(), coefficients.end(), [](double c) { return c == 0.0; });
 }
 
-cv::Mat DepthCorrection::FactorImage(const Camera& camera) const {
-  cv::Mat factors(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f));
-  if (IsIdentity()) return factors;
+namespace {
+
+// Undistorted normalized (x, y) of every pixel, CV_32FC2.
+cv::Mat PixelRays(const Camera& camera) {
   std::vector<cv::Point2f> pixels, rays;
   pixels.reserve(static_cast<size_t>(camera.width) * static_cast<size_t>(camera.height));
   for (int v = 0; v < camera.height; ++v) {
@@ -50,11 +51,37 @@ cv::Mat DepthCorrection::FactorImage(const Camera& camera) const {
                         static_cast<float>((p.y - camera.cy) / camera.fy));
     }
   }
-  float* out = factors.ptr<float>();
-  for (size_t i = 0; i < rays.size(); ++i) {
-    out[i] = static_cast<float>(Factor(rays[i].x, rays[i].y));
+  return cv::Mat(rays, true).reshape(2, camera.height);
+}
+
+void Factors(const DepthCorrection& correction, const cv::Mat& rays, cv::Mat* factors) {
+  factors->create(rays.size(), CV_32FC1);
+  const auto* ray = rays.ptr<cv::Point2f>();
+  auto* out = factors->ptr<float>();
+  for (size_t i = 0; i < rays.total(); ++i) {
+    out[i] = static_cast<float>(correction.Factor(ray[i].x, ray[i].y));
   }
+}
+
+}  // namespace
+
+cv::Mat DepthCorrection::FactorImage(const Camera& camera) const {
+  if (IsIdentity()) return cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f));
+  cv::Mat factors;
+  Factors(*this, PixelRays(camera), &factors);
   return factors;
+}
+
+DepthFactorImages::DepthFactorImages(const Camera& camera) : rays_(PixelRays(camera)) {
+  factors_ = cv::Mat(rays_.size(), CV_32FC1, cv::Scalar(1.0f));
+}
+
+const cv::Mat& DepthFactorImages::For(const DepthCorrection& correction) {
+  if (correction.coefficients != coefficients_) {
+    Factors(correction, rays_, &factors_);
+    coefficients_ = correction.coefficients;
+  }
+  return factors_;
 }
 
 DepthCorrectionFit FitDepthCorrection(const std::vector<DepthPair>& pairs,

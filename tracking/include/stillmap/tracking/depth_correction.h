@@ -42,6 +42,20 @@ struct DepthCorrection {
   cv::Mat FactorImage(const Camera& camera) const;
 };
 
+// Per-pixel factors of changing corrections for one camera: the undistorted rays are computed
+// once (undistorting 640 x 480 pixels takes about 15 ms; the factors then take well under 1 ms).
+class DepthFactorImages {
+ public:
+  explicit DepthFactorImages(const Camera& camera);
+  // The factors of `correction` (CV_32FC1), recomputed only when the coefficients changed.
+  const cv::Mat& For(const DepthCorrection& correction);
+
+ private:
+  cv::Mat rays_;  // CV_32FC2, undistorted normalized (x, y) per pixel
+  cv::Mat factors_;
+  std::array<double, 5> coefficients_{};
+};
+
 // A static point seen with depth in keyframes i and j (raw depths).
 struct DepthPair {
   Eigen::Vector2d normalized_i = Eigen::Vector2d::Zero();
