@@ -281,14 +281,15 @@ struct Tracker::Impl {
                          zj, j->second.camera_from_world * i->second.camera_from_world.inverse()});
       }
     }
-    DepthCorrectionFit fit = FitDepthCorrection(pairs, image_outline, options.depth_calibration);
+    const DepthCorrectionFit fit =
+        FitDepthCorrection(pairs, image_outline, options.depth_calibration);
     if (fit.ok) {
       stats.depth_correction = fit.correction;
       ++stats.depth_calibrations;
     } else if (fit.pairs_used >= options.depth_calibration.min_pairs) {
       ++stats.depth_calibrations_refused;
     }
-    stats.last_depth_calibration = std::move(fit);
+    stats.last_depth_calibration = fit;
     stats.depth_calibration_ms += MillisecondsSince(start);
   }
 
