@@ -214,6 +214,17 @@ const std::vector<ConfigKey>& Keys() {
         BoolKey("mapping.clear_seen_through",
                 "drop cloud voxels the OctoMap ends up calling free (later rays saw through them)",
                 [](BuildConfig& c) -> bool& { return c.mapping.cleaning.clear_seen_through; }));
+    k.push_back(BoolKey(
+        "mapping.clear_seen_through_views",
+        "drop cloud voxels that fused keyframes saw through, at the cloud's resolution",
+        [](BuildConfig& c) -> bool& { return c.mapping.cleaning.clear_seen_through_views; }));
+    k.push_back(IntKey("mapping.min_free_views",
+                       "view check: keyframes that must have seen through a voxel",
+                       [](BuildConfig& c) -> int& { return c.mapping.cleaning.min_free_views; }));
+    k.push_back(DoubleKey(
+        "mapping.free_view_ratio",
+        "view check: keyframes seeing through a voxel must outnumber those seeing it this often",
+        [](BuildConfig& c) -> double& { return c.mapping.cleaning.free_view_ratio; }));
     k.push_back(
         BoolKey("mapping.outlier_removal", "PCL statistical outlier removal on the cloud",
                 [](BuildConfig& c) -> bool& { return c.mapping.cleaning.outlier_removal; }));
@@ -277,10 +288,10 @@ const std::vector<ConfigKey>& Keys() {
         "far_depth_power",
         "inverse-depth noise times (z / far_depth)^this beyond far_depth (0: off; Bonn/Xtion: 4)",
         &TrackerOptions::far_depth_power);
-    k.push_back(BoolKey(
-        "tracking.depth_self_calibration",
-        "estimate and correct the depth sensor's error over the image (depth_correction.h)",
-        [](BuildConfig& c) -> bool& { return c.tracking.depth_self_calibration; }));
+    k.push_back(
+        BoolKey("tracking.depth_self_calibration",
+                "estimate and correct the depth sensor's error over the image (depth_correction.h)",
+                [](BuildConfig& c) -> bool& { return c.tracking.depth_self_calibration; }));
     tracking_int("depth_calibration_interval", "refit the depth correction every n keyframes",
                  &TrackerOptions::depth_calibration_interval);
     k.push_back(DoubleKey(

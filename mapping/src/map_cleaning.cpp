@@ -4,18 +4,113 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <opencv2/core/utility.hpp>
 #include <vector>
 
 #include "stillmap/io/error.h"
 
 namespace stillmap {
 
+namespace {
+
+// Axial noise of Kinect-class sensors (Nguyen et al., 3DIMPVT 2012) [m].
+float DepthSigma(float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
+
+// Which voxels the views saw through: flags (1 = drop) in ForEachPoint's order.
+std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, const Camera& camera,
+                                           const std::vector<KeyframeView>& views,
+                                           const VoxelCloud& cloud) {
+  std::vector<Eigen::Vector3f> positions;
+  positions.reserve(cloud.OutputSize());
+  cloud.ForEachPoint(
+      [&positions](const VoxelPoint& point) { positions.push_back(point.position); });
+  std::vector<std::uint8_t> drop(positions.size(), 0);
+  const float fx = static_cast<float>(camera.fx), fy = static_cast<float>(camera.fy);
+  const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
+  const auto& d = camera.distortion;
+  const float k1 = static_cast<float>(d[0]), k2 = static_cast<float>(d[1]);
+  const float p1 = static_cast<float>(d[2]), p2 = static_cast<float>(d[3]);
+  const float k3 = static_cast<float>(d[4]);
+  const bool distorted = camera.HasDistortion();
+  cv::parallel_for_(cv::Range(0, static_cast<int>(positions.size())), [&](const cv::Range& range) {
+    for (int k = range.start; k < range.end; ++k) {
+      int free = 0, seen = 0;
+      for (const KeyframeView& view : views) {
+        const Eigen::Vector3f q = view.camera_from_world * positions[static_cast<size_t>(k)];
+        if (q.z() < 0.1f) continue;
+        float x = q.x() / q.z(), y = q.y() / q.z();
+        if (distorted) {
+          const float r2 = x * x + y * y;
+          const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
+          const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
+          const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
+          x = xd;
+          y = yd;
+        }
+        // Half resolution: block (u, v) of the view holds the camera's pixels (2u..2u+1, ...).
+        const long pu = std::lround(fx * x + cx), pv = std::lround(fy * y + cy);
+        if (pu < 0 || pv < 0) continue;
+        const int u = static_cast<int>(pu / 2), v = static_cast<int>(pv / 2);
+        if (u >= view.depth_m.cols || v >= view.depth_m.rows) continue;
+        const float reading = view.depth_m.at<float>(v, u);
+        if (!(reading > 0.0f)) continue;
+        const float margin = 0.02f + 3.0f * DepthSigma(q.z());
+        if (reading > q.z() + margin) {
+          ++free;
+        } else if (reading >= q.z() - margin) {
+          ++seen;
+        }
+      }
+      drop[static_cast<size_t>(k)] =
+          free >= options.min_free_views &&
+                  static_cast<double>(free) > options.free_view_ratio * static_cast<double>(seen)
+              ? 1
+              : 0;
+    }
+  });
+  return drop;
+}
+
+}  // namespace
+
+KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
+                              const Eigen::Isometry3d& world_from_camera) {
+  CV_Assert(depth_m.type() == CV_32FC1 && (mask.empty() || mask.size() == depth_m.size()));
+  // Each 2 x 2 block keeps its nearest reading (a voxel at an object's edge is not seen through
+  // by the view that saw the object), or 0 when any of it is masked or none has a reading.
+  KeyframeView view;
+  view.depth_m.create((depth_m.rows + 1) / 2, (depth_m.cols + 1) / 2, CV_32FC1);
+  for (int v = 0; v < view.depth_m.rows; ++v) {
+    float* out = view.depth_m.ptr<float>(v);
+    for (int u = 0; u < view.depth_m.cols; ++u) {
+      float nearest = 0.0f;
+      bool masked = false;
+      for (int r = 2 * v; r < std::min(2 * v + 2, depth_m.rows); ++r) {
+        for (int c = 2 * u; c < std::min(2 * u + 2, depth_m.cols); ++c) {
+          masked = masked || (!mask.empty() && mask.at<std::uint8_t>(r, c) != 0);
+          const float z = depth_m.at<float>(r, c);
+          if (z > 0.0f && (nearest == 0.0f || z < nearest)) nearest = z;
+        }
+      }
+      out[u] = masked ? 0.0f : nearest;
+    }
+  }
+  view.camera_from_world = world_from_camera.inverse().cast<float>();
+  return view;
+}
+
 void MapCleaningOptions::Validate() const {
   if (outlier_neighbors < 1) throw InputError("mapping.outlier_neighbors must be >= 1");
   if (!(outlier_std_ratio > 0.0)) throw InputError("mapping.outlier_std_ratio must be positive");
+  if (min_free_views < 1) throw InputError("mapping.min_free_views must be >= 1");
+  if (!(free_view_ratio >= 0.0)) throw InputError("mapping.free_view_ratio must not be negative");
 }
 
 MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyMap* occupancy,
+                             const Camera& camera, const std::vector<KeyframeView>& views,
                              VoxelCloud* cloud) {
   options.Validate();
   MapCleaningResult result;
@@ -37,6 +132,12 @@ MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyM
       }
       return last_free;
     });
+  }
+  if (options.clear_seen_through_views && !views.empty()) {
+    const std::vector<std::uint8_t> drop = SeenThroughViews(options, camera, views, *cloud);
+    size_t next = 0;
+    result.seen_through_views =
+        cloud->RemoveIf([&drop, &next](const VoxelPoint&) { return drop[next++] != 0; });
   }
   if (options.outlier_removal &&
       cloud->OutputSize() > static_cast<size_t>(options.outlier_neighbors)) {

@@ -22,7 +22,10 @@ void MapperOptions::Validate() const {
 }
 
 Mapper::Mapper(const Camera& camera, const MapperOptions& options)
-    : options_(options), projector_(camera, options.back_projection), cloud_(options.voxel) {
+    : options_(options),
+      projector_(camera, options.back_projection),
+      cloud_(options.voxel),
+      camera_(camera) {
   options_.Validate();
   if (options_.occupancy_enabled) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
 }
@@ -106,6 +109,9 @@ void Mapper::Fuse(const MapperFrame& frame) {
     }
   }
 
+  if (options_.cleaning.clear_seen_through_views) {
+    views_.push_back(MakeKeyframeView(frame.depth_m, frame.mask, frame.world_from_camera));
+  }
   start = std::chrono::steady_clock::now();
   cloud_.Insert(scratch_);
   statistics_.voxel_ms += MillisecondsSince(start);
@@ -115,7 +121,7 @@ void Mapper::Fuse(const MapperFrame& frame) {
 
 MapCleaningResult Mapper::CleanCloud() {
   Finish();
-  return stillmap::CleanCloud(options_.cleaning, occupancy_.get(), &cloud_);
+  return stillmap::CleanCloud(options_.cleaning, occupancy_.get(), camera_, views_, &cloud_);
 }
 
 void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) {

@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <opencv2/core.hpp>
 #include <vector>
 
 #include "stillmap/io/error.h"
+#include "test_util.h"
 
 namespace stillmap {
 namespace {
@@ -55,7 +58,7 @@ TEST(MapCleaningTest, VoxelsSeenThroughLaterAreRemovedAndTheWallKept) {
   ASSERT_EQ(cloud.size(), scene.wall.size() + person_voxels);
 
   MapCleaningOptions options;
-  const MapCleaningResult result = CleanCloud(options, &occupancy, &cloud);
+  const MapCleaningResult result = CleanCloud(options, &occupancy, Camera(), {}, &cloud);
   EXPECT_EQ(result.seen_through, person_voxels);
   EXPECT_EQ(result.outliers, 0u);
   EXPECT_EQ(cloud.size(), scene.wall.size());
@@ -66,9 +69,9 @@ TEST(MapCleaningTest, VoxelsSeenThroughLaterAreRemovedAndTheWallKept) {
   kept.Insert(Colored(scene.wall));
   kept.Insert(Colored(scene.person));
   options.clear_seen_through = false;
-  EXPECT_EQ(CleanCloud(options, &occupancy, &kept).seen_through, 0u);
+  EXPECT_EQ(CleanCloud(options, &occupancy, Camera(), {}, &kept).seen_through, 0u);
   options.clear_seen_through = true;
-  EXPECT_EQ(CleanCloud(options, nullptr, &kept).seen_through, 0u);
+  EXPECT_EQ(CleanCloud(options, nullptr, Camera(), {}, &kept).seen_through, 0u);
   EXPECT_EQ(kept.size(), scene.wall.size() + person_voxels);
 }
 
@@ -85,7 +88,7 @@ TEST(MapCleaningTest, StatisticalOutliersAreRemovedFromAPlane) {
   cloud.Insert(Colored(specks));
   MapCleaningOptions options;
   options.outlier_removal = true;
-  const MapCleaningResult result = CleanCloud(options, nullptr, &cloud);
+  const MapCleaningResult result = CleanCloud(options, nullptr, Camera(), {}, &cloud);
   EXPECT_EQ(result.outliers, specks.size());
   EXPECT_EQ(cloud.size(), scene.wall.size());
   for (const VoxelPoint& p : cloud.Points()) EXPECT_NEAR(p.position.z(), 2.0f, 1e-4);
@@ -107,6 +110,83 @@ TEST(MapCleaningTest, ImpossibleOptionsAreRejectedByName) {
   options = {};
   options.outlier_std_ratio = 0.0;
   EXPECT_THROW(options.Validate(), InputError);
+  options = {};
+  options.min_free_views = 0;
+  EXPECT_THROW(options.Validate(), InputError);
+  options = {};
+  options.free_view_ratio = std::nan("");
+  EXPECT_THROW(options.Validate(), InputError);
+}
+
+// The view check at the cloud's resolution, against keyframes' depth, without an OctoMap: a
+// "shoe" 30 cm before a wall at 3 m, fused from the one keyframe that saw it, is dropped once
+// three other keyframes (cameras 30 cm aside) saw the wall through its place; with two of them
+// it stays (2 is not more than twice the 1 that saw it). The wall stays whatever the views.
+TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  auto wall_depth = [&] {
+    return cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  };
+  auto at = [](float x, float y, float z) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(x, y, z);
+    return pose;
+  };
+  const cv::Rect shoe(70, 80, 12, 8);
+  cv::Mat first = wall_depth();
+  first(shoe).setTo(2.7f);
+  // The first keyframe's points, from the camera at the origin.
+  std::vector<Eigen::Vector3f> wall, shoe_points;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const float z = first.at<float>(v, u);
+      const Eigen::Vector3f point(static_cast<float>((u - camera.cx) / camera.fx) * z,
+                                  static_cast<float>((v - camera.cy) / camera.fy) * z, z);
+      (shoe.contains(cv::Point(u, v)) ? shoe_points : wall).push_back(point);
+    }
+  }
+  auto cloud_of = [&] {
+    VoxelCloud cloud;
+    cloud.Insert(Colored(wall));
+    cloud.Insert(Colored(shoe_points));
+    return cloud;
+  };
+  const VoxelCloud all = cloud_of();
+  size_t shoe_voxels = 0;
+  all.ForEachPoint([&](const VoxelPoint& point) { shoe_voxels += point.position.z() < 2.8f; });
+  ASSERT_GT(shoe_voxels, 50u);
+
+  std::vector<KeyframeView> views = {MakeKeyframeView(first, cv::Mat(), at(0, 0, 0)),
+                                     MakeKeyframeView(wall_depth(), cv::Mat(), at(0.3f, 0, 0)),
+                                     MakeKeyframeView(wall_depth(), cv::Mat(), at(-0.3f, 0, 0))};
+  MapCleaningOptions options;
+  VoxelCloud two = cloud_of();
+  EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &two).seen_through_views, 0u);
+
+  views.push_back(MakeKeyframeView(wall_depth(), cv::Mat(), at(0, 0.3f, 0)));
+  VoxelCloud three = cloud_of();
+  const MapCleaningResult result = CleanCloud(options, nullptr, camera, views, &three);
+  EXPECT_EQ(result.seen_through_views, shoe_voxels);
+  size_t left = 0;
+  three.ForEachPoint([&](const VoxelPoint& point) { left += point.position.z() < 2.8f; });
+  EXPECT_EQ(left, 0u);
+  EXPECT_EQ(three.OutputSize(), all.OutputSize() - shoe_voxels);
+
+  // A keyframe's masked pixels are no evidence: with the shoe's place masked in the three
+  // others, nothing is dropped; and the check can be switched off.
+  cv::Mat masked(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  masked(cv::Rect(40, 50, 80, 70)).setTo(255);
+  for (size_t k = 1; k < views.size(); ++k) {
+    views[k] = MakeKeyframeView(wall_depth(), masked,
+                                k == 1   ? at(0.3f, 0, 0)
+                                : k == 2 ? at(-0.3f, 0, 0)
+                                         : at(0, 0.3f, 0));
+  }
+  VoxelCloud blind = cloud_of();
+  EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &blind).seen_through_views, 0u);
+  options.clear_seen_through_views = false;
+  VoxelCloud off = cloud_of();
+  EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &off).seen_through_views, 0u);
 }
 
 }  // namespace

@@ -2,8 +2,12 @@
 // stood there moved away) and, optionally, PCL's statistical outliers.
 #pragma once
 
+#include <Eigen/Geometry>
 #include <cstddef>
+#include <opencv2/core.hpp>
+#include <vector>
 
+#include "stillmap/io/camera.h"
 #include "stillmap/mapping/occupancy_map.h"
 #include "stillmap/mapping/voxel_cloud.h"
 
@@ -13,6 +17,14 @@ struct MapCleaningOptions {
   // Drop cloud voxels whose OctoMap leaf ends free: later rays passed through the place, so what
   // was fused there has gone (a person the mask missed in one keyframe). Needs the OctoMap.
   bool clear_seen_through = true;
+  // The same at the cloud's resolution, against the fused keyframes' own depth: a voxel that at
+  // least min_free_views keyframes saw *through* (their reading along its ray lies farther than
+  // it by more than 2 cm + 3 sigma of Kinect noise), more than free_view_ratio times as many as
+  // saw it there, is dropped. It catches what an OctoMap leaf shared with the floor keeps (a shoe
+  // on the floor for one keyframe).
+  bool clear_seen_through_views = true;
+  int min_free_views = 2;
+  double free_view_ratio = 2.0;
   // PCL StatisticalOutlierRemoval: a voxel whose mean distance to its outlier_neighbors nearest
   // voxels exceeds the cloud's mean of that distance by outlier_std_ratio standard deviations.
   bool outlier_removal = false;
@@ -23,13 +35,27 @@ struct MapCleaningOptions {
   void Validate() const;
 };
 
-struct MapCleaningResult {
-  size_t seen_through = 0;  // voxels removed because the OctoMap calls their place free
-  size_t outliers = 0;      // voxels removed as statistical outliers
+// A fused keyframe as the view check needs it: its depth at half resolution (the nearest reading
+// of each 2 x 2 block; 0 where any of the block is masked) and its pose.
+struct KeyframeView {
+  cv::Mat depth_m;  // CV_32FC1, (width + 1) / 2 x (height + 1) / 2, 0 = no reading or masked
+  Eigen::Isometry3f camera_from_world = Eigen::Isometry3f::Identity();
 };
 
-// Removes the voxels named above from `cloud` (occupancy may be null: no see-through check).
+// The view of a frame: depth_m (CV_32FC1) and mask (CV_8UC1 or empty) at full resolution.
+KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
+                              const Eigen::Isometry3d& world_from_camera);
+
+struct MapCleaningResult {
+  size_t seen_through = 0;        // voxels removed because the OctoMap calls their place free
+  size_t seen_through_views = 0;  // voxels removed because keyframes saw through them
+  size_t outliers = 0;            // voxels removed as statistical outliers
+};
+
+// Removes the voxels named above from `cloud` (occupancy may be null: no see-through check;
+// views may be empty: no view check; camera is the views' camera).
 MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyMap* occupancy,
+                             const Camera& camera, const std::vector<KeyframeView>& views,
                              VoxelCloud* cloud);
 
 }  // namespace stillmap

@@ -85,6 +85,8 @@ class Mapper {
   VoxelCloud cloud_;
   std::unique_ptr<OccupancyMap> occupancy_;
   ColoredPoints scratch_;
+  Camera camera_;
+  std::vector<KeyframeView> views_;                // of the fused frames, for the cleaning
   std::vector<Eigen::Vector3f> occupancy_points_;  // owned by the background insertion
   void Fuse(const MapperFrame& frame);             // on the fusion thread in the background
   void WaitForOccupancy();
