@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <opencv2/calib3d.hpp>
 #include <set>
 #include <stdexcept>
 
@@ -18,6 +19,45 @@ bool Camera::HasDistortion() const {
   }
   return false;
 }
+
+std::vector<Eigen::Vector2f> PixelRays(const Camera& camera) {
+  const size_t count = static_cast<size_t>(camera.width) * static_cast<size_t>(camera.height);
+  std::vector<Eigen::Vector2f> rays;
+  rays.reserve(count);
+  if (!camera.HasDistortion()) {
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        rays.emplace_back(static_cast<float>((u - camera.cx) / camera.fx),
+                          static_cast<float>((v - camera.cy) / camera.fy));
+      }
+    }
+    return rays;
+  }
+  std::vector<cv::Point2f> pixels, undistorted;
+  pixels.reserve(count);
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
+    }
+  }
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+  cv::undistortPoints(pixels, undistorted, k, distortion);
+  for (const cv::Point2f& ray : undistorted) rays.emplace_back(ray.x, ray.y);
+  return rays;
+}
+
+PixelProjection::PixelProjection(const Camera& camera)
+    : fx_(static_cast<float>(camera.fx)),
+      fy_(static_cast<float>(camera.fy)),
+      cx_(static_cast<float>(camera.cx)),
+      cy_(static_cast<float>(camera.cy)),
+      k1_(static_cast<float>(camera.distortion[0])),
+      k2_(static_cast<float>(camera.distortion[1])),
+      p1_(static_cast<float>(camera.distortion[2])),
+      p2_(static_cast<float>(camera.distortion[3])),
+      k3_(static_cast<float>(camera.distortion[4])),
+      distorted_(camera.HasDistortion()) {}
 
 void Camera::Validate(const std::string& source) const {
   auto fail = [&](const std::string& what) {

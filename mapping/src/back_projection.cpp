@@ -78,9 +78,8 @@ void SmoothDepth(const cv::Mat& depth_m, int radius, cv::Mat* smoothed) {
         continue;
       }
       // The 3-sigma band in inverse depth: sigma(z) / z^2.
-      const float d = z - 0.4f;
       const float inverse_z = 1.0f / z;
-      const float limit = 3.0f * (0.0012f + 0.0019f * d * d) * inverse_z * inverse_z;
+      const float limit = 3.0f * KinectDepthSigma(z) * inverse_z * inverse_z;
       const int ru = std::min({radius, u, cols - 1 - u});
       float sum = 0.0f, count = 0.0f;
       for (int y = v - rv; y <= v + rv; ++y) {

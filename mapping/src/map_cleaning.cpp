@@ -16,9 +16,6 @@ namespace stillmap {
 
 namespace {
 
-// Axial noise of Kinect-class sensors (Nguyen et al., 3DIMPVT 2012) [m].
-float DepthSigma(float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
-
 // Which voxels the views saw through: flags (1 = drop) in ForEachPoint's order.
 std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, const Camera& camera,
                                            const std::vector<KeyframeView>& views,
@@ -28,36 +25,22 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
   cloud.ForEachPoint(
       [&positions](const VoxelPoint& point) { positions.push_back(point.position); });
   std::vector<std::uint8_t> drop(positions.size(), 0);
-  const float fx = static_cast<float>(camera.fx), fy = static_cast<float>(camera.fy);
-  const float cx = static_cast<float>(camera.cx), cy = static_cast<float>(camera.cy);
-  const auto& d = camera.distortion;
-  const float k1 = static_cast<float>(d[0]), k2 = static_cast<float>(d[1]);
-  const float p1 = static_cast<float>(d[2]), p2 = static_cast<float>(d[3]);
-  const float k3 = static_cast<float>(d[4]);
-  const bool distorted = camera.HasDistortion();
+  const PixelProjection project(camera);
   cv::parallel_for_(cv::Range(0, static_cast<int>(positions.size())), [&](const cv::Range& range) {
     for (int k = range.start; k < range.end; ++k) {
       int free = 0, seen = 0;
       for (const KeyframeView& view : views) {
         const Eigen::Vector3f q = view.camera_from_world * positions[static_cast<size_t>(k)];
         if (q.z() < 0.1f) continue;
-        float x = q.x() / q.z(), y = q.y() / q.z();
-        if (distorted) {
-          const float r2 = x * x + y * y;
-          const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
-          const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
-          const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
-          x = xd;
-          y = yd;
-        }
+        const Eigen::Vector2f pixel = project(q.x() / q.z(), q.y() / q.z());
         // Half resolution: block (u, v) of the view holds the camera's pixels (2u..2u+1, ...).
-        const long pu = std::lround(fx * x + cx), pv = std::lround(fy * y + cy);
+        const long pu = std::lround(pixel.x()), pv = std::lround(pixel.y());
         if (pu < 0 || pv < 0) continue;
         const int u = static_cast<int>(pu / 2), v = static_cast<int>(pv / 2);
         if (u >= view.depth_m.cols || v >= view.depth_m.rows) continue;
         const float reading = view.depth_m.at<float>(v, u);
         if (!(reading > 0.0f)) continue;
-        const float margin = 0.02f + 3.0f * DepthSigma(q.z());
+        const float margin = 0.02f + 3.0f * KinectDepthSigma(q.z());
         if (reading > q.z() + margin) {
           ++free;
         } else if (reading >= q.z() - margin) {

@@ -228,14 +228,19 @@ TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
   }
 }
 
+// Writes a synthetic sequence of `scenario`, `frames` frames long, to `sequence_dir`.
+void WriteScenario(const std::string& sequence_dir, const std::string& scenario, size_t frames) {
+  SynthOptions options;
+  options.scenario = scenario;
+  options.frames = frames;
+  WriteSyntheticSequence(sequence_dir, options);
+}
+
 // Synthetic sequences with exact ground truth (issue 3): a static room mapped from its true poses
 // lies on the true surface; with people walking and no masking, their ghosts show.
 MapQuality BuildSynthetic(const std::string& scenario, const std::string& dir,
                           const std::vector<std::string>& settings = {}) {
-  SynthOptions options;
-  options.scenario = scenario;
-  options.frames = 60;
-  WriteSyntheticSequence(dir + "/seq", options);
+  WriteScenario(dir + "/seq", scenario, 60);
   BuildRequest request;
   request.sequence_dir = dir + "/seq";
   request.output_dir = dir + "/out";
@@ -279,14 +284,6 @@ TEST(BuildTest, SyntheticWalkingPeopleLeaveGhostsWithoutMasking) {
   EXPECT_GT(cleaned.completeness, 0.9);
 }
 
-// Writes a synthetic walking_xyz sequence of `frames` frames to DIR/seq.
-void WriteWalkingSequence(const testing::TempDir& dir, size_t frames) {
-  SynthOptions options;
-  options.scenario = "walking_xyz";
-  options.frames = frames;
-  WriteSyntheticSequence(dir / "seq", options);
-}
-
 // Builds DIR/seq into DIR/OUT through the binary with --quiet and `extra`; returns its report.
 nlohmann::json BuildWithBinary(const testing::TempDir& dir, const std::string& out,
                                const std::string& extra) {
@@ -304,7 +301,7 @@ nlohmann::json BuildWithBinary(const testing::TempDir& dir, const std::string& o
 // of a person; issue 6 asks for none), against 0.945 and 45 without rejection.
 TEST(BuildTest, GridOfAWalkingSequenceAgreesWithTheStaticScene) {
   testing::TempDir dir;
-  WriteWalkingSequence(dir, 150);
+  WriteScenario(dir / "seq", "walking_xyz", 150);
   const nlohmann::json masked = BuildWithBinary(dir, "masked", "");
   const nlohmann::json unmasked = BuildWithBinary(dir, "unmasked", " --set masking.enabled=false");
   const nlohmann::json& quality = masked.at("grid_quality");
@@ -347,7 +344,7 @@ TEST(BuildTest, GridOfAWalkingSequenceAgreesWithTheStaticScene) {
 // same run without rejection.
 TEST(BuildTest, DynamicRejectionMasksWalkingPeopleAndKeepsTheirGhostsOut) {
   testing::TempDir dir;
-  WriteWalkingSequence(dir, 120);
+  WriteScenario(dir / "seq", "walking_xyz", 120);
   const std::string no_octomap = " --set octomap.enabled=false";
   const nlohmann::json masked = BuildWithBinary(dir, "masked", no_octomap);
   const nlohmann::json unmasked =
@@ -390,10 +387,7 @@ TEST(BuildTest, DynamicRejectionMasksWalkingPeopleAndKeepsTheirGhostsOut) {
 // fused frames, and report.json holds ATE/RPE against the rendering poses.
 TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
   testing::TempDir dir;
-  SynthOptions options;
-  options.scenario = "static";
-  options.frames = 90;
-  WriteSyntheticSequence(dir / "seq", options);
+  WriteScenario(dir / "seq", "static", 90);
   std::string output;
   ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" +
                                      " --detector none --quiet --set octomap.resolution=0.1",
@@ -444,10 +438,7 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
 // depth) for frames [first, end); returns the times of the covered frames.
 std::vector<double> RenderWithCoveredLens(const std::string& dir, int frames, size_t first,
                                           size_t end) {
-  SynthOptions options;
-  options.scenario = "static";
-  options.frames = frames;
-  WriteSyntheticSequence(dir + "/seq", options);
+  WriteScenario(dir + "/seq", "static", frames);
   const Sequence sequence = Sequence::Open(dir + "/seq", ResolveCamera(dir + "/seq", {}));
   std::vector<double> covered;
   for (size_t i = first; i < end; ++i) {
@@ -491,14 +482,16 @@ TEST(BuildTest, TrackingNothingFailsWithoutOutputs) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
-// Tracks a real sequence with the bundle adjustment inline (the figure does not depend on thread
-// timing) and no OctoMap (not under test), plus `settings`.
+// Tracks a sequence with the bundle adjustment inline (the figure does not depend on thread
+// timing) and no OctoMap (not under test), plus `settings`; the outputs go to `output_dir`, or to
+// a temporary folder when it is empty.
 BuildSummary TrackRepeatably(const std::string& sequence,
-                             const std::vector<std::string>& settings = {}) {
+                             const std::vector<std::string>& settings = {},
+                             const std::string& output_dir = {}) {
   testing::TempDir dir;
   BuildRequest request;
   request.sequence_dir = sequence;
-  request.output_dir = dir / "out";
+  request.output_dir = output_dir.empty() ? dir / "out" : output_dir;
   ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
   ApplySetArgument(&request.config, "octomap.enabled=false");
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
@@ -511,10 +504,7 @@ BuildSummary TrackRepeatably(const std::string& sequence,
 // curvature and the trajectory comes back; without it the trajectory is bent.
 TEST(BuildTest, DepthSelfCalibrationFindsAKnownDepthErrorOnASyntheticRoom) {
   testing::TempDir dir;
-  SynthOptions options;
-  options.scenario = "static";
-  options.frames = 150;
-  WriteSyntheticSequence(dir / "seq", options);
+  WriteScenario(dir / "seq", "static", 150);
   const Camera camera = ResolveCamera(dir / "seq", {});
   DepthCorrection truth;
   truth.coefficients = {0.02, 0.04, 0.14, -0.08, 0.13};
@@ -528,18 +518,10 @@ TEST(BuildTest, DepthSelfCalibrationFindsAKnownDepthErrorOnASyntheticRoom) {
     raw.convertTo(depth, CV_16U);  // rounds, saturates; 0 stays 0
     ASSERT_TRUE(cv::imwrite(entry.path().string(), depth));
   }
-  auto build = [&](const std::string& name, const std::string& setting) {
-    BuildRequest request;
-    request.sequence_dir = dir / "seq";
-    request.output_dir = dir / name;
-    ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
-    ApplySetArgument(&request.config, "octomap.enabled=false");
-    ApplySetArgument(&request.config, "render.enabled=false");
-    ApplySetArgument(&request.config, setting);
-    return RunBuild(request);
-  };
-  const BuildSummary calibrated = build("on", "tracking.depth_self_calibration=true");
-  const BuildSummary plain = build("off", "tracking.depth_self_calibration=false");
+  const BuildSummary calibrated = TrackRepeatably(
+      dir / "seq", {"render.enabled=false", "tracking.depth_self_calibration=true"}, dir / "on");
+  const BuildSummary plain = TrackRepeatably(
+      dir / "seq", {"render.enabled=false", "tracking.depth_self_calibration=false"});
   const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "on/report.json"));
   const nlohmann::json& calibration = report["tracking"]["depth_self_calibration"];
   ASSERT_GT(calibration["fits_accepted"].get<int>(), 0) << calibration.dump(2);

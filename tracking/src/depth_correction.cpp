@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <opencv2/calib3d.hpp>
 
 namespace stillmap {
 namespace {
@@ -23,62 +22,36 @@ double Median(std::vector<double> values) {
   return *middle;
 }
 
+void Factors(const DepthCorrection& correction, const std::vector<Eigen::Vector2f>& rays,
+             const Camera& camera, cv::Mat* factors) {
+  factors->create(camera.height, camera.width, CV_32FC1);
+  auto* out = factors->ptr<float>();
+  for (size_t i = 0; i < rays.size(); ++i) {
+    out[i] = static_cast<float>(correction.Factor(rays[i].x(), rays[i].y()));
+  }
+}
+
 }  // namespace
 
 bool DepthCorrection::IsIdentity() const {
   return std::all_of(coefficients.begin(), coefficients.end(), [](double c) { return c == 0.0; });
 }
 
-namespace {
-
-// Undistorted normalized (x, y) of every pixel, CV_32FC2.
-cv::Mat PixelRays(const Camera& camera) {
-  std::vector<cv::Point2f> pixels, rays;
-  pixels.reserve(static_cast<size_t>(camera.width) * static_cast<size_t>(camera.height));
-  for (int v = 0; v < camera.height; ++v) {
-    for (int u = 0; u < camera.width; ++u) {
-      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
-    }
-  }
-  if (camera.HasDistortion()) {
-    const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-    const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
-    cv::undistortPoints(pixels, rays, k, distortion);
-  } else {
-    rays.reserve(pixels.size());
-    for (const cv::Point2f& p : pixels) {
-      rays.emplace_back(static_cast<float>((p.x - camera.cx) / camera.fx),
-                        static_cast<float>((p.y - camera.cy) / camera.fy));
-    }
-  }
-  return cv::Mat(rays, true).reshape(2, camera.height);
-}
-
-void Factors(const DepthCorrection& correction, const cv::Mat& rays, cv::Mat* factors) {
-  factors->create(rays.size(), CV_32FC1);
-  const auto* ray = rays.ptr<cv::Point2f>();
-  auto* out = factors->ptr<float>();
-  for (size_t i = 0; i < rays.total(); ++i) {
-    out[i] = static_cast<float>(correction.Factor(ray[i].x, ray[i].y));
-  }
-}
-
-}  // namespace
-
 cv::Mat DepthCorrection::FactorImage(const Camera& camera) const {
   if (IsIdentity()) return cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f));
   cv::Mat factors;
-  Factors(*this, PixelRays(camera), &factors);
+  Factors(*this, PixelRays(camera), camera, &factors);
   return factors;
 }
 
-DepthFactorImages::DepthFactorImages(const Camera& camera) : rays_(PixelRays(camera)) {
-  factors_ = cv::Mat(rays_.size(), CV_32FC1, cv::Scalar(1.0f));
-}
+DepthFactorImages::DepthFactorImages(const Camera& camera)
+    : camera_(camera),
+      rays_(PixelRays(camera)),
+      factors_(camera.height, camera.width, CV_32FC1, cv::Scalar(1.0f)) {}
 
 const cv::Mat& DepthFactorImages::For(const DepthCorrection& correction) {
   if (correction.coefficients != coefficients_) {
-    Factors(correction, rays_, &factors_);
+    Factors(correction, rays_, camera_, &factors_);
     coefficients_ = correction.coefficients;
   }
   return factors_;

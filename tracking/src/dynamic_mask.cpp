@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -13,9 +12,6 @@
 namespace stillmap {
 
 namespace {
-
-// Axial noise of Kinect-class sensors (Nguyen et al., 3DIMPVT 2012) [m].
-float DepthSigma(float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
 
 bool Continuous(float a, float b, double continuity) {
   return std::abs(a - b) <= 0.01f + static_cast<float>(continuity) * a;
@@ -182,31 +178,7 @@ void DynamicMaskOptions::Validate() const {
 // ---- Geometry ----------------------------------------------------------------------------------
 
 GeometricMasker::GeometricMasker(const Camera& camera, const DynamicMaskOptions& options)
-    : camera_(camera), options_(options) {
-  const size_t count = static_cast<size_t>(camera.width) * static_cast<size_t>(camera.height);
-  rays_.resize(count);
-  if (!camera.HasDistortion()) {
-    for (int v = 0; v < camera.height; ++v) {
-      for (int u = 0; u < camera.width; ++u) {
-        rays_[static_cast<size_t>(v) * static_cast<size_t>(camera.width) + static_cast<size_t>(u)] =
-            Eigen::Vector2f(static_cast<float>((u - camera.cx) / camera.fx),
-                            static_cast<float>((v - camera.cy) / camera.fy));
-      }
-    }
-    return;
-  }
-  std::vector<cv::Point2f> pixels, undistorted;
-  pixels.reserve(count);
-  for (int v = 0; v < camera.height; ++v) {
-    for (int u = 0; u < camera.width; ++u) {
-      pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
-    }
-  }
-  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
-  cv::undistortPoints(pixels, undistorted, k, distortion);
-  for (size_t i = 0; i < count; ++i) rays_[i] = Eigen::Vector2f(undistorted[i].x, undistorted[i].y);
-}
+    : camera_(camera), options_(options), rays_(PixelRays(camera)) {}
 
 cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d& world_from_camera,
                                  const std::vector<const MaskReference*>& references,
@@ -214,13 +186,7 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
                                  cv::Mat* consistent) const {
   CV_Assert(depth_m.type() == CV_32FC1 && depth_m.isContinuous());
   const int width = depth_m.cols, height = depth_m.rows;
-  const auto& d = camera_.distortion;
-  const float k1 = static_cast<float>(d[0]), k2 = static_cast<float>(d[1]);
-  const float p1 = static_cast<float>(d[2]), p2 = static_cast<float>(d[3]);
-  const float k3 = static_cast<float>(d[4]);
-  const bool distorted = camera_.HasDistortion();
-  const float fx = static_cast<float>(camera_.fx), fy = static_cast<float>(camera_.fy);
-  const float cx = static_cast<float>(camera_.cx), cy = static_cast<float>(camera_.cy);
+  const PixelProjection project(camera_);
   const float cos_limit =
       static_cast<float>(std::cos(options_.depth.max_parallax_deg * M_PI / 180.0));
 
@@ -260,16 +226,8 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
       const Eigen::Vector3f q =
           rotation * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre;
       if (q.z() < 0.1f) return kNoVerdict;
-      float x = q.x() / q.z(), y = q.y() / q.z();
-      if (distorted) {
-        const float r2 = x * x + y * y;
-        const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
-        const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
-        const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
-        x = xd;
-        y = yd;
-      }
-      const float pu = fx * x + cx + 0.5f, pv = fy * y + cy + 0.5f;
+      const Eigen::Vector2f pixel = project(q.x() / q.z(), q.y() / q.z());
+      const float pu = pixel.x() + 0.5f, pv = pixel.y() + 0.5f;
       if (!(pu >= 0.0f && pv >= 0.0f && pu < static_cast<float>(width) &&
             pv < static_cast<float>(height))) {
         return kNoVerdict;
@@ -285,7 +243,7 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
         if (cos_angle < cos_limit) return kNoVerdict;
       }
       const float difference = seen - q.z();
-      const float noise = grow_difference + 6.0f * DepthSigma(q.z());
+      const float noise = grow_difference + 6.0f * KinectDepthSigma(q.z());
       // Beyond about 3.4 m twice the growth margin exceeds tau_d: far seeds must stand clear of
       // the sensor noise too (TUM teddy, static, masked share 2.51 -> 2.38 %; walking unchanged).
       if (difference > std::max(seed_difference, 2.0f * noise)) return kSeed;

@@ -31,6 +31,38 @@ struct Camera {
   void Validate(const std::string& source) const;
 };
 
+// Axial depth noise of Kinect-class sensors at depth z [m] (Nguyen et al., 3DIMPVT 2012).
+inline float KinectDepthSigma(float z) { return 0.0012f + 0.0019f * (z - 0.4f) * (z - 0.4f); }
+
+// The undistorted normalized ray (x, y) of every pixel, row-major: OpenCV's undistortPoints with
+// the camera's distortion, or (u - cx) / fx, (v - cy) / fy without.
+std::vector<Eigen::Vector2f> PixelRays(const Camera& camera);
+
+// Normalized coordinates to pixel coordinates with the camera's distortion, in float for
+// per-pixel loops (the coefficients are converted once).
+class PixelProjection {
+ public:
+  explicit PixelProjection(const Camera& camera);
+
+  // The pixel position (u, v), not rounded, of normalized (x, y).
+  Eigen::Vector2f operator()(float x, float y) const {
+    if (distorted_) {
+      const float r2 = x * x + y * y;
+      const float radial = 1.0f + r2 * (k1_ + r2 * (k2_ + r2 * k3_));
+      const float xd = x * radial + 2.0f * p1_ * x * y + p2_ * (r2 + 2.0f * x * x);
+      const float yd = y * radial + p1_ * (r2 + 2.0f * y * y) + 2.0f * p2_ * x * y;
+      x = xd;
+      y = yd;
+    }
+    return {fx_ * x + cx_, fy_ * y + cy_};
+  }
+
+ private:
+  float fx_, fy_, cx_, cy_;
+  float k1_, k2_, p1_, p2_, k3_;
+  bool distorted_;
+};
+
 // Names of the built-in presets: tum1, tum2, tum3, bonn, ros_default.
 std::vector<std::string> CameraPresetNames();
 

@@ -51,7 +51,8 @@ class DepthFactorImages {
   const cv::Mat& For(const DepthCorrection& correction);
 
  private:
-  cv::Mat rays_;  // CV_32FC2, undistorted normalized (x, y) per pixel
+  Camera camera_;
+  std::vector<Eigen::Vector2f> rays_;  // PixelRays(camera_)
   cv::Mat factors_;
   std::array<double, 5> coefficients_{};
 };
