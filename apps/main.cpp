@@ -177,6 +177,7 @@ int Run(int argc, char** argv) {
         spdlog::info("masks vs masks/: precision {:.3f}, recall {:.3f}, IoU {:.3f}",
                      *summary.mask_precision, *summary.mask_recall, *summary.mask_iou);
       }
+      for (const std::string& warning : summary.warnings) spdlog::warn("{}", warning);
       if (summary.map_quality) {
         spdlog::info(
             "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; completeness "

@@ -8,9 +8,10 @@ packages=(
   build-essential cmake pkg-config ccache
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev liboctomap-dev octomap-tools
   libceres-dev libflann-dev libassimp-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
-  libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev
+  libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev libjpeg-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  xvfb
+  # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)
+  xvfb xauth
 )
 
 missing=()

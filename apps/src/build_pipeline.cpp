@@ -53,21 +53,15 @@ double PeakMemoryMib() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
-// Removes the output folder on failure when this run created it and left it empty.
-class CreatedFolderGuard {
- public:
-  explicit CreatedFolderGuard(std::string dir) : dir_(std::move(dir)), existed_(fs::exists(dir_)) {}
-  ~CreatedFolderGuard() {
-    std::error_code error;
-    if (!committed_ && !existed_ && fs::is_empty(dir_, error)) fs::remove(dir_, error);
-  }
-  void Commit() { committed_ = true; }
-
- private:
-  std::string dir_;
-  bool existed_;
-  bool committed_ = false;
-};
+// Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
+// that no file of an earlier run stays beside the new set (a grid when the OctoMap is now off).
+const std::vector<std::string>& BuildOutputNames() {
+  static const std::vector<std::string> kNames = {
+      "map.ply",   "map.pcd",   "map.bt",      "map.ot",      "trajectory.txt", "keyframes.txt",
+      "grid.pgm",  "grid.yaml", "mesh.glb",    "mesh.obj",    "mesh.mtl",       "mesh.ply",
+      "renders/",  "config.yaml", "report.json", "report.html"};
+  return kNames;
+}
 
 nlohmann::json CameraJson(const Camera& camera) {
   nlohmann::json json = {
@@ -351,6 +345,67 @@ class MaskStage {
   std::vector<double> detector_ms_, mask_ms_;
 };
 
+// Refuses ground-truth poses the maps cannot hold (a motion-capture world far from its origin):
+// OctoMap's keys reach +-1.6 km at 5 cm, and beyond them every insertion would be dropped.
+void CheckWithinMapExtent(const std::vector<StampedPose>& poses, const BuildConfig& config) {
+  double farthest = 0.0;
+  for (const StampedPose& pose : poses) {
+    farthest = std::max(farthest, pose.world_from_camera.translation().cwiseAbs().maxCoeff());
+  }
+  const double reach = farthest + config.mapping.back_projection.max_depth;
+  const double extent = config.mapping.Extent();
+  if (reach >= extent) {
+    throw InputError(fmt::format(
+        "groundtruth.txt: the camera lies up to {:.0f} m from the ground truth's origin along an "
+        "axis, but the maps reach {:.0f} m (octomap.resolution {} m, mapping.voxel_leaf {} m); "
+        "shift the ground truth nearer its origin or coarsen the maps",
+        farthest, extent, config.mapping.occupancy.resolution, config.mapping.voxel.leaf_size));
+  }
+}
+
+// Warnings about the finished map that the figures alone do not make plain.
+void AddResultWarnings(const std::optional<TrackerStatistics>& tracking, Mapper& mapper,
+                       BuildSummary* summary) {
+  if (tracking && tracking->new_maps > 0) {
+    summary->warnings.push_back(fmt::format(
+        "tracking was lost and not relocalized {} time(s); each time a new local map was started "
+        "from the last good pose and fused into the same cloud, so parts of the map may be "
+        "misaligned copies (report.json: tracking.lost_frame_times)",
+        tracking->new_maps));
+  }
+  const size_t cloud_out = mapper.cloud().rejected_count();
+  const size_t octomap_out = mapper.occupancy() ? mapper.occupancy()->rejected_count() : 0;
+  if (cloud_out + octomap_out > 0) {
+    summary->warnings.push_back(fmt::format(
+        "{} points of the voxel cloud and {} of the OctoMap lay beyond the maps' extent ({:.0f} m "
+        "from the origin) and were left out: the poses went far astray",
+        cloud_out, octomap_out, mapper.options().Extent()));
+  }
+}
+
+// Why a build ends without a map, from the figures that explain it: an empty map is a failed run
+// (exit 1, nothing written), not a set of empty files that look like a result.
+std::string EmptyMapMessage(Mapper& mapper, const MapCleaningResult& cleaning,
+                            const MaskStage& masks) {
+  const MapperStatistics& stats = mapper.statistics();
+  const MapperOptions& options = mapper.options();
+  std::string message = fmt::format(
+      "the map is empty: {} frames fused, {} depth readings within [{}, {}] m (mapping.min_depth, "
+      "mapping.max_depth) outside the masks",
+      stats.frames, stats.points, options.back_projection.min_depth,
+      options.back_projection.max_depth);
+  if (mapper.cloud().rejected_count() > 0) {
+    message += fmt::format(", {} of them beyond the voxel grid's range (poses far from the origin)",
+                           mapper.cloud().rejected_count());
+  }
+  const size_t cleaned = cleaning.seen_through + cleaning.seen_through_views + cleaning.outliers;
+  if (cleaned > 0) message += fmt::format(", {} voxels removed by the map cleaning", cleaned);
+  if (masks.enabled()) {
+    message += fmt::format("; {:.1f} % of the pixels were masked as moving", 100 * masks.MeanShare());
+  }
+  return message + ". Check the depth scale (camera.depth_factor), the depth range and the poses";
+}
+
 }  // namespace
 
 BuildSummary RunBuild(const BuildRequest& request) {
@@ -406,6 +461,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
                      ": no frame lies within the ground truth's time range (compare the timestamps "
                      "of rgb.txt and groundtruth.txt)");
   }
+  if (!tracking) CheckWithinMapExtent(groundtruth_poses, config);
   if (summary.frames_without_pose > 0) {
     spdlog::warn(
         "{} of {} frames lie outside the ground truth (or across a gap wider than {} s) "
@@ -415,9 +471,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
 
   MaskStage masks(request, camera);  // loads the detector: its errors come before any output
 
-  CreatedFolderGuard folder_guard(request.output_dir);  // before the folder may be created
-  PrepareOutputFolder(request.output_dir);
-  OutputSet outputs(request.output_dir);
+  // Locks the output folder and stages the outputs aside until all are written.
+  OutputSet outputs(request.output_dir, BuildOutputNames());
+  if (!outputs.recovery_note().empty()) summary.warnings.push_back(outputs.recovery_note());
 
   MapperOptions mapper_options = config.mapping;
   mapper_options.in_background = request.threads > 1;
@@ -615,6 +671,7 @@ BuildSummary RunBuild(const BuildRequest& request) {
   clean_job.get();
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
   std::vector<VoxelPoint> cloud_points = mapper.cloud().Points();
+  if (cloud_points.empty()) throw std::runtime_error(EmptyMapMessage(mapper, cleaning, masks));
   // The mesh, from the voxel cloud, on another thread while the rest is written.
   std::optional<ColoredMesh> mesh;
   double mesh_ms = 0.0;
@@ -625,6 +682,12 @@ BuildSummary RunBuild(const BuildRequest& request) {
                           [&mesh, &mesh_ms, &cloud_points, &config, mesh_path] {
                             const Clock::time_point mesh_start = Clock::now();
                             mesh = VoxelSurfaceMesh(cloud_points, config.mesh);
+                            if (mesh->faces.empty()) {
+                              throw std::runtime_error(fmt::format(
+                                  "the mesh is empty: no {} m voxel holds mesh.min_points={} map "
+                                  "points; lower mesh.min_points or set mesh.enabled=false",
+                                  config.mesh.voxel, config.mesh.min_points));
+                            }
                             WriteColoredMesh(mesh_path, *mesh, config.mesh.format);
                             mesh_ms = Seconds(mesh_start) * 1000.0;
                           });
@@ -715,6 +778,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
                    {"octomap_enabled", config.mapping.occupancy_enabled},
                    {"octomap_resolution_m", config.mapping.occupancy.resolution},
                    {"octomap_leaves", summary.octomap_leaves},
+                   {"octomap_points_out_of_range",
+                    mapper.occupancy() ? mapper.occupancy()->rejected_count() : 0},
                    {"octomap_occupied_leaves",
                     mapper.occupancy() ? mapper.occupancy()->OccupiedLeafCount() : 0}};
   if (mesh) {
@@ -823,6 +888,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
     timing["masking_ms"]["flow_ahead"] = TimingJson(reader.flow_ms());
   }
   report["timing_ms"] = timing;
+  AddResultWarnings(tracker_statistics, mapper, &summary);
+  report["warnings"] = summary.warnings;
   report["wall_time_s"] = summary.wall_time_s;
   report["frames_per_second"] = summary.frames_per_second;
   report["peak_memory_mib"] = summary.peak_memory_mib;
@@ -940,7 +1007,6 @@ BuildSummary RunBuild(const BuildRequest& request) {
     }
     input.keyframes = std::move(keyframes_in_world);
     input.title = SequenceName(request.sequence_dir);
-    fs::create_directories(fs::path(request.output_dir) / "renders");
     std::vector<std::string> names;
     for (const auto& [name, image] : RenderViews(input)) {
       WriteImage(outputs.TemporaryPath("renders/" + name), image, ".png");
@@ -967,7 +1033,6 @@ BuildSummary RunBuild(const BuildRequest& request) {
     if (!out.flush()) throw std::runtime_error("could not write report.html");
   }
   outputs.Commit();
-  folder_guard.Commit();
   return summary;
 }
 

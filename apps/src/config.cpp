@@ -3,12 +3,15 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 #include <sstream>
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
+#include "stillmap/io/output_files.h"
 
 namespace stillmap {
 namespace {
@@ -35,18 +38,30 @@ double ToDouble(const std::string& key, const std::string& value, const std::str
   return parsed;
 }
 
-long ToInteger(const std::string& key, const std::string& value, const std::string& where) {
+// A whole number that fits `T` exactly (no wrap-around: 4294968496 is refused for an int, not
+// read as 1200). Written as digits or in exponent form ("1e3").
+template <typename T>
+T ToWhole(const std::string& key, const std::string& value, const std::string& where) {
   const double parsed = ToDouble(key, value, where);
-  if (parsed != static_cast<double>(static_cast<long>(parsed))) {
-    BadValue(where, key, value, "a whole number");
+  // Bounds as doubles that are exactly representable: [lowest, max + 1).
+  const double lowest = static_cast<double>(std::numeric_limits<T>::lowest());
+  const double beyond = std::ldexp(1.0, std::numeric_limits<T>::digits);
+  if (parsed != std::floor(parsed)) BadValue(where, key, value, "a whole number");
+  if (parsed < lowest || parsed >= beyond || parsed > 9007199254740992.0) {
+    BadValue(where, key, value,
+             fmt::format("a whole number in [{}, {}]", std::numeric_limits<T>::lowest(),
+                         std::min<double>(static_cast<double>(std::numeric_limits<T>::max()),
+                                          9007199254740992.0)));
   }
-  return static_cast<long>(parsed);
+  return static_cast<T>(parsed);
+}
+
+int ToInt(const std::string& key, const std::string& value, const std::string& where) {
+  return ToWhole<int>(key, value, where);
 }
 
 size_t ToCount(const std::string& key, const std::string& value, const std::string& where) {
-  const long parsed = ToInteger(key, value, where);
-  if (parsed < 0) BadValue(where, key, value, "a whole number >= 0");
-  return static_cast<size_t>(parsed);
+  return ToWhole<size_t>(key, value, where);
 }
 
 bool ToBool(const std::string& key, const std::string& value, const std::string& where) {
@@ -87,7 +102,7 @@ ConfigKey OptionalIntKey(const std::string& name, const std::string& help,
                          const std::function<std::optional<int>&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
-            field(*c) = static_cast<int>(ToInteger(name, v, where));
+            field(*c) = ToInt(name, v, where);
           },
           [field](const BuildConfig& c) {
             BuildConfig copy = c;
@@ -112,7 +127,7 @@ ConfigKey IntKey(const std::string& name, const std::string& help,
                  const std::function<int&(BuildConfig&)>& field) {
   return {name, help,
           [name, field](BuildConfig* c, const std::string& v, const std::string& where) {
-            field(*c) = static_cast<int>(ToInteger(name, v, where));
+            field(*c) = ToInt(name, v, where);
           },
           [field](const BuildConfig& c) {
             BuildConfig copy = c;
@@ -587,6 +602,7 @@ void ApplySetArgument(BuildConfig* config, const std::string& argument) {
 }
 
 void ApplyConfigFile(BuildConfig* config, const std::string& path) {
+  CheckInputFile(path, "configuration file");
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
 
 namespace stillmap {
 
@@ -59,21 +60,89 @@ PixelProjection::PixelProjection(const Camera& camera)
       k3_(static_cast<float>(camera.distortion[4])),
       distorted_(camera.HasDistortion()) {}
 
+namespace {
+
+// Why the distortion does not map the image one-to-one onto viewing rays, or "" when it does.
+// The radial term r (1 + k1 r^2 + k2 r^4 + k3 r^6) must keep growing until it reaches the image's
+// farthest corner (else pixels fold over), and undistorting the image's border and distorting it
+// again must give the same pixels back (else OpenCV's undistortion, used for every pixel's ray,
+// does not converge).
+std::string DistortionProblem(const Camera& camera) {
+  const auto& d = camera.distortion;
+  double corner_radius = 0.0;  // distorted normalized radius of the farthest corner
+  std::vector<cv::Point2d> border;
+  for (int i = 0; i <= 8; ++i) {
+    const double u = (camera.width - 1) * i / 8.0, v = (camera.height - 1) * i / 8.0;
+    for (const cv::Point2d& p : {cv::Point2d(u, 0), cv::Point2d(u, camera.height - 1),
+                                 cv::Point2d(0, v), cv::Point2d(camera.width - 1, v)}) {
+      border.push_back(p);
+      corner_radius = std::max(corner_radius,
+                               std::hypot((p.x - camera.cx) / camera.fx, (p.y - camera.cy) / camera.fy));
+    }
+  }
+  double previous = 0.0;
+  bool reached = false;
+  for (double r = 1e-3; r <= 20.0 && !reached; r += 1e-3) {  // up to 87 degrees off axis
+    const double r2 = r * r;
+    const double radial = r * (1.0 + r2 * (d[0] + r2 * (d[1] + r2 * d[4])));
+    if (!(radial > previous)) {
+      return "its radial term turns back at " +
+             std::to_string(static_cast<int>(std::atan(r) * 180.0 / M_PI)) +
+             " degrees off axis, inside the image (pixels fold over)";
+    }
+    previous = radial;
+    reached = radial >= corner_radius;
+  }
+  if (!reached) return "the image's corners lie beyond 87 degrees off axis";
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const std::vector<double> coefficients(d.begin(), d.end());
+  std::vector<cv::Point2d> rays, back;
+  cv::undistortPoints(border, rays, k, coefficients);
+  std::vector<cv::Point3d> points;
+  for (const cv::Point2d& ray : rays) points.emplace_back(ray.x, ray.y, 1.0);
+  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, coefficients, back);
+  for (size_t i = 0; i < border.size(); ++i) {
+    if (!(cv::norm(back[i] - border[i]) < 1.0)) {
+      return "undistorting the image border and distorting it again misses by more than a pixel";
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
 void Camera::Validate(const std::string& source) const {
   auto fail = [&](const std::string& what) {
     throw InputError(source + ": invalid camera: " + what);
   };
-  if (width <= 0 || height <= 0) fail("width and height must be positive");
-  if (!(fx > 0.0) || !(fy > 0.0)) fail("fx and fy must be positive focal lengths in pixels");
-  if (!std::isfinite(cx) || !std::isfinite(cy)) fail("cx and cy must be finite");
+  if (width <= 0 || height <= 0 || width > kMaxImageSide || height > kMaxImageSide) {
+    fail("width and height must be between 1 and " + std::to_string(kMaxImageSide) + " pixels");
+  }
+  if (!(fx > 0.0) || !(fy > 0.0) || !std::isfinite(fx) || !std::isfinite(fy)) {
+    fail("fx and fy must be positive, finite focal lengths in pixels");
+  }
+  // Between about 1 and 170 degrees of field of view, and pixels at most 2:1.
+  if (fx < 0.05 * width || fx > 50.0 * width || fy < 0.5 * fx || fy > 2.0 * fx) {
+    fail("fx and fy must lie between 0.05 and 50 times the width, within a factor 2 of each "
+         "other (a field of view of 1 to 170 degrees); are they in pixels?");
+  }
+  if (!(cx >= 0.0 && cx <= width && cy >= 0.0 && cy <= height)) {
+    fail("the principal point (cx, cy) must lie inside the image");
+  }
   for (double k : distortion) {
     if (!std::isfinite(k)) fail("distortion coefficients must be finite");
   }
-  if (!(depth_factor > 0.0)) fail("depth_factor (depth PNG value per metre) must be positive");
+  if (HasDistortion()) {
+    const std::string problem = DistortionProblem(*this);
+    if (!problem.empty()) fail("distortion [k1 k2 p1 p2 k3] is not usable: " + problem);
+  }
+  if (!(depth_factor > 0.0 && depth_factor <= 1e6)) {
+    fail("depth_factor (depth PNG value per metre) must be in (0, 1e6]");
+  }
   if (groundtruth_body_from_camera) {
     const Eigen::Matrix3d r = groundtruth_body_from_camera->linear();
     if (!r.allFinite() || (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() > 1e-3 ||
-        r.determinant() < 0.0) {
+        r.determinant() < 0.0 || !groundtruth_body_from_camera->translation().allFinite()) {
       fail("groundtruth_body_from_camera must hold a rotation (orthonormal, determinant +1)");
     }
   }
@@ -143,6 +212,7 @@ std::vector<double> ReadList(const YAML::Node& root, const std::string& key,
 }  // namespace
 
 Camera LoadCameraYaml(const std::string& path) {
+  CheckInputFile(path, "camera file");
   YAML::Node root;
   try {
     root = YAML::LoadFile(path);
@@ -167,8 +237,10 @@ Camera LoadCameraYaml(const std::string& path) {
   Camera camera;
   const double width = ReadScalar(root, "width", path);
   const double height = ReadScalar(root, "height", path);
-  if (width != std::floor(width) || height != std::floor(height)) {
-    throw InputError(path + ": width and height must be whole numbers of pixels");
+  if (width != std::floor(width) || height != std::floor(height) || !(width >= 1.0) ||
+      !(height >= 1.0) || width > Camera::kMaxImageSide || height > Camera::kMaxImageSide) {
+    throw InputError(path + ": width and height must be whole numbers of pixels, 1 to " +
+                     std::to_string(Camera::kMaxImageSide));
   }
   camera.width = static_cast<int>(width);
   camera.height = static_cast<int>(height);

@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
 
 namespace stillmap {
 
@@ -37,6 +38,7 @@ bool ParseFiniteDouble(const std::string& text, double* value) {
 }
 
 std::vector<StampedPath> ReadFileList(const std::string& path) {
+  CheckInputFile(path, "file list (does the sequence have it?)");
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open the file list (does the sequence have it?)");
   std::vector<StampedPath> entries;

@@ -1,6 +1,10 @@
 #include "stillmap/io/image_io.h"
 
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <cstring>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -8,6 +12,8 @@
 #include <stdexcept>
 #include <vector>
 
+#include "jpeg_decoder.h"
+#include "stillmap/io/camera.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/output_files.h"
 
@@ -15,6 +21,7 @@ namespace stillmap {
 namespace {
 
 std::vector<unsigned char> ReadBytes(const std::string& path) {
+  CheckInputFile(path, "image listed in the sequence");
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw InputError(path + ": image listed but missing or unreadable");
   const std::streamsize size = in.tellg();
@@ -55,12 +62,30 @@ void CheckComplete(const std::string& path, const std::vector<unsigned char>& by
   }
 }
 
+// A PNG's size from its header (IHDR: width and height, big-endian, at bytes 16 and 20), checked
+// before decoding so that a damaged header cannot ask for gigabytes.
+void CheckSize(const std::string& path, const std::vector<unsigned char>& bytes) {
+  if (!IsPng(bytes) || bytes.size() < 24) return;
+  auto big_endian = [&bytes](size_t at) {
+    return (std::uint32_t{bytes[at]} << 24) | (std::uint32_t{bytes[at + 1]} << 16) |
+           (std::uint32_t{bytes[at + 2]} << 8) | std::uint32_t{bytes[at + 3]};
+  };
+  const auto limit = static_cast<std::uint32_t>(Camera::kMaxImageSide);
+  if (big_endian(16) > limit || big_endian(20) > limit) {
+    throw InputError(path + ": the PNG header claims " + std::to_string(big_endian(16)) + "x" +
+                     std::to_string(big_endian(20)) + " pixels, more than " +
+                     std::to_string(limit) + " a side (a damaged header?)");
+  }
+}
+
 }  // namespace
 
 cv::Mat ReadColorImage(const std::string& path) {
   const std::vector<unsigned char> bytes = ReadBytes(path);
   CheckComplete(path, bytes);
-  cv::Mat image = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  CheckSize(path, bytes);
+  cv::Mat image = IsJpeg(bytes) ? DecodeJpeg(path, bytes, Camera::kMaxImageSide)
+                                : cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
   if (image.empty()) throw InputError(path + ": the image could not be decoded (corrupt file?)");
   if (image.depth() != CV_8U) {
     throw InputError(path + ": color image must have 8 bits per channel");
@@ -79,6 +104,7 @@ cv::Mat ReadDepthImage(const std::string& path, double depth_factor) {
   if (!IsPng(bytes)) {
     throw InputError(path + ": depth must be a 16-bit PNG (JPEG cannot hold depth)");
   }
+  CheckSize(path, bytes);
   const cv::Mat raw = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
   if (raw.empty()) throw InputError(path + ": the depth PNG could not be decoded (corrupt file?)");
   if (raw.channels() != 1 || raw.depth() != CV_16U) {
@@ -108,8 +134,20 @@ void WriteImage(const std::string& path, const cv::Mat& image, const std::string
 }
 
 void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
+  const std::filesystem::path target(path);
+  std::string extension = target.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
+    throw InputError(path + ": an image file name must end in .png or .jpg");
+  }
+  std::error_code error;
+  if (std::filesystem::is_directory(target, error)) {
+    throw InputError(path + ": is a folder; give the image's file name (e.g. " +
+                     (target / ("plot" + extension)).string() + ")");
+  }
   const std::string temp = TemporaryPathFor(path);
-  WriteImage(temp, image, path.substr(path.find_last_of('.')));
+  WriteImage(temp, image, extension);
   CommitTemporary(temp, path);
 }
 

@@ -9,6 +9,7 @@
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
+#include "stillmap/io/output_files.h"
 
 namespace stillmap {
 
@@ -21,6 +22,7 @@ Trajectory::Trajectory(std::vector<StampedPose> poses) : poses_(std::move(poses)
 }
 
 Trajectory Trajectory::ReadTum(const std::string& path) {
+  CheckInputFile(path, "trajectory file");
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open the trajectory file");
   std::vector<StampedPose> poses;

@@ -34,10 +34,15 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
         if (q.z() < 0.1f) continue;
         const Eigen::Vector2f pixel = project(q.x() / q.z(), q.y() / q.z());
         // Half resolution: block (u, v) of the view holds the camera's pixels (2u..2u+1, ...).
-        const long pu = std::lround(pixel.x()), pv = std::lround(pixel.y());
-        if (pu < 0 || pv < 0) continue;
-        const int u = static_cast<int>(pu / 2), v = static_cast<int>(pv / 2);
-        if (u >= view.depth_m.cols || v >= view.depth_m.rows) continue;
+        // Both bounds are checked in floating point, before any conversion can wrap (a wild
+        // distortion projects to +-1e30; NaN fails both tests).
+        const float half_u = std::floor((pixel.x() + 0.5f) * 0.5f);
+        const float half_v = std::floor((pixel.y() + 0.5f) * 0.5f);
+        if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth_m.cols) &&
+              half_v >= 0.0f && half_v < static_cast<float>(view.depth_m.rows))) {
+          continue;
+        }
+        const int u = static_cast<int>(half_u), v = static_cast<int>(half_v);
         const float reading = view.depth_m.at<float>(v, u);
         if (!(reading > 0.0f)) continue;
         const float margin = 0.02f + 3.0f * KinectDepthSigma(q.z());

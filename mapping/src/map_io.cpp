@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
 
 namespace stillmap {
 namespace {
@@ -110,6 +111,7 @@ void WritePly(const std::string& path, const std::vector<VoxelPoint>& points) {
 }
 
 std::vector<VoxelPoint> ReadCloud(const std::string& path) {
+  CheckInputFile(path, "point cloud");
   pcl::PointCloud<pcl::PointXYZRGB> cloud;
   const bool is_pcd = path.size() >= 4 && path.compare(path.size() - 4, 4, ".pcd") == 0;
   const int status = is_pcd ? pcl::io::loadPCDFile(path, cloud) : pcl::io::loadPLYFile(path, cloud);

@@ -1,5 +1,6 @@
 #include "stillmap/mapping/mapper.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "stillmap/mapping/map_io.h"
@@ -13,6 +14,11 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 }  // namespace
+
+double MapperOptions::Extent() const {
+  const double cloud = VoxelCloud::Extent(voxel.leaf_size);
+  return occupancy_enabled ? std::min(cloud, OccupancyMap::Extent(occupancy.resolution)) : cloud;
+}
 
 void MapperOptions::Validate() const {
   back_projection.Validate();

@@ -1,5 +1,6 @@
 #include "stillmap/mapping/occupancy_grid.h"
 
+#include <pcl/console/print.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -17,6 +18,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
 
 namespace stillmap {
 
@@ -100,6 +102,14 @@ FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
   std::vector<int> remaining(cloud->size());
   for (size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
   const double threshold = map.resolution();
+  // PCL's RANSAC prints a line for every degenerate sample ("Sample points too similar or
+  // collinear!"), even under --quiet; the fit's outcome is reported instead (report.json grid).
+  const pcl::console::VERBOSITY_LEVEL verbosity = pcl::console::getVerbosityLevel();
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  struct RestoreVerbosity {
+    pcl::console::VERBOSITY_LEVEL level;
+    ~RestoreVerbosity() { pcl::console::setVerbosityLevel(level); }
+  } restore{verbosity};
   for (int round = 0; round < 4 && remaining.size() >= 50; ++round) {
     auto model = pcl::make_shared<pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>>(
         cloud, remaining);
@@ -339,6 +349,7 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
 }
 
 OccupancyGrid ReadGrid(const std::string& yaml_path) {
+  CheckInputFile(yaml_path, "grid description");
   YAML::Node yaml;
   try {
     yaml = YAML::LoadFile(yaml_path);

@@ -2,6 +2,7 @@
 
 #include <octomap/OcTree.h>
 
+#include <cmath>
 #include <fstream>
 #include <stdexcept>
 
@@ -34,6 +35,11 @@ struct OccupancyMap::Impl {
   OccupancyMapOptions options;
   octomap::OcTree tree;
   octomap::Pointcloud scan;  // reused between insertions
+  size_t rejected = 0;
+  bool Inside(double x, double y, double z) const {
+    const double limit = OccupancyMap::Extent(tree.getResolution());
+    return std::abs(x) < limit && std::abs(y) < limit && std::abs(z) < limit;
+  }
 };
 
 OccupancyMap::OccupancyMap(const OccupancyMapOptions& options) {
@@ -47,10 +53,21 @@ OccupancyMap& OccupancyMap::operator=(OccupancyMap&&) noexcept = default;
 
 void OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_in_world,
                               const Eigen::Vector3f& sensor_origin_in_world) {
+  if (!impl_->Inside(sensor_origin_in_world.x(), sensor_origin_in_world.y(),
+                     sensor_origin_in_world.z())) {
+    impl_->rejected += points_in_world.size();
+    return;
+  }
   octomap::Pointcloud& scan = impl_->scan;
   scan.clear();
   scan.reserve(points_in_world.size());
-  for (const Eigen::Vector3f& p : points_in_world) scan.push_back(p.x(), p.y(), p.z());
+  for (const Eigen::Vector3f& p : points_in_world) {
+    if (impl_->Inside(p.x(), p.y(), p.z())) {
+      scan.push_back(p.x(), p.y(), p.z());
+    } else {
+      ++impl_->rejected;
+    }
+  }
   const octomap::point3d origin(sensor_origin_in_world.x(), sensor_origin_in_world.y(),
                                 sensor_origin_in_world.z());
   impl_->tree.insertPointCloud(scan, origin, impl_->options.max_range, /*lazy_eval=*/false,
@@ -58,6 +75,7 @@ void OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_in_worl
 }
 
 double OccupancyMap::Occupancy(const Eigen::Vector3d& point_in_world) const {
+  if (!impl_->Inside(point_in_world.x(), point_in_world.y(), point_in_world.z())) return -1.0;
   const octomap::OcTreeNode* node =
       impl_->tree.search(point_in_world.x(), point_in_world.y(), point_in_world.z());
   return node == nullptr ? -1.0 : node->getOccupancy();
@@ -72,6 +90,8 @@ void OccupancyMap::ForEachLeaf(const std::function<void(const Eigen::Vector3d& c
           tree.isNodeOccupied(*it));
   }
 }
+
+size_t OccupancyMap::rejected_count() const { return impl_->rejected; }
 
 size_t OccupancyMap::LeafCount() const { return impl_->tree.getNumLeafNodes(); }
 

@@ -77,7 +77,7 @@ TEST_F(BadInputTest, EmptyDepthList) {
 
 TEST_F(BadInputTest, ImageListedButMissing) {
   fs::remove(FirstListedDepth());
-  ExpectRefused("image listed but missing");
+  ExpectRefused("cannot open the image listed in the sequence: no such file");
 }
 
 TEST_F(BadInputTest, TruncatedPng) {

@@ -37,9 +37,12 @@ std::vector<DepthCheck> CheckDepth(const std::vector<Eigen::Vector3d>& points_in
   for (size_t j = 0; j < index.size(); ++j) {
     DepthCheck& check = checks[index[j]];
     check.pixel = cv::Point2f(static_cast<float>(pixels[j].x), static_cast<float>(pixels[j].y));
-    const int u = static_cast<int>(std::lround(pixels[j].x));
-    const int v = static_cast<int>(std::lround(pixels[j].y));
-    if (u < 0 || v < 0 || u >= current_depth_m.cols || v >= current_depth_m.rows) continue;
+    // Bounds in floating point first: a conversion of a wild projection (+-1e30) would wrap.
+    const double pu = std::floor(pixels[j].x + 0.5), pv = std::floor(pixels[j].y + 0.5);
+    if (!(pu >= 0.0 && pv >= 0.0 && pu < current_depth_m.cols && pv < current_depth_m.rows)) {
+      continue;
+    }
+    const int u = static_cast<int>(pu), v = static_cast<int>(pv);
     const float measured = current_depth_m.at<float>(v, u);
     check.measured_depth_m = measured;
     if (!(measured > 0.0f)) continue;

@@ -394,9 +394,13 @@ std::vector<cv::Point> DynamicMasker::FlowSeeds(const FlowStep& flow, const cv::
     moved_from->push_back(flow.from[i]);
     moved_to->push_back(result.current[i]);
     if (!options_.flow_check || !result.fundamental_found || result.dynamic[i] == 0) continue;
-    const cv::Point pixel(static_cast<int>(std::lround(result.current[i].x)),
-                          static_cast<int>(std::lround(result.current[i].y)));
-    if (pixel.x < 0 || pixel.y < 0 || pixel.x >= depth_m.cols || pixel.y >= depth_m.rows) continue;
+    const float pu = std::floor(result.current[i].x + 0.5f);
+    const float pv = std::floor(result.current[i].y + 0.5f);
+    if (!(pu >= 0.0f && pv >= 0.0f && pu < static_cast<float>(depth_m.cols) &&
+          pv < static_cast<float>(depth_m.rows))) {
+      continue;
+    }
+    const cv::Point pixel(static_cast<int>(pu), static_cast<int>(pv));
     if (depth_m.at<float>(pixel) > 0.0f) seeds.push_back(pixel);
   }
   return seeds;

@@ -1,7 +1,5 @@
 #include "stillmap/viewer/synthetic.h"
 
-#include <unistd.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -14,6 +12,7 @@
 #include <thread>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/map_io.h"
 #include "synthetic_scene.h"
@@ -203,32 +202,22 @@ Camera SynthCamera() {
 SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   options.Validate();
-  // Refuse to overwrite anything but an earlier synthetic sequence (it has synth.json).
-  if (fs::exists(out_dir) && !fs::is_empty(out_dir) &&
-      !fs::exists(fs::path(out_dir) / "synth.json")) {
-    throw InputError(out_dir +
-                     ": exists and is not an earlier stillmap synth output; choose an "
-                     "empty or new folder");
-  }
-  const fs::path final_dir = fs::absolute(out_dir).lexically_normal();
-  const fs::path work = final_dir.parent_path() / ("." + final_dir.filename().string() +
-                                                   ".partial-" + std::to_string(getpid()));
+  // Refuse to write into anything but a new or empty folder or an earlier synthetic sequence (it
+  // has synth.json); in the latter, only what synth writes is replaced.
   std::error_code error;
-  fs::remove_all(work, error);
-  for (const char* sub : {"rgb", "depth", "masks", "scene"}) {
-    fs::create_directories(work / sub, error);
-    if (error) {
-      throw InputError(out_dir + ": cannot create the output folder (" + error.message() + ")");
+  if (fs::is_directory(out_dir, error) && !fs::exists(fs::path(out_dir) / "synth.json")) {
+    for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, error)) {
+      if (OutputSet::IsInternalName(entry.path().filename().string())) continue;
+      throw InputError(out_dir +
+                       ": exists and is not an earlier stillmap synth output; choose an "
+                       "empty or new folder");
     }
   }
-  struct Cleanup {  // the partial folder goes away unless the sequence completes
-    fs::path path;
-    bool keep = false;
-    ~Cleanup() {
-      std::error_code ignored;
-      if (!keep) fs::remove_all(path, ignored);
-    }
-  } cleanup{work};
+  OutputSet outputs(out_dir, {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt",
+                              "masks.txt", "objects.txt", "groundtruth.txt", "camera.yaml",
+                              "static_gt.ply", "synth.json"});
+  const fs::path work = outputs.staging_dir();
+  for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
 
   // The scene: meshes written as OBJ and read back through assimp, which is what renders.
   synth::Scene scene = synth::BuildScene(options.scenario, options.seed);
@@ -360,12 +349,13 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
                          {"static_gt_points", summary.static_gt_points},
                          {"moving_objects", scene.movers.size()},
                          {"dynamic_pixel_share", summary.dynamic_pixel_share}};
-  std::ofstream(work / "synth.json") << info.dump(2) << "\n";
+  std::ofstream info_file(work / "synth.json");
+  info_file << info.dump(2) << "\n";
+  if (!info_file.flush()) throw std::runtime_error("could not write synth.json");
+  info_file.close();
 
   // Replace an earlier output only now that this one is complete.
-  if (fs::exists(final_dir)) fs::remove_all(final_dir);
-  fs::rename(work, final_dir);
-  cleanup.keep = true;
+  outputs.Commit();
   return summary;
 }
 

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "stillmap/io/image_io.h"
 
@@ -51,24 +52,41 @@ cv::Mat DrawTrajectoryPlot(const AteResult& ate, const TrajectoryPlotOptions& op
                        top + plot_h / 2.0 - (p[ay] - center_y) / span);
   };
   const int kShift = 4;  // sub-pixel drawing
+  // Pixels are clamped far outside the image before the conversion to int, which would wrap.
+  auto to_int = [](double value) {
+    return std::isfinite(value) ? static_cast<int>(std::lround(std::clamp(value, -1e6, 1e6)))
+                                : -1000000;
+  };
   auto fixed = [&](cv::Point2d p) {
-    return cv::Point(static_cast<int>(std::lround(p.x * (1 << kShift))),
-                     static_cast<int>(std::lround(p.y * (1 << kShift))));
+    return cv::Point(to_int(p.x * (1 << kShift)), to_int(p.y * (1 << kShift)));
   };
 
-  // Grid, ticks and labels in metres.
+  // Grid, ticks and labels in metres. Ticks are counted, not accumulated: far from the origin
+  // (1e20 m) x + step == x, and a loop adding the step would never end.
   const double x_min = center_x - span * plot_w / 2.0, x_max = center_x + span * plot_w / 2.0;
   const double y_min = center_y - span * plot_h / 2.0, y_max = center_y + span * plot_h / 2.0;
   const double step = NiceStep(std::max(x_max - x_min, y_max - y_min), 8);
-  const int digits = std::max(0, -static_cast<int>(std::floor(std::log10(step))));
-  for (double x = std::ceil(x_min / step) * step; x <= x_max; x += step) {
-    const int px = static_cast<int>(std::lround(left + plot_w / 2.0 + (x - center_x) / span));
+  const double log_step = std::log10(step);
+  const int digits =
+      std::isfinite(log_step) ? static_cast<int>(std::clamp(-std::floor(log_step), 0.0, 9.0)) : 0;
+  auto ticks = [step](double from, double to) {
+    std::vector<double> values;
+    const double first = std::ceil(from / step), last = std::floor(to / step);
+    if (!(std::isfinite(first) && std::isfinite(last)) || last - first > 100) return values;
+    for (double n = first; n <= last; n += 1.0) {
+      values.push_back(n * step);
+      if (values.size() > 100) break;  // n + 1 == n for |n| > 2^53
+    }
+    return values;
+  };
+  for (double x : ticks(x_min, x_max)) {
+    const int px = to_int(left + plot_w / 2.0 + (x - center_x) / span);
     cv::line(image, {px, top}, {px, top + plot_h}, kGrid, 1);
     cv::putText(image, fmt::format("{:.{}f}", x, digits), {px - 18, top + plot_h + 22},
                 cv::FONT_HERSHEY_SIMPLEX, 0.45, kBlack, 1, cv::LINE_AA);
   }
-  for (double y = std::ceil(y_min / step) * step; y <= y_max; y += step) {
-    const int py = static_cast<int>(std::lround(top + plot_h / 2.0 - (y - center_y) / span));
+  for (double y : ticks(y_min, y_max)) {
+    const int py = to_int(top + plot_h / 2.0 - (y - center_y) / span);
     cv::line(image, {left, py}, {left + plot_w, py}, kGrid, 1);
     cv::putText(image, fmt::format("{:.{}f}", y, digits), {left - 60, py + 5},
                 cv::FONT_HERSHEY_SIMPLEX, 0.45, kBlack, 1, cv::LINE_AA);

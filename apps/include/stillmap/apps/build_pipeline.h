@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "stillmap/apps/config.h"
 #include "stillmap/mapping/map_quality.h"
@@ -49,10 +50,14 @@ struct BuildSummary {
   double dynamic_share = 0.0;      // mean masked share of the frames
   // Against the sequence's masks/ (synthetic sequences): pixel precision, recall, IoU.
   std::optional<double> mask_precision, mask_recall, mask_iou;
+  // What the user should know about the result (also report.json "warnings"): parts of the map
+  // that may be misaligned, points the maps could not hold, earlier outputs restored.
+  std::vector<std::string> warnings;
 };
 
-// Runs the whole build. Throws InputError for bad input or options (before anything is written
-// where possible); outputs are written under temporary names and renamed only when all exist.
+// Runs the whole build. Throws InputError for bad input or options (before anything is written),
+// std::runtime_error when the run fails (an empty map among others). The outputs are staged aside
+// and swapped in whole only when all exist (io/output_files.h); the output folder is locked.
 BuildSummary RunBuild(const BuildRequest& request);
 
 }  // namespace stillmap

@@ -13,6 +13,8 @@ namespace stillmap {
 // Intrinsics of a color camera whose depth images are registered to it (TUM/Bonn convention: a
 // depth pixel (u, v) belongs to color pixel (u, v)).
 struct Camera {
+  static constexpr int kMaxImageSide = 8192;  // largest accepted width or height [px]
+
   int width = 640;                     // image width [px]
   int height = 480;                    // image height [px]
   double fx = 0.0;                     // focal length along x [px]

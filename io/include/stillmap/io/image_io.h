@@ -20,7 +20,8 @@ cv::Mat ReadDepthImage(const std::string& path, double depth_factor);
 // output set's temporary name, say); throws std::runtime_error on failure, leaving no file.
 void WriteImage(const std::string& path, const cv::Mat& image, const std::string& extension);
 
-// Writes an image under a temporary name and renames it; throws std::runtime_error on failure.
+// Writes an image under a temporary name and renames it. Throws InputError when `path` does not
+// end in .png or .jpg or names a folder, std::runtime_error when it cannot be written.
 void WriteImageAtomically(const std::string& path, const cv::Mat& image);
 
 }  // namespace stillmap

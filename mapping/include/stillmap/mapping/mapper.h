@@ -28,6 +28,9 @@ struct MapperOptions {
   bool in_background = true;
 
   void Validate() const;
+  // The maps hold points within +-Extent() of the origin on every axis [m] (the voxel cloud's and,
+  // when enabled, the OctoMap's key range).
+  double Extent() const;
 };
 
 // One frame to fuse: images as decoded by io, a mask of pixels to leave out (CV_8UC1, non-zero =

@@ -32,6 +32,8 @@ class OccupancyMap {
 
   // Inserts one scan: endpoints and the sensor origin in the world frame [m]. Endpoints are first
   // reduced to one per octree voxel (OctoMap's discretized insertion), then rays are cast.
+  // Endpoints beyond the tree's extent (see extent()), or all of a scan whose origin lies beyond
+  // it, are counted in rejected_count() and left out (OctoMap would print an error for each).
   void InsertScan(const std::vector<Eigen::Vector3f>& points_in_world,
                   const Eigen::Vector3f& sensor_origin_in_world);
 
@@ -42,6 +44,13 @@ class OccupancyMap {
   // resolution) and whether it is occupied (occupancy probability above 0.5).
   void ForEachLeaf(const std::function<void(const Eigen::Vector3d& centre, double size,
                                             bool occupied)>& visit) const;
+
+  // The tree holds coordinates in (-extent, extent) on each axis [m]: 32767 leaves of the
+  // resolution either side of the origin (OctoMap's 16-bit keys), 1638 m at 5 cm.
+  double extent() const { return Extent(resolution()); }
+  static double Extent(double resolution) { return 32767.0 * resolution; }
+  // Endpoints left out because they (or their scan's origin) lay beyond the extent.
+  size_t rejected_count() const;
 
   size_t LeafCount() const;
   size_t OccupiedLeafCount() const;

@@ -56,6 +56,8 @@ class VoxelCloud {
   size_t size() const { return size_ - removed_; }
   size_t rejected_count() const { return rejected_; }
   double leaf_size() const { return leaf_size_; }
+  // The key range: coordinates within +-Extent(leaf) of the origin on every axis [m].
+  static double Extent(double leaf_size) { return 1048575.0 * leaf_size; }
   // Voxels that reach min_points_per_voxel (what ForEachPoint and Points visit).
   size_t OutputSize() const;
   // Bytes held by the table.

@@ -42,7 +42,8 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
 
 // Writes the mesh with assimp's exporter (format "glb", "obj" or "ply"; PLY is ASCII: Debian's
 // assimp 5.2 crashed reading back the binary PLY it wrote, in map_mesh_test). Throws
-// std::runtime_error naming the file and assimp's message.
+// std::invalid_argument for a mesh without faces, std::runtime_error naming the file and
+// assimp's message when it cannot be written.
 void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format);
 
 }  // namespace stillmap
