@@ -150,11 +150,12 @@ int Run(int argc, char** argv) {
       }
       build.poses = poses == "groundtruth" ? stillmap::PoseSource::kGroundTruth
                                            : stillmap::PoseSource::kTracking;
+      std::error_code models_error;
       if (build.models_dir.empty() && build.detector != "none") {
         const char* from_environment = std::getenv("STILLMAP_MODELS");
         if (from_environment != nullptr && *from_environment != '\0') {
           build.models_dir = from_environment;
-        } else if (std::filesystem::is_directory("../shared/models")) {
+        } else if (std::filesystem::is_directory("../shared/models", models_error)) {
           build.models_dir = "../shared/models";
         }
       }

@@ -23,6 +23,7 @@
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/image_io.h"
+#include "stillmap/io/input_files.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
@@ -199,7 +200,7 @@ class TruthMasks {
  public:
   explicit TruthMasks(const std::string& sequence_dir) {
     const fs::path list = fs::path(sequence_dir) / "masks.txt";
-    if (!fs::exists(list)) return;
+    if (!PathExists(list.string())) return;
     for (const StampedPath& entry : ReadFileList(list.string())) {
       times_.push_back(entry.time);
       paths_.push_back((fs::path(sequence_dir) / entry.path).string());
@@ -212,6 +213,7 @@ class TruthMasks {
     if (times_.empty()) return cv::Mat();
     const size_t i = FindClosestIndex(times_, time);
     if (std::abs(times_[i] - time) > 1e-3) return cv::Mat();
+    CheckInputFile(paths_[i], "mask listed in masks.txt");
     cv::Mat mask = cv::imread(paths_[i], cv::IMREAD_UNCHANGED);
     if (mask.empty() || mask.type() != CV_8UC1) {
       throw InputError(paths_[i] + ": not a readable 8-bit mask PNG (listed in masks.txt)");
@@ -415,7 +417,8 @@ BuildSummary RunBuild(const BuildRequest& request) {
   if (request.threads < 1) throw InputError("--threads must be at least 1");
   // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads.
   cv::setNumThreads(request.threads);
-  if (!fs::is_directory(request.sequence_dir)) {
+  std::error_code folder_error;
+  if (!fs::is_directory(request.sequence_dir, folder_error)) {
     throw InputError(request.sequence_dir +
                      ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
                      "depth.txt)");
@@ -938,11 +941,12 @@ BuildSummary RunBuild(const BuildRequest& request) {
   // Map quality against the static ground truth of synthetic sequences (not counted in the
   // frames per second above), in the ground truth's frame (see groundtruth_from_map).
   const fs::path static_groundtruth = fs::path(request.sequence_dir) / "static_gt.ply";
-  if (fs::exists(static_groundtruth) && !groundtruth_from_map) {
+  const bool has_static_groundtruth = PathExists(static_groundtruth.string());
+  if (has_static_groundtruth && !groundtruth_from_map) {
     report["map_quality"] = nullptr;
     report["map_quality_note"] =
         "not evaluated: the first tracked frame has no ground-truth pose to anchor the map";
-  } else if (fs::exists(static_groundtruth)) {
+  } else if (has_static_groundtruth) {
     const Clock::time_point evaluation_start = Clock::now();
     std::vector<VoxelPoint> points = cloud_points;
     const Eigen::Isometry3f transform = groundtruth_from_map->cast<float>();
@@ -972,7 +976,9 @@ BuildSummary RunBuild(const BuildRequest& request) {
       // Where the moving objects were (objects.txt of synthetic sequences: time, id, name, then
       // the object's floor position), for the cells occupied only because one stood there.
       std::vector<Eigen::Vector3d> moving_in_map;
-      std::ifstream objects(fs::path(request.sequence_dir) / "objects.txt");
+      const std::string objects_path = (fs::path(request.sequence_dir) / "objects.txt").string();
+      if (PathExists(objects_path)) CheckInputFile(objects_path, "object list");
+      std::ifstream objects(objects_path);
       for (std::string line; std::getline(objects, line);) {
         if (line.empty() || line[0] == '#') continue;
         std::istringstream fields(line);

@@ -10,6 +10,7 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
+#include "stillmap/io/input_files.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/map_io.h"
@@ -47,7 +48,7 @@ std::string RunEval(const EvalRequest& request) {
   std::string camera_path = request.camera_path;
   if (camera_path.empty()) {
     const fs::path beside = fs::path(request.groundtruth_path).parent_path() / "camera.yaml";
-    if (fs::exists(beside)) camera_path = beside.string();
+    if (PathExists(beside.string())) camera_path = beside.string();
   }
   std::string conversion = "none";
   if (!camera_path.empty()) {
@@ -92,7 +93,8 @@ std::string RunEval(const EvalRequest& request) {
 std::string DescribeSequence(const std::string& sequence_dir, const std::string& camera_preset) {
   CameraOverrides overrides;
   overrides.preset = camera_preset;
-  if (!fs::is_directory(sequence_dir)) {
+  std::error_code error;
+  if (!fs::is_directory(sequence_dir, error)) {
     throw InputError(sequence_dir + ": sequence folder not found");
   }
   const Camera camera = ResolveCamera(sequence_dir, overrides);
@@ -131,14 +133,14 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
 RenderInput ReadBuildFolder(const std::string& out_dir) {
   namespace fs = std::filesystem;
   const fs::path out(out_dir);
-  if (!fs::exists(out / "map.ply")) {
+  if (!PathExists((out / "map.ply").string())) {
     throw InputError(out_dir + ": no map.ply here; give the folder a 'stillmap build' wrote");
   }
   RenderInput input;
   input.cloud = ReadCloud((out / "map.ply").string());
-  if (fs::exists(out / "grid.yaml")) input.grid = ReadGrid((out / "grid.yaml").string());
+  if (PathExists((out / "grid.yaml").string())) input.grid = ReadGrid((out / "grid.yaml").string());
   for (const char* name : {"trajectory.txt", "keyframes.txt"}) {
-    if (!fs::exists(out / name)) continue;
+    if (!PathExists((out / name).string())) continue;
     std::vector<Eigen::Isometry3d>& poses =
         std::string(name) == "trajectory.txt" ? input.trajectory : input.keyframes;
     const Trajectory trajectory = Trajectory::ReadTum((out / name).string());
@@ -146,7 +148,8 @@ RenderInput ReadBuildFolder(const std::string& out_dir) {
       poses.push_back(pose.world_from_camera);
     }
   }
-  if (fs::exists(out / "report.json")) {
+  std::error_code error;
+  if (fs::is_regular_file(out / "report.json", error)) {  // only a caption: skipped when odd
     try {
       std::ifstream in(out / "report.json");
       const nlohmann::json report = nlohmann::json::parse(in);

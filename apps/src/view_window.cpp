@@ -14,6 +14,7 @@
 
 #include "stillmap/apps/commands.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 
@@ -39,7 +40,7 @@ Scene LoadScene(const std::filesystem::path& out) {
   }
   scene.trajectory = std::move(folder.trajectory);
   scene.keyframes = std::move(folder.keyframes);
-  if (std::filesystem::exists(out / "map.bt")) {
+  if (PathExists((out / "map.bt").string())) {
     octomap::OcTree tree(0.05);
     if (!tree.readBinary((out / "map.bt").string())) {
       throw InputError((out / "map.bt").string() + ": not a readable OctoMap (.bt)");

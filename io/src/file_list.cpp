@@ -9,7 +9,7 @@
 #include <tuple>
 
 #include "stillmap/io/error.h"
-#include "stillmap/io/output_files.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 

@@ -15,6 +15,7 @@
 #include "jpeg_decoder.h"
 #include "stillmap/io/camera.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 #include "stillmap/io/output_files.h"
 
 namespace stillmap {

@@ -57,29 +57,6 @@ void CommitTemporary(const std::string& temporary, const std::string& final_path
   }
 }
 
-void CheckInputFile(const std::string& path, const std::string& what) {
-  std::error_code error;
-  const fs::file_status status = fs::status(path, error);
-  switch (status.type()) {
-    case fs::file_type::regular:
-      break;
-    case fs::file_type::not_found:
-      throw InputError(path + ": cannot open the " + what + ": no such file");
-    case fs::file_type::directory:
-      throw InputError(path + ": the " + what + " is a folder, not a file");
-    case fs::file_type::none:  // stat failed for another reason (a symbolic link loop, ...)
-    case fs::file_type::unknown:
-      throw InputError(path + ": cannot open the " + what + " (" +
-                       (error ? error.message() : std::string("unknown file type")) + ")");
-    default:
-      throw InputError(path + ": the " + what +
-                       " is not a regular file (a FIFO, socket or device); give a file");
-  }
-  if (::access(path.c_str(), R_OK) != 0) {
-    throw InputError(path + ": cannot read the " + what + " (" + std::strerror(errno) + ")");
-  }
-}
-
 OutputSet::OutputSet(std::string dir, std::vector<std::string> owned_names)
     : dir_(std::move(dir)), owned_names_(std::move(owned_names)) {
   const fs::path folder(dir_);
@@ -119,10 +96,9 @@ OutputSet::OutputSet(std::string dir, std::vector<std::string> owned_names)
       if (!Exists(path)) continue;
       const bool folder_expected = name.back() == '/';
       if (fs::is_directory(fs::symlink_status(path)) != folder_expected) {
-        throw InputError(path.string() + ": is " + (folder_expected ? "not a folder" : "a folder") +
-                         " where stillmap writes its " +
-                         (folder_expected ? "folder" : "file") +
-                         "; move it away or choose another output folder");
+        throw InputError(path.string() + ": a " + (folder_expected ? "file" : "folder") +
+                         " is in the way of the output " + (folder_expected ? "folder" : "file") +
+                         " of that name; move it away or choose another output folder");
       }
     }
     fs::create_directory(staging_, error);

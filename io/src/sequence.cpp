@@ -5,6 +5,7 @@
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/image_io.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 
@@ -17,7 +18,7 @@ Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& ove
   if (!overrides.preset.empty()) {
     camera = CameraPreset(overrides.preset);
     source = "camera.preset=" + overrides.preset;
-  } else if (fs::exists(yaml)) {
+  } else if (PathExists(yaml.string())) {
     camera = LoadCameraYaml(yaml.string());
     source = yaml.string();
   } else if (overrides.fx && overrides.fy && overrides.cx && overrides.cy) {
@@ -41,7 +42,8 @@ Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& ove
 
 Sequence Sequence::Open(const std::string& dir, const Camera& camera,
                         const SequenceOptions& options) {
-  if (!fs::is_directory(dir)) {
+  std::error_code error;
+  if (!fs::is_directory(dir, error)) {
     throw InputError(dir +
                      ": sequence folder not found (expected a TUM-layout folder with "
                      "rgb.txt and depth.txt)");
@@ -75,7 +77,7 @@ Sequence Sequence::Open(const std::string& dir, const Camera& camera,
                      " s (compare the timestamps of rgb.txt and depth.txt)");
   }
   const fs::path groundtruth = fs::path(dir) / "groundtruth.txt";
-  if (fs::exists(groundtruth)) {
+  if (PathExists(groundtruth.string())) {
     Trajectory trajectory = Trajectory::ReadTum(groundtruth.string());
     if (camera.groundtruth_body_from_camera) {
       trajectory = trajectory.RightMultiplied(*camera.groundtruth_body_from_camera);

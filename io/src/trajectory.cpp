@@ -9,7 +9,7 @@
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
-#include "stillmap/io/output_files.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 

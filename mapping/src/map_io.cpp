@@ -11,7 +11,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
-#include "stillmap/io/output_files.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 namespace {

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 
@@ -83,10 +84,7 @@ class YoloxDetector : public Detector {
       : levels_(levels), options_(options) {
     const fs::path dir = fs::path(models_dir) / "yolox_nano";
     const fs::path model = dir / "yolox_nano.onnx";
-    if (!fs::exists(model)) {
-      throw InputError(model.string() +
-                       ": YOLOX-Nano model not found (pass --models DIR holding yolox_nano/)");
-    }
+    CheckInputFile(model.string(), "YOLOX-Nano model (pass --models DIR holding yolox_nano/)");
     if (options.input_width % 32 != 0 || options.input_height % 32 != 0 ||
         options.input_width <= 0 || options.input_height <= 0) {
       throw InputError("the YOLOX input size must be a positive multiple of 32");
@@ -195,11 +193,8 @@ class DeeplabDetector : public Detector {
       : levels_(levels), options_(options) {
     const fs::path dir = fs::path(models_dir) / "deeplabv3_mnv2_voc";
     const fs::path model = dir / "deeplab_v3_mnv2_voc_opencv46.onnx";
-    if (!fs::exists(model)) {
-      throw InputError(
-          model.string() +
-          ": DeepLabV3 model not found (pass --models DIR holding deeplabv3_mnv2_voc/)");
-    }
+    CheckInputFile(model.string(),
+                   "DeepLabV3 model (pass --models DIR holding deeplabv3_mnv2_voc/)");
     names_ = ReadNames(dir / "voc.names");
     try {
       net_ = cv::dnn::readNetFromONNX(model.string());

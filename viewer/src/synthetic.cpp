@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/map_io.h"
@@ -205,7 +206,7 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   // Refuse to write into anything but a new or empty folder or an earlier synthetic sequence (it
   // has synth.json); in the latter, only what synth writes is replaced.
   std::error_code error;
-  if (fs::is_directory(out_dir, error) && !fs::exists(fs::path(out_dir) / "synth.json")) {
+  if (fs::is_directory(out_dir, error) && !PathExists((fs::path(out_dir) / "synth.json").string())) {
     for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, error)) {
       if (OutputSet::IsInternalName(entry.path().filename().string())) continue;
       throw InputError(out_dir +

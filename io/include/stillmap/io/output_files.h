@@ -15,12 +15,6 @@ std::string TemporaryPathFor(const std::string& path);
 // Renames `temporary` to `final_path`; throws std::runtime_error naming both on failure.
 void CommitTemporary(const std::string& temporary, const std::string& final_path);
 
-// Throws InputError naming `path` and `what` it should be unless it is a regular file (or a
-// symbolic link to one) that can be opened: not missing, not a folder, a FIFO or a device, not a
-// symbolic link loop. Called before opening any input, so that no reader blocks or fails with a
-// library's internal message.
-void CheckInputFile(const std::string& path, const std::string& what);
-
 // A set of outputs written together into one folder.
 //
 // The constructor creates the folder when needed, locks it (a second run into it is refused),

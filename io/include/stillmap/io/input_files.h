@@ -1,0 +1,19 @@
+// Checks of input paths before anything opens them, so that a folder, a FIFO or a symbolic link
+// loop where a file belongs gets a sentence naming it instead of a block, a crash or a library's
+// internal message.
+#pragma once
+
+#include <string>
+
+namespace stillmap {
+
+// Throws InputError naming `path` and `what` it should be unless it is a regular file (or a
+// symbolic link to one) that can be read: not missing, not a folder, a FIFO or a device, not a
+// symbolic link loop.
+void CheckInputFile(const std::string& path, const std::string& what);
+
+// Whether anything is at `path`, a broken or looping symbolic link included (so that the reader
+// then names what is wrong with it). Never throws.
+bool PathExists(const std::string& path);
+
+}  // namespace stillmap
