@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -40,8 +41,12 @@ std::string StatisticsLine(const std::string& name, const ErrorStatistics& s, do
 }  // namespace
 
 std::string RunEval(const EvalRequest& request) {
-  if (!(request.ate.max_time_difference > 0.0)) throw InputError("--max-diff must be positive");
-  if (!(request.rpe.delta > 0.0)) throw InputError("--delta must be positive");
+  if (!(request.ate.max_time_difference > 0.0 && request.ate.max_time_difference <= 1.0)) {
+    throw InputError("--max-diff must be in (0, 1] s");
+  }
+  if (!(request.rpe.delta > 0.0 && std::isfinite(request.rpe.delta))) {
+    throw InputError("--delta must be a positive number of seconds");
+  }
   Trajectory groundtruth = Trajectory::ReadTum(request.groundtruth_path);
   const Trajectory estimate = Trajectory::ReadTum(request.estimate_path);
 

@@ -538,13 +538,17 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
 }  // namespace
 
 void BuildConfig::Validate() const {
-  if (!(sequence.max_pair_time_difference > 0.0)) {
-    throw InputError("sequence.max_pair_time_difference must be positive");
+  // Association looks at every pair within the window: beyond a second it pairs wrong frames and
+  // its candidates grow with the square of the frame rate.
+  if (!(sequence.max_pair_time_difference > 0.0 && sequence.max_pair_time_difference <= 1.0)) {
+    throw InputError("sequence.max_pair_time_difference must be in (0, 1] s");
   }
   if (!(sequence.max_groundtruth_gap > 0.0)) {
     throw InputError("sequence.max_groundtruth_gap must be positive");
   }
-  if (!(ate.max_time_difference > 0.0)) throw InputError("eval.max_time_difference must be > 0");
+  if (!(ate.max_time_difference > 0.0 && ate.max_time_difference <= 1.0)) {
+    throw InputError("eval.max_time_difference must be in (0, 1] s");
+  }
   if (!(rpe.delta > 0.0)) throw InputError("eval.rpe_delta must be > 0");
   mapping.Validate();
   tracking.Validate();

@@ -11,8 +11,8 @@ namespace stillmap {
 
 void BackProjectionOptions::Validate() const {
   if (!(min_depth >= 0.0)) throw InputError("mapping.min_depth must be >= 0 m");
-  if (!(max_depth > min_depth)) {
-    throw InputError("mapping.max_depth must be greater than mapping.min_depth");
+  if (!(max_depth > min_depth && max_depth <= 100.0)) {
+    throw InputError("mapping.max_depth must be greater than mapping.min_depth, at most 100 m");
   }
   if (pixel_stride < 1) throw InputError("mapping.pixel_stride must be at least 1");
   if (smoothing_radius < 0 || smoothing_radius > 5) {

@@ -83,5 +83,19 @@ TEST(ConfigTest, EffectiveConfigurationReadsBackToTheSameConfiguration) {
   EXPECT_DOUBLE_EQ(*read_back.camera.fx, 500.0);
 }
 
+// Whole numbers are checked against their field's type: no wrap-around (4294968496 is not read
+// as 1200 features, 4294967297 not as a stride of 1).
+TEST(ConfigTest, WholeNumbersOutsideTheirTypeAreRefused) {
+  BuildConfig config;
+  EXPECT_THROW(ApplySetArgument(&config, "tracking.max_features=4294968496"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "mapping.pixel_stride=4294967297"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "sequence.first_frame=-1"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "sequence.max_frames=1e30"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "mapping.pixel_stride=2.5"), InputError);
+  ApplySetArgument(&config, "mapping.pixel_stride=2147483647");
+  EXPECT_EQ(config.mapping.back_projection.pixel_stride, 2147483647);
+  ApplySetArgument(&config, "sequence.max_frames=1e3");
+  EXPECT_EQ(config.max_frames, 1000u);
+}
 }  // namespace
 }  // namespace stillmap

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <algorithm>
 #include <vector>
 
@@ -102,5 +104,41 @@ TEST(CameraTest, PixelRaysProjectBackOntoTheirPixels) {
   EXPECT_NEAR(KinectDepthSigma(3.0f), 0.0012f + 0.0019f * 2.6f * 2.6f, 1e-6f);
 }
 
+// Every preset passes; cameras that would ruin a run silently are refused by name: non-finite or
+// absurd focal lengths, a principal point outside the image, distortion that folds pixels over
+// or cannot be inverted.
+TEST(CameraTest, ImplausibleCamerasAreRefused) {
+  for (const std::string& name : CameraPresetNames()) {
+    EXPECT_NO_THROW(CameraPreset(name).Validate(name)) << name;
+  }
+  auto refused = [](Camera camera, const std::string& expected) {
+    try {
+      camera.Validate("test");
+    } catch (const InputError& e) {
+      return std::string(e.what()).find(expected) != std::string::npos;
+    }
+    return false;
+  };
+  const Camera good = CameraPreset("bonn");
+  Camera camera = good;
+  camera.fx = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(refused(camera, "fx and fy"));
+  camera.fx = camera.fy = 1e300;
+  EXPECT_TRUE(refused(camera, "field of view"));
+  camera = good;
+  camera.cx = 1e10;
+  EXPECT_TRUE(refused(camera, "principal point"));
+  camera = good;
+  camera.distortion = {1e10, -1e10, 0, 0, 1e10};
+  EXPECT_TRUE(refused(camera, "distortion"));
+  camera.distortion = {-0.9, 0, 0, 0, 0};  // the radial term turns back inside the image
+  EXPECT_TRUE(refused(camera, "fold over"));
+  camera = good;
+  camera.depth_factor = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(refused(camera, "depth_factor"));
+  camera = good;
+  camera.width = 100000;
+  EXPECT_TRUE(refused(camera, "width and height"));
+}
 }  // namespace
 }  // namespace stillmap

@@ -189,5 +189,27 @@ TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) 
   EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &off).seen_through_views, 0u);
 }
 
+// A camera whose projection throws points to +-1e30 pixels (the CLI refuses such a camera; the
+// library must still not read outside the views): nothing is dropped, nothing read out of bounds.
+TEST(MapCleaningTest, WildProjectionsStayInsideTheViews) {
+  Camera camera = testing::SmallCamera(160, 120);
+  camera.distortion = {1e10, -1e10, 0, 0, 1e10};
+  std::vector<Eigen::Vector3f> points;
+  for (int i = -20; i <= 20; ++i) {
+    for (int j = -20; j <= 20; ++j) points.emplace_back(0.05f * i, 0.05f * j, 2.0f);
+  }
+  VoxelCloud cloud;
+  cloud.Insert(Colored(points));
+  const cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  std::vector<KeyframeView> views;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation().x() = 0.1 * k;
+    views.push_back(MakeKeyframeView(depth, cv::Mat(), pose));
+  }
+  const size_t before = cloud.OutputSize();
+  CleanCloud(MapCleaningOptions(), nullptr, camera, views, &cloud);
+  EXPECT_LE(cloud.OutputSize(), before);
+}
 }  // namespace
 }  // namespace stillmap

@@ -69,5 +69,19 @@ TEST(OccupancyMapTest, ImpossibleOptionsAreRejected) {
   EXPECT_THROW(options.Validate(), InputError);
 }
 
+// OctoMap's 16-bit keys reach +-32767 leaves: points (or a whole scan whose origin lies) beyond
+// are counted and left out instead of flooding stderr with "out of OcTree bounds".
+TEST(OccupancyMapTest, PointsBeyondTheExtentAreCountedAndLeftOut) {
+  OccupancyMapOptions options;
+  options.resolution = 0.05;
+  OccupancyMap map(options);
+  EXPECT_NEAR(map.extent(), 1638.35, 1e-9);
+  map.InsertScan({Eigen::Vector3f(1, 0, 2), Eigen::Vector3f(1e4f, 0, 2)}, Eigen::Vector3f::Zero());
+  EXPECT_EQ(map.rejected_count(), 1u);
+  EXPECT_GT(map.Occupancy(Eigen::Vector3d(1, 0, 2)), 0.5);
+  EXPECT_LT(map.Occupancy(Eigen::Vector3d(1e4, 0, 2)), 0.0);  // unknown, and no error printed
+  map.InsertScan({Eigen::Vector3f(2e3f, 0, 2)}, Eigen::Vector3f(2e3f, 0, 0));
+  EXPECT_EQ(map.rejected_count(), 2u);
+}
 }  // namespace
 }  // namespace stillmap

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "stillmap/io/error.h"
 #include "stillmap/viewer/mesh.h"
 #include "test_util.h"
@@ -82,5 +84,16 @@ TEST(MapMeshTest, EachFormatReadsBackThroughAssimp) {
   EXPECT_THROW(options.Validate(), InputError);
 }
 
+// assimp cannot export a mesh without faces (its exporter frees the scene's copy twice): the
+// writer refuses it before assimp sees it.
+TEST(MapMeshTest, AnEmptyMeshIsRefusedNotExported) {
+  testing::TempDir dir;
+  const ColoredMesh empty = VoxelSurfaceMesh({}, MapMeshOptions());
+  EXPECT_TRUE(empty.faces.empty());
+  for (const std::string format : {"glb", "obj", "ply"}) {
+    EXPECT_THROW(WriteColoredMesh(dir / ("empty." + format), empty, format), std::invalid_argument);
+    EXPECT_FALSE(std::filesystem::exists(dir / ("empty." + format)));
+  }
+}
 }  // namespace
 }  // namespace stillmap

@@ -160,14 +160,14 @@ void DynamicMaskOptions::Validate() const {
   check(flow.dbscan_epsilon_px > 0.0, "flow_epsilon_px must be > 0");
   check(flow.min_epipolar_distance_px >= 0.0, "flow_min_epipolar_px must be >= 0");
   check(flow.dbscan_min_points >= 1, "flow_min_points must be >= 1");
-  check(flow_points >= 8, "flow_points must be >= 8");
-  check(reference_keyframes >= 1, "reference_keyframes must be >= 1");
+  check(flow_points >= 8 && flow_points <= 20000, "flow_points must be 8..20000");
+  check(reference_keyframes >= 1 && reference_keyframes <= 50, "reference_keyframes must be 1..50");
   check(reference_spacing_s >= 0.0, "reference_spacing_s must be >= 0");
   check(depth_check_stride >= 1 && depth_check_stride <= 16, "depth_check_stride must be 1..16");
   check(grow_depth_difference_m > 0.0 && grow_depth_difference_m <= depth.max_depth_difference_m,
         "grow_depth_difference_m must be > 0 and <= depth_difference");
   check(continuity > 0.0 && continuity < 1.0, "continuity must be in (0, 1)");
-  check(max_unknown_steps >= 0, "max_unknown_steps must be >= 0");
+  check(max_unknown_steps >= 0 && max_unknown_steps <= 1000, "max_unknown_steps must be 0..1000");
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
         "medium_min_moving_share must be in (0, 1]");
   check(detector_interval >= 1, "detector_interval must be >= 1");

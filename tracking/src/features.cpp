@@ -10,12 +10,16 @@
 namespace stillmap {
 
 void FeatureOptions::Validate() const {
-  if (max_features < 50) throw InputError("tracking.max_features must be at least 50");
+  if (max_features < 50 || max_features > 100000) {
+    throw InputError("tracking.max_features must be between 50 and 100000");
+  }
   if (grid_columns < 1 || grid_rows < 1) throw InputError("tracking.grid must be at least 1x1");
   if (pyramid_levels < 1 || !(scale_factor > 1.0f)) {
     throw InputError("tracking.pyramid_levels must be >= 1 and scale_factor > 1");
   }
-  if (fast_threshold < 1) throw InputError("tracking.fast_threshold must be positive");
+  if (fast_threshold < 1 || fast_threshold > 255) {
+    throw InputError("tracking.fast_threshold must be 1..255 (a gray-level difference)");
+  }
   if (!(max_depth_spread > 0.0)) throw InputError("tracking.max_depth_spread must be positive");
 }
 
