@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian bookworm packages stillmap needs (only those missing), then configures and
-# builds it in ./build. Sourced by scripts/main_job.sh and scripts/test.sh; safe to run again.
+# builds it: scripts/setup.sh [PRESET] (CMakePresets.json: default -> ./build, sanitize ->
+# ./build-sanitize). Called by scripts/main_job.sh, test.sh and sanitize.sh; safe to run again.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
@@ -27,6 +28,8 @@ if [ "${#missing[@]}" -gt 0 ]; then
     "${missing[@]}"
 fi
 
+preset="${1:-default}"
 jobs="${STILLMAP_JOBS:-2}"
-cmake --preset default -S "$root" >/dev/null
-cmake --build "$root/build" -j "$jobs"
+cd "$root"
+cmake --preset "$preset" >/dev/null
+cmake --build --preset "$preset" -j "$jobs"

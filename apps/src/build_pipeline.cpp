@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
+#include <thread>
 #include <unordered_set>
 
 #include "stillmap/apps/progress.h"
@@ -58,9 +59,9 @@ double PeakMemoryMib() {
 // that no file of an earlier run stays beside the new set (a grid when the OctoMap is now off).
 const std::vector<std::string>& BuildOutputNames() {
   static const std::vector<std::string> kNames = {
-      "map.ply",   "map.pcd",   "map.bt",      "map.ot",      "trajectory.txt", "keyframes.txt",
-      "grid.pgm",  "grid.yaml", "mesh.glb",    "mesh.obj",    "mesh.mtl",       "mesh.ply",
-      "renders/",  "config.yaml", "report.json", "report.html"};
+      "map.ply",  "map.pcd",     "map.bt",      "map.ot",     "trajectory.txt", "keyframes.txt",
+      "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",   "mesh.mtl",       "mesh.ply",
+      "renders/", "config.yaml", "report.json", "report.html"};
   return kNames;
 }
 
@@ -403,7 +404,8 @@ std::string EmptyMapMessage(Mapper& mapper, const MapCleaningResult& cleaning,
   const size_t cleaned = cleaning.seen_through + cleaning.seen_through_views + cleaning.outliers;
   if (cleaned > 0) message += fmt::format(", {} voxels removed by the map cleaning", cleaned);
   if (masks.enabled()) {
-    message += fmt::format("; {:.1f} % of the pixels were masked as moving", 100 * masks.MeanShare());
+    message +=
+        fmt::format("; {:.1f} % of the pixels were masked as moving", 100 * masks.MeanShare());
   }
   return message + ". Check the depth scale (camera.depth_factor), the depth range and the poses";
 }
@@ -415,8 +417,10 @@ BuildSummary RunBuild(const BuildRequest& request) {
   const BuildConfig& config = request.config;
   config.Validate();
   if (request.threads < 1) throw InputError("--threads must be at least 1");
-  // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads.
-  cv::setNumThreads(request.threads);
+  // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads, at
+  // most one per core: TBB, OpenCV's backend, warns on stderr about more, even under --quiet.
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  cv::setNumThreads(std::min(request.threads, cores));
   std::error_code folder_error;
   if (!fs::is_directory(request.sequence_dir, folder_error)) {
     throw InputError(request.sequence_dir +

@@ -76,8 +76,8 @@ std::string DistortionProblem(const Camera& camera) {
     for (const cv::Point2d& p : {cv::Point2d(u, 0), cv::Point2d(u, camera.height - 1),
                                  cv::Point2d(0, v), cv::Point2d(camera.width - 1, v)}) {
       border.push_back(p);
-      corner_radius = std::max(corner_radius,
-                               std::hypot((p.x - camera.cx) / camera.fx, (p.y - camera.cy) / camera.fy));
+      corner_radius = std::max(
+          corner_radius, std::hypot((p.x - camera.cx) / camera.fx, (p.y - camera.cy) / camera.fy));
     }
   }
   double previous = 0.0;
@@ -123,8 +123,9 @@ void Camera::Validate(const std::string& source) const {
   }
   // Between about 1 and 170 degrees of field of view, and pixels at most 2:1.
   if (fx < 0.05 * width || fx > 50.0 * width || fy < 0.5 * fx || fy > 2.0 * fx) {
-    fail("fx and fy must lie between 0.05 and 50 times the width, within a factor 2 of each "
-         "other (a field of view of 1 to 170 degrees); are they in pixels?");
+    fail(
+        "fx and fy must lie between 0.05 and 50 times the width, within a factor 2 of each "
+        "other (a field of view of 1 to 170 degrees); are they in pixels?");
   }
   if (!(cx >= 0.0 && cx <= width && cy >= 0.0 && cy <= height)) {
     fail("the principal point (cx, cy) must lie inside the image");

@@ -4,8 +4,8 @@
 #include <cctype>
 #include <cstdint>
 #include <cstdio>
-#include <filesystem>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -139,13 +139,13 @@ void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
   std::string extension = target.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
-    throw InputError(path + ": an image file name must end in .png or .jpg");
-  }
   std::error_code error;
   if (std::filesystem::is_directory(target, error)) {
     throw InputError(path + ": is a folder; give the image's file name (e.g. " +
-                     (target / ("plot" + extension)).string() + ")");
+                     (target / "plot.png").string() + ")");
+  }
+  if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
+    throw InputError(path + ": an image file name must end in .png or .jpg");
   }
   const std::string temp = TemporaryPathFor(path);
   WriteImage(temp, image, extension);

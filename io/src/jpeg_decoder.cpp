@@ -1,10 +1,11 @@
 #include "jpeg_decoder.h"
 
 // jpeglib.h needs size_t and FILE declared first.
+#include <jpeglib.h>
+
 #include <csetjmp>
 #include <cstddef>
 #include <cstdio>
-#include <jpeglib.h>
 
 #include "stillmap/io/error.h"
 

@@ -206,9 +206,8 @@ void OutputSet::Commit() {
       fs::rename(previous / name, folder / name, ignored);
     }
     fs::remove_all(previous, ignored);
-    throw std::runtime_error(dir_ + ": could not swap the new outputs in (" +
-                             e.code().message() + ": " + e.path1().string() +
-                             "); the earlier outputs are unchanged");
+    throw std::runtime_error(dir_ + ": could not swap the new outputs in (" + e.code().message() +
+                             ": " + e.path1().string() + "); the earlier outputs are unchanged");
   }
   committed_ = true;
   std::error_code ignored;

@@ -38,8 +38,8 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
         // distortion projects to +-1e30; NaN fails both tests).
         const float half_u = std::floor((pixel.x() + 0.5f) * 0.5f);
         const float half_v = std::floor((pixel.y() + 0.5f) * 0.5f);
-        if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth_m.cols) &&
-              half_v >= 0.0f && half_v < static_cast<float>(view.depth_m.rows))) {
+        if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth_m.cols) && half_v >= 0.0f &&
+              half_v < static_cast<float>(view.depth_m.rows))) {
           continue;
         }
         const int u = static_cast<int>(half_u), v = static_cast<int>(half_v);

@@ -49,8 +49,7 @@ Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_ca
 void GridOptions::Validate() const {
   // The band is sampled at the OctoMap's resolution in every cell: 100 m bounds the work.
   if (!(min_height >= 0.0 && max_height > min_height && max_height <= 100.0)) {
-    throw InputError(
-        "grid.min_height must be >= 0 and grid.max_height above it, at most 100 m");
+    throw InputError("grid.min_height must be >= 0 and grid.max_height above it, at most 100 m");
   }
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError("grid.occupied_probability must be in [0.5, 1)");

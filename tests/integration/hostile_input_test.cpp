@@ -10,6 +10,7 @@
 // STILLMAP_HOSTILE_VARIANTS (default 60 a family) changes how many; a failure prints the variant
 // and how to rerun it. Under the sanitizer preset every run also has ASan and UBSan watching.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -19,7 +20,6 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <sstream>
-#include <sys/stat.h>
 
 #include "stillmap/apps/config.h"
 #include "stillmap/mapping/map_io.h"
@@ -96,16 +96,18 @@ std::string Join(const std::vector<std::string>& lines) {
 // Hostile replacements for a number.
 const std::vector<std::string>& HostileNumbers() {
   static const std::vector<std::string> kNumbers = {
-      "nan", "inf",        "-inf",    "1e308", "-1e308",     "1e20", "-1e20", "0",    "-1",
-      "-0",  "4294967297", "1e-320",  "0x10",  "12abc",      "",     ".5",    "1e6",  "-1e6",
-      "1e4", "999999999",  "-0.0001", "NaN",   "Infinity",   "1e+",  "--1",   "3.40282e+39"};
+      "nan", "inf",        "-inf",    "1e308", "-1e308",   "1e20", "-1e20", "0",          "-1",
+      "-0",  "4294967297", "1e-320",  "0x10",  "12abc",    "",     ".5",    "1e6",        "-1e6",
+      "1e4", "999999999",  "-0.0001", "NaN",   "Infinity", "1e+",  "--1",   "3.40282e+39"};
   return kNumbers;
 }
 
 class Generator {
  public:
   explicit Generator(size_t family) : rng_(kSeed * 7919 + family) {}
-  size_t Below(size_t n) { return n == 0 ? 0 : std::uniform_int_distribution<size_t>(0, n - 1)(rng_); }
+  size_t Below(size_t n) {
+    return n == 0 ? 0 : std::uniform_int_distribution<size_t>(0, n - 1)(rng_);
+  }
   template <typename T>
   const T& Pick(const std::vector<T>& values) {
     return values[Below(values.size())];
@@ -126,8 +128,8 @@ std::vector<std::string> ListedImages(const std::string& sequence, const std::st
   return paths;
 }
 
-const std::vector<std::string> kListFiles = {"rgb.txt",    "depth.txt",   "groundtruth.txt",
-                                             "masks.txt",  "objects.txt", "camera.yaml"};
+const std::vector<std::string> kListFiles = {"rgb.txt",   "depth.txt",   "groundtruth.txt",
+                                             "masks.txt", "objects.txt", "camera.yaml"};
 
 // Text files: truncated at a line or inside one, lines swapped, duplicated, emptied, fields
 // swapped, garbage added, line endings changed.
@@ -135,21 +137,37 @@ Variant ListVariant(Generator& g) {
   const std::string file = g.Pick(kListFiles);
   const size_t kind = g.Below(9);
   const size_t line_pick = g.Below(1000), other_pick = g.Below(1000), byte_pick = g.Below(1000);
-  static const std::vector<std::string> kNames = {
-      "truncated at a line", "truncated inside a line", "two lines swapped",
-      "a line repeated",     "emptied",                 "two fields of a line swapped",
-      "binary garbage line", "CRLF line endings",       "a 1 MB line"};
+  static const std::vector<std::string> kNames = {"truncated at a line",
+                                                  "truncated inside a line",
+                                                  "two lines swapped",
+                                                  "a line repeated",
+                                                  "emptied",
+                                                  "two fields of a line swapped",
+                                                  "binary garbage line",
+                                                  "CRLF line endings",
+                                                  "a 1 MB line"};
   auto mutate = [=](const std::string& sequence, const std::string&) {
     const std::string path = sequence + "/" + file;
     std::vector<std::string> lines = Lines(ReadText(path));
     if (lines.empty()) return;
     const size_t a = line_pick % lines.size(), b = other_pick % lines.size();
     switch (kind) {
-      case 0: lines.resize(a); break;
-      case 1: lines[a] = lines[a].substr(0, byte_pick % (lines[a].size() + 1)); lines.resize(a + 1); break;
-      case 2: std::swap(lines[a], lines[b]); break;
-      case 3: lines.insert(lines.begin() + static_cast<long>(a), lines[a]); break;
-      case 4: lines.clear(); break;
+      case 0:
+        lines.resize(a);
+        break;
+      case 1:
+        lines[a] = lines[a].substr(0, byte_pick % (lines[a].size() + 1));
+        lines.resize(a + 1);
+        break;
+      case 2:
+        std::swap(lines[a], lines[b]);
+        break;
+      case 3:
+        lines.insert(lines.begin() + static_cast<long>(a), lines[a]);
+        break;
+      case 4:
+        lines.clear();
+        break;
       case 5: {
         std::istringstream in(lines[a]);
         std::vector<std::string> fields;
@@ -162,9 +180,16 @@ Variant ListVariant(Generator& g) {
         }
         break;
       }
-      case 6: lines.insert(lines.begin() + static_cast<long>(a), std::string("\x01\xff\xfe\x00garbage", 12)); break;
-      case 7: for (std::string& line : lines) line += "\r"; break;
-      default: lines[a] += " " + std::string(1 << 20, '7'); break;
+      case 6:
+        lines.insert(lines.begin() + static_cast<long>(a),
+                     std::string("\x01\xff\xfe\x00garbage", 12));
+        break;
+      case 7:
+        for (std::string& line : lines) line += "\r";
+        break;
+      default:
+        lines[a] += " " + std::string(1 << 20, '7');
+        break;
     }
     WriteText(path, Join(lines));
   };
@@ -212,11 +237,18 @@ Variant ImageVariant(Generator& g) {
   const size_t kind = g.Below(12);
   const size_t frame_pick = g.Below(1000), byte_pick = g.Below(1 << 30);
   const bool every_frame = g.Below(3) == 0;
-  static const std::vector<std::string> kNames = {
-      "truncated",        "bytes zeroed",        "pixels all zero",     "pixels all maximum",
-      "swapped with the other kind", "resized", "8-bit single channel", "16-bit 3 channels",
-      "middle bytes corrupted", "corrupt JPEG ending in FF D9", "empty file",
-      "PNG header claiming 100000 x 100000"};
+  static const std::vector<std::string> kNames = {"truncated",
+                                                  "bytes zeroed",
+                                                  "pixels all zero",
+                                                  "pixels all maximum",
+                                                  "swapped with the other kind",
+                                                  "resized",
+                                                  "8-bit single channel",
+                                                  "16-bit 3 channels",
+                                                  "middle bytes corrupted",
+                                                  "corrupt JPEG ending in FF D9",
+                                                  "empty file",
+                                                  "PNG header claiming 100000 x 100000"};
   auto mutate = [=](const std::string& sequence, const std::string&) {
     const std::vector<std::string> paths = ListedImages(sequence, list);
     const std::vector<std::string> others = ListedImages(sequence, list == "rgb" ? "depth" : "rgb");
@@ -226,27 +258,54 @@ Variant ImageVariant(Generator& g) {
       std::string bytes = ReadText(path);
       cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
       switch (kind) {
-        case 0: bytes.resize(byte_pick % bytes.size()); WriteText(path, bytes); break;
-        case 1: std::fill(bytes.begin(), bytes.end(), '\0'); WriteText(path, bytes); break;
-        case 2: image.setTo(0); cv::imwrite(path, image); break;
-        case 3: image.setTo(cv::Scalar::all(image.depth() == CV_16U ? 65535 : 255)); cv::imwrite(path, image); break;
-        case 4: fs::copy_file(others[k % others.size()], path, fs::copy_options::overwrite_existing); break;
-        case 5: cv::resize(image, image, cv::Size(), 1.5, 0.5); cv::imwrite(path, image); break;
-        case 6: cv::imwrite(path, cv::Mat(image.size(), CV_8UC1, cv::Scalar(77))); break;
-        case 7: cv::imwrite(path, cv::Mat(image.size(), CV_16UC3, cv::Scalar(1000, 2000, 3000))); break;
+        case 0:
+          bytes.resize(byte_pick % bytes.size());
+          WriteText(path, bytes);
+          break;
+        case 1:
+          std::fill(bytes.begin(), bytes.end(), '\0');
+          WriteText(path, bytes);
+          break;
+        case 2:
+          image.setTo(0);
+          cv::imwrite(path, image);
+          break;
+        case 3:
+          image.setTo(cv::Scalar::all(image.depth() == CV_16U ? 65535 : 255));
+          cv::imwrite(path, image);
+          break;
+        case 4:
+          fs::copy_file(others[k % others.size()], path, fs::copy_options::overwrite_existing);
+          break;
+        case 5:
+          cv::resize(image, image, cv::Size(), 1.5, 0.5);
+          cv::imwrite(path, image);
+          break;
+        case 6:
+          cv::imwrite(path, cv::Mat(image.size(), CV_8UC1, cv::Scalar(77)));
+          break;
+        case 7:
+          cv::imwrite(path, cv::Mat(image.size(), CV_16UC3, cv::Scalar(1000, 2000, 3000)));
+          break;
         case 8:
-          for (size_t i = bytes.size() / 3; i < bytes.size() / 3 + 16 && i < bytes.size(); ++i) bytes[i] ^= 0x5a;
+          for (size_t i = bytes.size() / 3; i < bytes.size() / 3 + 16 && i < bytes.size(); ++i)
+            bytes[i] ^= 0x5a;
           WriteText(path, bytes);
           break;
         case 9: {
           std::vector<unsigned char> jpeg;
-          cv::Mat color = image.channels() == 3 ? image : cv::Mat(image.size(), CV_8UC3, cv::Scalar(90, 120, 200));
+          cv::Mat color = image.channels() == 3
+                              ? image
+                              : cv::Mat(image.size(), CV_8UC3, cv::Scalar(90, 120, 200));
           cv::imencode(".jpg", color, jpeg);
-          for (size_t i = jpeg.size() / 2; i < jpeg.size() / 2 + 40; ++i) jpeg[i] = static_cast<unsigned char>(i * 37);
+          for (size_t i = jpeg.size() / 2; i < jpeg.size() / 2 + 40; ++i)
+            jpeg[i] = static_cast<unsigned char>(i * 37);
           WriteText(path, std::string(jpeg.begin(), jpeg.end()));
           break;
         }
-        case 10: WriteText(path, ""); break;
+        case 10:
+          WriteText(path, "");
+          break;
         default:
           if (bytes.size() > 24) {
             const char huge[8] = {0, 1, static_cast<char>(0x86), static_cast<char>(0xa0),
@@ -258,34 +317,57 @@ Variant ImageVariant(Generator& g) {
       }
     }
   };
-  return {list + " image(s)" + (every_frame ? " (every frame)" : "") + ": " + kNames[kind],
-          mutate, ""};
+  return {list + " image(s)" + (every_frame ? " (every frame)" : "") + ": " + kNames[kind], mutate,
+          ""};
 }
 
 // Files that are not files: folders, FIFOs, link loops, dangling links; output folders in the way.
 Variant FileSystemVariant(Generator& g) {
   const size_t kind = g.Below(8);
-  const std::string file = g.Pick(std::vector<std::string>{"rgb.txt", "depth.txt", "groundtruth.txt",
-                                                           "camera.yaml", "masks.txt", "image"});
+  const std::string file = g.Pick(std::vector<std::string>{
+      "rgb.txt", "depth.txt", "groundtruth.txt", "camera.yaml", "masks.txt", "image"});
   const size_t frame_pick = g.Below(1000);
-  static const std::vector<std::string> kNames = {
-      "is a folder", "is a FIFO", "is a symbolic link loop", "is a dangling symbolic link",
-      "output folder is a file", "output folder holds a folder named map.ply",
-      "output folder is a symbolic link loop", "output folder holds an earlier build"};
+  static const std::vector<std::string> kNames = {"is a folder",
+                                                  "is a FIFO",
+                                                  "is a symbolic link loop",
+                                                  "is a dangling symbolic link",
+                                                  "output folder is a file",
+                                                  "output folder holds a folder named map.ply",
+                                                  "output folder is a symbolic link loop",
+                                                  "output folder holds an earlier build"};
   auto mutate = [=](const std::string& sequence, const std::string& out) {
     std::string path = sequence + "/" + file;
     if (file == "image") {
-      const std::vector<std::string> images = ListedImages(sequence, frame_pick % 2 ? "rgb" : "depth");
+      const std::vector<std::string> images =
+          ListedImages(sequence, frame_pick % 2 ? "rgb" : "depth");
       path = images[frame_pick % images.size()];
     }
     switch (kind) {
-      case 0: fs::remove(path); fs::create_directory(path); break;
-      case 1: fs::remove(path); mkfifo(path.c_str(), 0644); break;
-      case 2: fs::remove(path); fs::create_symlink(path, path); break;
-      case 3: fs::remove(path); fs::create_symlink(path + ".nowhere", path); break;
-      case 4: WriteText(out, "a file"); break;
-      case 5: fs::create_directories(out + "/map.ply"); break;
-      case 6: fs::create_symlink(out, out); break;
+      case 0:
+        fs::remove(path);
+        fs::create_directory(path);
+        break;
+      case 1:
+        fs::remove(path);
+        mkfifo(path.c_str(), 0644);
+        break;
+      case 2:
+        fs::remove(path);
+        fs::create_symlink(path, path);
+        break;
+      case 3:
+        fs::remove(path);
+        fs::create_symlink(path + ".nowhere", path);
+        break;
+      case 4:
+        WriteText(out, "a file");
+        break;
+      case 5:
+        fs::create_directories(out + "/map.ply");
+        break;
+      case 6:
+        fs::create_symlink(out, out);
+        break;
       default: {
         std::string output;
         RunStillmap("build " + sequence + " -o " + out + " --quiet --poses groundtruth", &output);
@@ -302,8 +384,8 @@ Variant FileSystemVariant(Generator& g) {
 Variant OptionVariant(Generator& g) {
   static const std::vector<ConfigKeyInfo> keys = ListConfigKeys();
   static const std::vector<std::string> kValues = {
-      "nan", "inf",  "-inf", "1e308", "-1e308", "0",    "-1",   "4294967297", "1e20",
-      "2e9", "true", "",     "x",     "0.5",    "1e-9", "100000", "9999999", "1"};
+      "nan", "inf",  "-inf", "1e308", "-1e308", "0",    "-1",     "4294967297", "1e20",
+      "2e9", "true", "",     "x",     "0.5",    "1e-9", "100000", "9999999",    "1"};
   std::string arguments;
   const size_t count = 1 + g.Below(2);
   for (size_t i = 0; i < count; ++i) {
@@ -311,20 +393,34 @@ Variant OptionVariant(Generator& g) {
     if (key == "camera.preset" || key == "detector.levels") continue;  // strings, tested elsewhere
     arguments += " --set '" + key + "=" + g.Pick(kValues) + "'";
   }
-  if (g.Below(4) == 0) arguments += " --threads " + g.Pick(std::vector<std::string>{"1", "3", "64"});
+  if (g.Below(4) == 0)
+    arguments += " --threads " + g.Pick(std::vector<std::string>{"1", "3", "64"});
   return {"options:" + arguments, [](const std::string&, const std::string&) {}, arguments};
 }
 
 // What a finished output set holds in every configuration.
-const std::vector<std::string> kAlwaysWritten = {"map.ply", "map.pcd", "trajectory.txt",
+const std::vector<std::string> kAlwaysWritten = {"map.ply",       "map.pcd",     "trajectory.txt",
                                                  "keyframes.txt", "report.json", "report.html",
                                                  "config.yaml"};
 
 // Library messages that must not reach the user as the reason a run failed.
-const std::vector<std::string> kInternalMarkers = {
-    "basic_", "std::", "bad_alloc", "filesystem error", "vector::", "substr", "stoi", "stod",
-    "OpenCV(", "Assertion", "yaml-cpp", "bad conversion", "terminate called", "nlohmann",
-    "AddressSanitizer", "runtime error:", "out of OcTree bounds"};
+const std::vector<std::string> kInternalMarkers = {"basic_",
+                                                   "std::",
+                                                   "bad_alloc",
+                                                   "filesystem error",
+                                                   "vector::",
+                                                   "substr",
+                                                   "stoi",
+                                                   "stod",
+                                                   "OpenCV(",
+                                                   "Assertion",
+                                                   "yaml-cpp",
+                                                   "bad conversion",
+                                                   "terminate called",
+                                                   "nlohmann",
+                                                   "AddressSanitizer",
+                                                   "runtime error:",
+                                                   "out of OcTree bounds"};
 
 class HostileInputTest : public ::testing::Test {
  protected:
@@ -352,15 +448,17 @@ class HostileInputTest : public ::testing::Test {
     std::string output;
     const int status = RunStillmap(arguments, &output, Prefix());
     ASSERT_TRUE(status == 0 || status == 1 || status == 2)
-        << where << "exit status " << status << " (a signal, a hang or a sanitizer)\n" << output;
+        << where << "exit status " << status << " (a signal, a hang or a sanitizer)\n"
+        << output;
     for (const std::string& marker : kInternalMarkers) {
       EXPECT_EQ(output.find(marker), std::string::npos)
-          << where << "internal message '" << marker << "':\n" << output;
+          << where << "internal message '" << marker << "':\n"
+          << output;
     }
     if (status == 0) {
       for (const std::string& name : kAlwaysWritten) {
-        EXPECT_TRUE(fs::is_regular_file(out + "/" + name, error))
-            << where << name << " missing\n" << output;
+        EXPECT_TRUE(fs::is_regular_file(out + "/" + name, error)) << where << name << " missing\n"
+                                                                  << output;
       }
       EXPECT_TRUE(nlohmann::json::accept(ReadText(out + "/report.json"))) << where;
       EXPECT_FALSE(ReadCloud(out + "/map.ply").empty()) << where << "an empty map succeeded";
@@ -372,11 +470,13 @@ class HostileInputTest : public ::testing::Test {
       for (const std::string& name : kAlwaysWritten) {
         if (std::find(earlier.begin(), earlier.end(), name) != earlier.end()) continue;
         EXPECT_FALSE(fs::exists(fs::symlink_status(out + "/" + name, error)))
-            << where << name << " left behind\n" << output;
+            << where << name << " left behind\n"
+            << output;
       }
       if (!earlier_report.empty()) {
         EXPECT_EQ(ReadText(out + "/report.json"), earlier_report)
-            << where << "the earlier build's outputs changed\n" << output;
+            << where << "the earlier build's outputs changed\n"
+            << output;
       }
     }
     // The other commands read the same files.

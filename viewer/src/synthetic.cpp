@@ -206,7 +206,8 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   // Refuse to write into anything but a new or empty folder or an earlier synthetic sequence (it
   // has synth.json); in the latter, only what synth writes is replaced.
   std::error_code error;
-  if (fs::is_directory(out_dir, error) && !PathExists((fs::path(out_dir) / "synth.json").string())) {
+  if (fs::is_directory(out_dir, error) &&
+      !PathExists((fs::path(out_dir) / "synth.json").string())) {
     for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, error)) {
       if (OutputSet::IsInternalName(entry.path().filename().string())) continue;
       throw InputError(out_dir +
@@ -214,9 +215,9 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
                        "empty or new folder");
     }
   }
-  OutputSet outputs(out_dir, {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt",
-                              "masks.txt", "objects.txt", "groundtruth.txt", "camera.yaml",
-                              "static_gt.ply", "synth.json"});
+  OutputSet outputs(
+      out_dir, {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt",
+                "objects.txt", "groundtruth.txt", "camera.yaml", "static_gt.ply", "synth.json"});
   const fs::path work = outputs.staging_dir();
   for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
 

@@ -49,8 +49,8 @@ class OutputSet {
   static bool IsInternalName(const std::string& filename);
 
  private:
-  void Recover();   // see the constructor
-  void Release();   // unlocks; removes the folder when this run created it and committed nothing
+  void Recover();  // see the constructor
+  void Release();  // unlocks; removes the folder when this run created it and committed nothing
 
   std::string dir_;
   std::vector<std::string> owned_names_;
