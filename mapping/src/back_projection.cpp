@@ -14,7 +14,9 @@ void BackProjectionOptions::Validate() const {
   if (!(max_depth > min_depth && max_depth <= 100.0)) {
     throw InputError("mapping.max_depth must be greater than mapping.min_depth, at most 100 m");
   }
-  if (pixel_stride < 1) throw InputError("mapping.pixel_stride must be at least 1");
+  if (pixel_stride < 1 || pixel_stride > 64) {
+    throw InputError("mapping.pixel_stride must be 1..64 (every n-th pixel along u and v)");
+  }
   if (smoothing_radius < 0 || smoothing_radius > 5) {
     throw InputError("mapping.smoothing_radius must be between 0 and 5 pixels");
   }

@@ -123,6 +123,12 @@ Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, cons
   return trajectory;
 }
 
+void WriteSmallPlaneSequence(const std::string& dir) {
+  std::vector<Eigen::Isometry3d> poses(4, Eigen::Isometry3d::Identity());
+  for (size_t i = 0; i < poses.size(); ++i) poses[i].translation().x() = 0.01 * i;
+  WritePlaneSequence(dir, SmallCamera(), {}, poses);
+}
+
 int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix) {
   const std::string command =
       (prefix.empty() ? "" : prefix + " ") + STILLMAP_BINARY + " " + arguments + " 2>&1";

@@ -42,6 +42,10 @@ struct PlaneScene {
 Trajectory WritePlaneSequence(const std::string& dir, const Camera& camera, const PlaneScene& scene,
                               const std::vector<Eigen::Isometry3d>& world_from_camera);
 
+// Four frames of the default plane seen by SmallCamera(), 1 cm apart along x, with ground truth:
+// the smallest sequence every command accepts (the bad-input and reliability tests change it).
+void WriteSmallPlaneSequence(const std::string& dir);
+
 // The folder of the detector models ($STILLMAP_MODELS, else ../shared/models), or nullopt when
 // it has no subfolder `name` (e.g. "yolox_nano").
 std::optional<std::string> SharedModels(const std::string& name);

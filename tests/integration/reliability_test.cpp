@@ -28,9 +28,7 @@ class ReliabilityTest : public ::testing::Test {
   void SetUp() override {
     sequence_ = dir_ / "seq";
     output_ = dir_ / "out";
-    std::vector<Eigen::Isometry3d> poses(4, Eigen::Isometry3d::Identity());
-    for (size_t i = 0; i < poses.size(); ++i) poses[i].translation().x() = 0.01 * i;
-    testing::WritePlaneSequence(sequence_, testing::SmallCamera(), {}, poses);
+    testing::WriteSmallPlaneSequence(sequence_);
   }
 
   int Build(const std::string& extra, std::string* output) {

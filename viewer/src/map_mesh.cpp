@@ -110,13 +110,17 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
 }
 
 void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format) {
-  // assimp cannot export a mesh without faces: its exporter's copy of the scene is freed twice
-  // (ASan: double free in aiScene::~aiScene). An empty mesh is the caller's result to report.
+  // Refused, not exported: with no vertices, assimp's scene copy (SceneCombiner::Copy, which the
+  // exporter always makes) copies only the colour sets it thinks present (HasVertexColors() needs
+  // mNumVertices > 0), so the copy would share this scene's colour array and both scenes would
+  // delete it (ASan: double free in aiScene::~aiScene). An empty mesh is the caller's result to
+  // report.
   if (mesh.faces.empty() || mesh.vertices.empty() || mesh.colors.size() != mesh.vertices.size()) {
     throw std::invalid_argument(path + ": cannot write a mesh without faces");
   }
   // One mesh under the root node. Every array below is allocated with new[] (objects with new)
-  // because the scene's destructors free them with delete[] (delete): the scene owns them.
+  // because the scene's destructors free them with delete[] (delete): the scene owns them, and
+  // none is empty (see above).
   aiScene scene;
   scene.mRootNode = new aiNode();
   scene.mMaterials = new aiMaterial*[1];
