@@ -240,13 +240,13 @@ TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
 }
 
 TEST(GridOptionsTest, ImpossibleValuesAreRejectedByName) {
-  GridOptions options;
-  options.max_height = 0.05;
-  EXPECT_THROW(options.Validate(), InputError);
-  options = GridOptions();
-  options.floor = Eigen::Vector4d(0, 0, 0, 1);
+  GridOptions low;
+  low.max_height = 0.05;
+  EXPECT_THROW(low.Validate(), InputError);
+  GridOptions flat;
+  flat.floor = Eigen::Vector4d(0, 0, 0, 1);
   try {
-    options.Validate();
+    flat.Validate();
     FAIL() << "a zero normal was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("grid.floor"), std::string::npos);
