@@ -9,12 +9,14 @@
 #include <filesystem>
 #include <iostream>
 
-#include "stillmap/apps/build_pipeline.h"
-#include "stillmap/apps/commands.h"
-#include "stillmap/apps/progress.h"
-#include "stillmap/apps/view_window.h"
 #include "stillmap/io/error.h"
-#include "stillmap/viewer/synthetic.h"
+#include "stillmap/pipeline/build_pipeline.h"
+#include "stillmap/pipeline/commands.h"
+#include "stillmap/pipeline/progress.h"
+#include "stillmap/pipeline/report.h"
+#include "stillmap/synth/synthetic.h"
+#include "stillmap/viewer/build_folder.h"
+#include "stillmap/viewer/view_window.h"
 
 namespace {
 
@@ -161,31 +163,11 @@ int Run(int argc, char** argv) {
       }
       build.show_progress = !quiet && stillmap::StderrIsTerminal();
       if (quiet) spdlog::set_level(spdlog::level::warn);
-      const stillmap::BuildSummary summary = stillmap::RunBuild(build);
-      spdlog::info(
-          "{} of {} frames tracked, {} fused, {} map points, {:.1f} frames/s, peak memory "
-          "{:.0f} MiB; outputs in {}",
-          summary.frames_tracked, summary.frames_paired, summary.frames_fused, summary.map_points,
-          summary.frames_per_second, summary.peak_memory_mib, build.output_dir);
-      if (summary.ate_rmse) {
-        spdlog::info("trajectory vs ground truth: ATE RMSE {:.1f} mm (report.json has RPE)",
-                     *summary.ate_rmse * 1e3);
+      const stillmap::BuildResult result = stillmap::RunBuild(build);
+      for (const std::string& line : stillmap::SummaryLines(result, build.output_dir)) {
+        spdlog::info("{}", line);
       }
-      spdlog::info("keyframes: {} fused, {} invalid, {} redundant; mean masked share {:.1f} %",
-                   summary.frames_fused, summary.keyframes_invalid, summary.keyframes_redundant,
-                   100.0 * summary.dynamic_share);
-      if (summary.mask_recall) {
-        spdlog::info("masks vs masks/: precision {:.3f}, recall {:.3f}, IoU {:.3f}",
-                     *summary.mask_precision, *summary.mask_recall, *summary.mask_iou);
-      }
-      for (const std::string& warning : summary.warnings) spdlog::warn("{}", warning);
-      if (summary.map_quality) {
-        spdlog::info(
-            "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; completeness "
-            "{:.1f} %; ghost share {:.2f} %",
-            summary.map_quality->accuracy_median * 1e3, summary.map_quality->accuracy_mean * 1e3,
-            100.0 * summary.map_quality->completeness, 100.0 * summary.map_quality->ghost_share);
-      }
+      for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
     } else if (*eval_cmd) {
       std::cout << stillmap::RunEval(eval);
     } else if (*synth_cmd) {

@@ -2,8 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <stdexcept>
 
-#include "stillmap/mapping/map_io.h"
+#include "stillmap/io/cloud_files.h"
 
 namespace stillmap {
 namespace {
@@ -41,10 +42,7 @@ Mapper::~Mapper() {
   if (occupancy_job_.valid()) occupancy_job_.wait();
 }
 
-void Mapper::Finish() {
-  // Nothing pending: returns without writing anything, so that callers on several threads may
-  // use the finished maps together (the pipeline cleans the cloud while the OctoMap is written).
-  if (!fusion_job_.valid() && !occupancy_job_.valid()) return;
+void Mapper::WaitForFusion() {
   const auto start = std::chrono::steady_clock::now();
   if (fusion_job_.valid()) {
     try {
@@ -58,26 +56,19 @@ void Mapper::Finish() {
   statistics_.wait_ms += MillisecondsSince(start);
 }
 
+FinishedMap Mapper::Finish() {
+  if (finished_) throw std::logic_error("Mapper::Finish called twice");
+  if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
+  finished_ = true;
+  return FinishedMap{std::move(cloud_), std::move(occupancy_), statistics_, std::move(views_)};
+}
+
 void Mapper::WaitForOccupancy() {
   if (occupancy_job_.valid()) occupancy_job_.get();
 }
 
-const VoxelCloud& Mapper::cloud() {
-  Finish();
-  return cloud_;
-}
-
-const OccupancyMap* Mapper::occupancy() {
-  Finish();
-  return occupancy_.get();
-}
-
-const MapperStatistics& Mapper::statistics() {
-  Finish();
-  return statistics_;
-}
-
 void Mapper::Integrate(const MapperFrame& frame) {
+  if (finished_) throw std::logic_error("Mapper::Integrate called after Finish");
   if (!options_.in_background) {
     Fuse(frame);
     return;
@@ -125,21 +116,18 @@ void Mapper::Fuse(const MapperFrame& frame) {
   statistics_.points += scratch_.size();
 }
 
-MapCleaningResult Mapper::CleanCloud() {
-  Finish();
-  return stillmap::CleanCloud(options_.cleaning, occupancy_.get(), camera_, views_, &cloud_);
+MapCleaningResult FinishedMap::CleanCloud(const MapCleaningOptions& options, const Camera& camera) {
+  return stillmap::CleanCloud(options, occupancy.get(), camera, views, &cloud);
 }
 
-void Mapper::WriteCloud(const std::string& ply_path, const std::string& pcd_path) {
-  Finish();
-  WriteCloudFiles(ply_path, pcd_path, cloud_);
+void FinishedMap::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {
+  WriteCloudFiles(ply_path, pcd_path, cloud.Points(), cloud.leaf_size());
 }
 
-void Mapper::WriteOccupancy(const std::string& bt_path, const std::string& ot_path) {
-  Finish();
-  if (!occupancy_) return;
-  occupancy_->WriteBinary(bt_path);
-  occupancy_->WriteFull(ot_path);
+void FinishedMap::WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const {
+  if (!occupancy) return;
+  occupancy->WriteBinary(bt_path);
+  occupancy->WriteFull(ot_path);
 }
 
 }  // namespace stillmap

@@ -13,17 +13,17 @@
 #include <string>
 #include <vector>
 
-#include "stillmap/apps/build_pipeline.h"
 #include "stillmap/io/camera.h"
+#include "stillmap/io/cloud_files.h"
 #include "stillmap/io/evaluation.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/back_projection.h"
-#include "stillmap/mapping/map_io.h"
 #include "stillmap/mapping/map_quality.h"
+#include "stillmap/pipeline/build_pipeline.h"
+#include "stillmap/synth/mesh.h"
+#include "stillmap/synth/synthetic.h"
 #include "stillmap/tracking/depth_correction.h"
-#include "stillmap/viewer/mesh.h"
-#include "stillmap/viewer/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -63,9 +63,9 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   request.output_dir = dir / "out";
   request.poses = PoseSource::kGroundTruth;
   ApplySetArgument(&request.config, "mapping.voxel_leaf=0.02");
-  const BuildSummary summary = RunBuild(request);
-  EXPECT_EQ(summary.frames_fused, 6u);
-  EXPECT_EQ(summary.frames_without_pose, 0u);
+  const BuildResult summary = RunBuild(request);
+  EXPECT_EQ(summary.frames.fused, 6u);
+  EXPECT_EQ(summary.frames.without_pose, 0u);
 
   for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
   for (const auto& entry : fs::recursive_directory_iterator(dir / "out")) {
@@ -74,7 +74,7 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
 
   // The cloud is the plane z = 2 m, seen over x in [-0.6, 0.85] m.
   const std::vector<VoxelPoint> cloud = ReadCloud(dir / "out/map.ply");
-  ASSERT_EQ(cloud.size(), summary.map_points);
+  ASSERT_EQ(cloud.size(), summary.map.voxels_written);
   for (const VoxelPoint& p : cloud) EXPECT_NEAR(p.position.z(), 2.0, 1e-3);
 
   // The trajectory written is the one rendered.
@@ -157,9 +157,9 @@ TEST(BuildTest, FramesOutsideTheGroundTruthAreLeftOutNotInvented) {
   request.output_dir = dir / "out";
   request.poses = PoseSource::kGroundTruth;
   request.threads = 1;
-  const BuildSummary summary = RunBuild(request);
-  EXPECT_EQ(summary.frames_fused, 3u);
-  EXPECT_EQ(summary.frames_without_pose, 2u);
+  const BuildResult summary = RunBuild(request);
+  EXPECT_EQ(summary.frames.fused, 3u);
+  EXPECT_EQ(summary.frames.without_pose, 2u);
   EXPECT_EQ(Trajectory::ReadTum(dir / "out/trajectory.txt").size(), 3u);
 }
 
@@ -180,8 +180,8 @@ TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
   ApplySetArgument(&request.config,
                    "sequence.first_frame=5");  // frames 0-4 precede the ground truth
   ApplySetArgument(&request.config, "sequence.max_frames=40");
-  const BuildSummary summary = RunBuild(request);
-  EXPECT_EQ(summary.frames_fused, 40u);
+  const BuildResult summary = RunBuild(request);
+  EXPECT_EQ(summary.frames.fused, 40u);
   for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
 
   pcl::PointCloud<pcl::PointXYZ>::Ptr map(new pcl::PointCloud<pcl::PointXYZ>);
@@ -247,15 +247,15 @@ MapQuality BuildSynthetic(const std::string& scenario, const std::string& dir,
   request.poses = PoseSource::kGroundTruth;
   request.config.masking_enabled = false;
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
-  const BuildSummary summary = RunBuild(request);
-  EXPECT_TRUE(summary.map_quality.has_value());
+  const BuildResult summary = RunBuild(request);
+  EXPECT_TRUE(summary.evaluation.map_quality.has_value());
   const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir + "/out/report.json"));
   EXPECT_TRUE(report.contains("map_quality"));
   std::cout << scenario << " (60 frames, ground-truth poses, no masking): accuracy median "
-            << summary.map_quality->accuracy_median * 1e3 << " mm, completeness "
-            << 100.0 * summary.map_quality->completeness << " %, ghost share "
-            << 100.0 * summary.map_quality->ghost_share << " %\n";
-  return *summary.map_quality;
+            << summary.evaluation.map_quality->accuracy_median * 1e3 << " mm, completeness "
+            << 100.0 * summary.evaluation.map_quality->completeness << " %, ghost share "
+            << 100.0 * summary.evaluation.map_quality->ghost_share << " %\n";
+  return *summary.evaluation.map_quality;
 }
 
 TEST(BuildTest, SyntheticStaticRoomFromGroundTruthLiesOnTheTrueSurface) {
@@ -485,9 +485,9 @@ TEST(BuildTest, TrackingNothingFailsWithoutOutputs) {
 // Tracks a sequence with the bundle adjustment inline (the figure does not depend on thread
 // timing) and no OctoMap (not under test), plus `settings`; the outputs go to `output_dir`, or to
 // a temporary folder when it is empty.
-BuildSummary TrackRepeatably(const std::string& sequence,
-                             const std::vector<std::string>& settings = {},
-                             const std::string& output_dir = {}) {
+BuildResult TrackRepeatably(const std::string& sequence,
+                            const std::vector<std::string>& settings = {},
+                            const std::string& output_dir = {}) {
   testing::TempDir dir;
   BuildRequest request;
   request.sequence_dir = sequence;
@@ -518,9 +518,9 @@ TEST(BuildTest, DepthSelfCalibrationFindsAKnownDepthErrorOnASyntheticRoom) {
     raw.convertTo(depth, CV_16U);  // rounds, saturates; 0 stays 0
     ASSERT_TRUE(cv::imwrite(entry.path().string(), depth));
   }
-  const BuildSummary calibrated = TrackRepeatably(
+  const BuildResult calibrated = TrackRepeatably(
       dir / "seq", {"render.enabled=false", "tracking.depth_self_calibration=true"}, dir / "on");
-  const BuildSummary plain = TrackRepeatably(
+  const BuildResult plain = TrackRepeatably(
       dir / "seq", {"render.enabled=false", "tracking.depth_self_calibration=false"});
   const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "on/report.json"));
   const nlohmann::json& calibration = report["tracking"]["depth_self_calibration"];
@@ -548,16 +548,18 @@ TEST(BuildTest, DepthSelfCalibrationFindsAKnownDepthErrorOnASyntheticRoom) {
   }
   error_before = std::sqrt(error_before / samples);
   error_after = std::sqrt(error_after / samples);
-  ASSERT_TRUE(calibrated.ate_rmse && plain.ate_rmse && calibrated.map_quality && plain.map_quality);
+  ASSERT_TRUE(calibrated.AteRmse() && plain.AteRmse() && calibrated.evaluation.map_quality &&
+              plain.evaluation.map_quality);
   std::cout << "synthetic room, depth bent by up to 10 %: depth error over the image (RMS) "
             << error_before * 100 << " -> " << error_after * 100 << " %, ATE "
-            << *plain.ate_rmse * 1e3 << " -> " << *calibrated.ate_rmse * 1e3
+            << *plain.AteRmse() * 1e3 << " -> " << *calibrated.AteRmse() * 1e3
             << " mm, map accuracy (median, anchored at the first frame) "
-            << plain.map_quality->accuracy_median * 1e3 << " -> "
-            << calibrated.map_quality->accuracy_median * 1e3 << " mm\n";
+            << plain.evaluation.map_quality->accuracy_median * 1e3 << " -> "
+            << calibrated.evaluation.map_quality->accuracy_median * 1e3 << " mm\n";
   EXPECT_LT(error_after, 0.9 * error_before);
-  EXPECT_LT(*calibrated.ate_rmse, 0.4 * *plain.ate_rmse);
-  EXPECT_LT(calibrated.map_quality->accuracy_median, plain.map_quality->accuracy_median);
+  EXPECT_LT(*calibrated.AteRmse(), 0.4 * *plain.AteRmse());
+  EXPECT_LT(calibrated.evaluation.map_quality->accuracy_median,
+            plain.evaluation.map_quality->accuracy_median);
 }
 
 // Real data: TUM fr3/teddy tracked against its motion-capture trajectory. The target is
@@ -568,12 +570,12 @@ TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
   if (!sequence) {
     GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
   }
-  const BuildSummary summary = TrackRepeatably(*sequence);
-  EXPECT_EQ(summary.frames_tracked, summary.frames_paired);
-  ASSERT_TRUE(summary.ate_rmse.has_value());
-  std::cout << "teddy tracked: " << summary.frames_tracked << " of " << summary.frames_paired
-            << " frames, ATE RMSE " << *summary.ate_rmse * 1e3 << " mm\n";
-  EXPECT_LT(*summary.ate_rmse, 0.006);
+  const BuildResult summary = TrackRepeatably(*sequence);
+  EXPECT_EQ(summary.frames.tracked, summary.frames.pairs_used);
+  ASSERT_TRUE(summary.AteRmse().has_value());
+  std::cout << "teddy tracked: " << summary.frames.tracked << " of " << summary.frames.pairs_used
+            << " frames, ATE RMSE " << *summary.AteRmse() * 1e3 << " mm\n";
+  EXPECT_LT(*summary.AteRmse(), 0.006);
 }
 
 // Real data with people: Bonn crowd (three people walking through the view), tracked with the
@@ -584,19 +586,20 @@ TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
 TEST(BuildTest, TrackingRealBonnCrowdMeetsTheAccuracyTarget) {
   const auto sequence = testing::SharedSequence("bonn_crowd_a");
   if (!sequence) GTEST_SKIP() << "bonn_crowd_a not found (set STILLMAP_DATA or ../shared/data)";
-  const BuildSummary summary = TrackRepeatably(*sequence);
-  EXPECT_EQ(summary.frames_tracked, summary.frames_paired);
-  ASSERT_TRUE(summary.ate_rmse.has_value());
-  const BuildSummary uncorrected =
+  const BuildResult summary = TrackRepeatably(*sequence);
+  EXPECT_EQ(summary.frames.tracked, summary.frames.pairs_used);
+  ASSERT_TRUE(summary.AteRmse().has_value());
+  const BuildResult uncorrected =
       TrackRepeatably(*sequence, {"tracking.depth_self_calibration=false"});
-  ASSERT_TRUE(uncorrected.ate_rmse.has_value());
-  std::cout << "bonn crowd tracked: " << summary.frames_tracked << " of " << summary.frames_paired
-            << " frames, ATE RMSE " << *summary.ate_rmse * 1e3 << " mm ("
-            << *uncorrected.ate_rmse * 1e3 << " mm without depth self-calibration), masked share "
-            << summary.dynamic_share << "\n";
-  EXPECT_LT(*summary.ate_rmse, 0.020);
-  EXPECT_LT(*summary.ate_rmse, 0.6 * *uncorrected.ate_rmse);
-  EXPECT_GT(summary.keyframes_invalid, 0u);  // frames a person fills are kept out of the map
+  ASSERT_TRUE(uncorrected.AteRmse().has_value());
+  std::cout << "bonn crowd tracked: " << summary.frames.tracked << " of "
+            << summary.frames.pairs_used << " frames, ATE RMSE " << *summary.AteRmse() * 1e3
+            << " mm (" << *uncorrected.AteRmse() * 1e3
+            << " mm without depth self-calibration), masked share "
+            << summary.masking.statistics.MeanShare() << "\n";
+  EXPECT_LT(*summary.AteRmse(), 0.020);
+  EXPECT_LT(*summary.AteRmse(), 0.6 * *uncorrected.AteRmse());
+  EXPECT_GT(summary.selection.invalid, 0u);  // frames a person fills are kept out of the map
 }
 
 }  // namespace

@@ -21,8 +21,8 @@
 #include <random>
 #include <sstream>
 
-#include "stillmap/apps/config.h"
-#include "stillmap/mapping/map_io.h"
+#include "stillmap/io/cloud_files.h"
+#include "stillmap/pipeline/config.h"
 #include "test_util.h"
 
 namespace stillmap {

@@ -2,8 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "stillmap/io/cloud_files.h"
 #include "stillmap/io/sequence.h"
-#include "stillmap/mapping/map_io.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -38,8 +38,10 @@ TEST(MapperTest, FusedCloudOfATiltedPlaneLiesOnThePlane) {
     input.world_from_camera = *sequence.groundtruth()->Interpolate(frame.time, 0.1);
     mapper.Integrate(input);
   }
-  EXPECT_EQ(mapper.statistics().frames, 8u);
-  const std::vector<VoxelPoint> points = mapper.cloud().Points();
+  const FinishedMap map = mapper.Finish();
+  EXPECT_THROW(mapper.Finish(), std::logic_error);  // the map has one owner
+  EXPECT_EQ(map.statistics.frames, 8u);
+  const std::vector<VoxelPoint> points = map.cloud.Points();
   ASSERT_GT(points.size(), 1000u);
   double worst = 0.0;
   for (const VoxelPoint& p : points) {
@@ -48,7 +50,7 @@ TEST(MapperTest, FusedCloudOfATiltedPlaneLiesOnThePlane) {
   // Depth is quantized to 0.2 mm; the voxel centroid of points on a plane stays on it.
   EXPECT_LT(worst, 1e-3);
 
-  mapper.WriteCloud(dir / "map.ply", dir / "map.pcd");
+  map.WriteCloud(dir / "map.ply", dir / "map.pcd");
   const std::vector<VoxelPoint> ply = ReadCloud(dir / "map.ply");
   const std::vector<VoxelPoint> pcd = ReadCloud(dir / "map.pcd");
   ASSERT_EQ(ply.size(), points.size());

@@ -101,6 +101,38 @@ TEST(GeometricMaskerTest, RegionsGrowFromSeedsOverContinuousNearerReadings) {
   EXPECT_EQ(cv::countNonZero(found(cv::Rect(0, 0, 40, camera.height))), 0);
 }
 
+// Growth through pixels the reference never saw stops after max_unknown_steps, up to the largest
+// value the options accept (255: the steps are counted in a byte per pixel; 256 used to wrap to 0
+// and let the growth run on without limit).
+TEST(GeometricMaskerTest, GrowthThroughUnseenPixelsStopsAtTheLimit) {
+  const Camera camera = testing::SmallCamera(480, 60);
+  MaskReference reference = WallReference(camera);
+  reference.mask = cv::Mat(reference.depth_m.size(), CV_8UC1, cv::Scalar(0));
+  reference.mask(cv::Rect(100, 0, 380, 60)).setTo(255);  // the reference saw nothing from u = 100
+  cv::Mat depth = reference.depth_m.clone();
+  depth(cv::Rect(50, 10, 430, 40)).setTo(1.5f);  // one flat object, seen only at its left end
+  auto right_edge = [&](int max_unknown_steps) {
+    DynamicMaskOptions options = KeepEveryRegion();
+    options.max_unknown_steps = max_unknown_steps;
+    options.Validate();
+    const cv::Mat found = GeometricMasker(camera, options)
+                              .Compute(depth, Eigen::Isometry3d::Identity(), {&reference});
+    int edge = -1;
+    for (int u = 0; u < found.cols; ++u) {
+      if (cv::countNonZero(found.col(u)) > 0) edge = u;
+    }
+    return edge;
+  };
+  const int at_100 = right_edge(100);
+  const int at_255 = right_edge(255);
+  EXPECT_GT(at_100, 100);
+  EXPECT_EQ(at_255 - at_100, 155);
+  EXPECT_LT(at_255, 479);  // the object goes on; the growth does not
+  DynamicMaskOptions too_many;
+  too_many.max_unknown_steps = 256;
+  EXPECT_THROW(too_many.Validate(), InputError);
+}
+
 // Rendered walking people with exact masks, rendering poses, geometry only: each frame's mask
 // against the truth after the first references exist (frames 15 on). Measured: precision 0.94,
 // recall 0.86 (the longer runs of the build reach 0.94 / 0.94 without a detector).

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "stillmap/io/sequence.h"
-#include "stillmap/viewer/synthetic.h"
+#include "stillmap/synth/synthetic.h"
 
 namespace stillmap::testing {
 

@@ -301,4 +301,21 @@ std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
   return std::make_unique<YoloxDetector>(models_dir, levels, options);
 }
 
+std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
+                                       const MotionLevelTable& levels, const YoloxOptions& yolox) {
+  if (name == "none" || name.empty()) return nullptr;
+  if (models_dir.empty()) {
+    throw InputError("--detector " + name +
+                     " needs the models: pass --models DIR (the folder holding yolox_nano/ and "
+                     "deeplabv3_mnv2_voc/) or set STILLMAP_MODELS");
+  }
+  if (name == "yolox") return MakeYoloxDetector(models_dir, levels, yolox);
+  if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels);
+  if (name == "both") {
+    return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, yolox),
+                                MakeDeeplabDetector(models_dir, levels));
+  }
+  throw InputError("--detector " + name + ": expected none, yolox, deeplab or both");
+}
+
 }  // namespace stillmap

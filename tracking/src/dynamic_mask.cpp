@@ -167,7 +167,8 @@ void DynamicMaskOptions::Validate() const {
   check(grow_depth_difference_m > 0.0 && grow_depth_difference_m <= depth.max_depth_difference_m,
         "grow_depth_difference_m must be > 0 and <= depth_difference");
   check(continuity > 0.0 && continuity < 1.0, "continuity must be in (0, 1)");
-  check(max_unknown_steps >= 0 && max_unknown_steps <= 1000, "max_unknown_steps must be 0..1000");
+  // Steps are counted in one byte per pixel (GeometricMasker::Compute): 255 at most.
+  check(max_unknown_steps >= 0 && max_unknown_steps <= 255, "max_unknown_steps must be 0..255");
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
         "medium_min_moving_share must be in (0, 1]");
   check(detector_interval >= 1, "detector_interval must be >= 1");

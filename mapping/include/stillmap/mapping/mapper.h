@@ -54,6 +54,22 @@ struct MapperStatistics {
   double wait_ms = 0.0;            // time the caller waited for background fusion
 };
 
+// The map a Mapper built, handed out once by Mapper::Finish.
+struct FinishedMap {
+  VoxelCloud cloud;
+  std::unique_ptr<OccupancyMap> occupancy;  // null when mapping.occupancy_enabled is false
+  MapperStatistics statistics;
+  std::vector<KeyframeView> views;  // of the fused frames, for the map cleaning
+
+  // Cleans the cloud (MapCleaningOptions) against the OctoMap and the views; call once, before
+  // the cloud is written. Reads the OctoMap only, so it may run while the OctoMap is written.
+  MapCleaningResult CleanCloud(const MapCleaningOptions& options, const Camera& camera);
+  // Writes map.ply/map.pcd of the cloud (tests; the pipeline writes the points it took out).
+  void WriteCloud(const std::string& ply_path, const std::string& pcd_path) const;
+  // Writes map.bt/map.ot when there is an OctoMap.
+  void WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const;
+};
+
 class Mapper {
  public:
   Mapper(const Camera& camera, const MapperOptions& options);
@@ -66,20 +82,11 @@ class Mapper {
   // shared, not copied: the caller must not write to them afterwards.
   void Integrate(const MapperFrame& frame);
 
-  // Waits for the background work still running (rethrowing its failure). Called by every
-  // accessor below.
-  void Finish();
+  // Waits for the background work still running (rethrowing its failure) and hands over the
+  // map. Call once: the mapper holds nothing afterwards (a second call throws
+  // std::logic_error), so the finished map has one owner on whatever thread uses it.
+  FinishedMap Finish();
 
-  // Cleans the finished voxel cloud (MapCleaningOptions); call once, before writing.
-  MapCleaningResult CleanCloud();
-
-  // Writes map.ply/map.pcd (voxel cloud) and, when enabled, map.bt/map.ot to the given paths.
-  void WriteCloud(const std::string& ply_path, const std::string& pcd_path);
-  void WriteOccupancy(const std::string& bt_path, const std::string& ot_path);
-
-  const VoxelCloud& cloud();
-  const OccupancyMap* occupancy();
-  const MapperStatistics& statistics();
   const MapperOptions& options() const { return options_; }
 
  private:
@@ -93,6 +100,8 @@ class Mapper {
   std::vector<Eigen::Vector3f> occupancy_points_;  // owned by the background insertion
   void Fuse(const MapperFrame& frame);             // on the fusion thread in the background
   void WaitForOccupancy();
+  void WaitForFusion();
+  bool finished_ = false;
 
   std::future<void> fusion_job_;     // back-projection and voxels of the last frame handed over
   std::future<void> occupancy_job_;  // its OctoMap insertion (started by the fusion job)

@@ -8,6 +8,7 @@
 #include <functional>
 #include <vector>
 
+#include "stillmap/io/cloud_files.h"
 #include "stillmap/mapping/back_projection.h"
 
 namespace stillmap {
@@ -20,13 +21,6 @@ struct VoxelCloudOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
-};
-
-// One output point of the voxel cloud.
-struct VoxelPoint {
-  Eigen::Vector3f position;         // centroid of the voxel's points, world frame [m]
-  std::array<std::uint8_t, 3> rgb;  // mean color
-  std::uint32_t count;              // points averaged
 };
 
 // Hash-keyed voxel grid with open addressing (linear probing, power-of-two capacity, load factor

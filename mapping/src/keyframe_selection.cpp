@@ -1,0 +1,56 @@
+#include "stillmap/mapping/keyframe_selection.h"
+
+#include <fmt/format.h>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+void KeyframeSelectionOptions::Validate() const {
+  if (!(max_masked_share > 0.0 && max_masked_share <= 1.0)) {
+    throw InputError("keyframes.max_masked_share must be in (0, 1]");
+  }
+  if (!(max_shared_landmarks > 0.0 && max_shared_landmarks <= 1.0)) {
+    throw InputError("keyframes.max_shared_landmarks must be in (0, 1]");
+  }
+}
+
+std::string KeyframeSelectionOptions::Describe() const {
+  if (!enabled) return "off: every tracking keyframe is fused";
+  return fmt::format(
+      "invalid when more than {} of the frame is masked; redundant when more than {} of its "
+      "landmarks are seen by the keyframes selected before",
+      max_masked_share, max_shared_landmarks);
+}
+
+KeyframeSelector::KeyframeSelector(const KeyframeSelectionOptions& options) : options_(options) {}
+
+KeyframeVerdict KeyframeSelector::Judge(double masked_share, const std::vector<int>& landmark_ids) {
+  KeyframeVerdict verdict = KeyframeVerdict::kFused;
+  if (options_.enabled) {
+    size_t shared = 0;
+    for (int id : landmark_ids) shared += selected_landmarks_.count(id);
+    if (masked_share > options_.max_masked_share) {
+      verdict = KeyframeVerdict::kInvalid;
+    } else if (!landmark_ids.empty() &&
+               static_cast<double>(shared) >
+                   options_.max_shared_landmarks * static_cast<double>(landmark_ids.size())) {
+      verdict = KeyframeVerdict::kRedundant;
+    }
+  }
+  switch (verdict) {
+    case KeyframeVerdict::kFused:
+      ++fused_;
+      selected_landmarks_.insert(landmark_ids.begin(), landmark_ids.end());
+      break;
+    case KeyframeVerdict::kInvalid:
+      ++invalid_;
+      break;
+    case KeyframeVerdict::kRedundant:
+      ++redundant_;
+      break;
+  }
+  return verdict;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,163 @@
+#include "stillmap/mapping/map_mesh.h"
+
+#include <assimp/scene.h>
+
+#include <assimp/Exporter.hpp>
+#include <cmath>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+namespace {
+
+struct Cell {
+  Eigen::Vector3f color_sum = Eigen::Vector3f::Zero();
+  std::uint32_t points = 0;
+};
+
+std::int64_t Key(int x, int y, int z) {
+  constexpr std::int64_t kMask = (1 << 21) - 1;  // 21 bits per axis: +-1e6 voxels
+  return ((static_cast<std::int64_t>(x) & kMask) << 42) |
+         ((static_cast<std::int64_t>(y) & kMask) << 21) | (static_cast<std::int64_t>(z) & kMask);
+}
+
+}  // namespace
+
+void MapMeshOptions::Validate() const {
+  if (format != "glb" && format != "obj" && format != "ply") {
+    throw InputError("mesh.format: '" + format + "' is not one of glb, obj, ply");
+  }
+  if (!(voxel >= 0.005 && voxel <= 1.0)) throw InputError("mesh.voxel must be in [0.005, 1] m");
+  if (min_points < 1) throw InputError("mesh.min_points must be at least 1");
+}
+
+ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMeshOptions& options) {
+  options.Validate();
+  const float edge = static_cast<float>(options.voxel);
+  std::unordered_map<std::int64_t, Cell> cells;
+  std::unordered_map<std::int64_t, Eigen::Vector3i> index;
+  cells.reserve(points.size() / 4);
+  for (const VoxelPoint& point : points) {
+    const Eigen::Vector3i v = (point.position / edge).array().floor().cast<int>();
+    const std::int64_t key = Key(v.x(), v.y(), v.z());
+    Cell& cell = cells[key];
+    if (cell.points == 0) index.emplace(key, v);
+    cell.color_sum +=
+        Eigen::Vector3f(point.rgb[0], point.rgb[1], point.rgb[2]) * static_cast<float>(point.count);
+    cell.points += point.count;
+  }
+  auto occupied = [&](int x, int y, int z) {
+    const auto it = cells.find(Key(x, y, z));
+    return it != cells.end() && it->second.points >= static_cast<std::uint32_t>(options.min_points);
+  };
+  // The six faces: outward normal axis and sign, and the four corners (unit cube), ordered
+  // counter-clockwise seen from outside.
+  struct Face {
+    Eigen::Vector3i normal;
+    std::array<Eigen::Vector3f, 4> corners;
+  };
+  using V = Eigen::Vector3f;
+  const std::array<Face, 6> faces = {{
+      {{1, 0, 0}, {V(1, 0, 0), V(1, 1, 0), V(1, 1, 1), V(1, 0, 1)}},
+      {{-1, 0, 0}, {V(0, 0, 0), V(0, 0, 1), V(0, 1, 1), V(0, 1, 0)}},
+      {{0, 1, 0}, {V(0, 1, 0), V(0, 1, 1), V(1, 1, 1), V(1, 1, 0)}},
+      {{0, -1, 0}, {V(0, 0, 0), V(1, 0, 0), V(1, 0, 1), V(0, 0, 1)}},
+      {{0, 0, 1}, {V(0, 0, 1), V(1, 0, 1), V(1, 1, 1), V(0, 1, 1)}},
+      {{0, 0, -1}, {V(0, 0, 0), V(0, 1, 0), V(1, 1, 0), V(1, 0, 0)}},
+  }};
+  ColoredMesh mesh;
+  // Faces share their corners: one vertex per lattice corner on the surface, colored with the
+  // mean of the voxels whose faces meet there. Bonn: 102 k vertices instead of 414 k (four per
+  // face), mesh 0.61 -> 0.45 s; the .glb stays 5.3 MB (assimp's exporter already joined
+  // identical vertices; the indices are half of it).
+  std::unordered_map<std::int64_t, int> corner_vertex;
+  std::vector<int> corner_faces;
+  auto vertex_at = [&](const Eigen::Vector3i& corner, const Eigen::Vector3f& color) {
+    const auto [it, added] = corner_vertex.emplace(Key(corner.x(), corner.y(), corner.z()),
+                                                   static_cast<int>(mesh.vertices.size()));
+    if (added) {
+      mesh.vertices.push_back(corner.cast<float>() * edge);
+      mesh.colors.push_back(Eigen::Vector3f::Zero());
+      corner_faces.push_back(0);
+    }
+    const auto vertex = static_cast<size_t>(it->second);
+    mesh.colors[vertex] += color;
+    ++corner_faces[vertex];
+    return it->second;
+  };
+  for (const auto& [key, cell] : cells) {
+    if (cell.points < static_cast<std::uint32_t>(options.min_points)) continue;
+    const Eigen::Vector3i& v = index.at(key);
+    const Eigen::Vector3f color = cell.color_sum / (255.0f * static_cast<float>(cell.points));
+    ++mesh.voxels;
+    for (const Face& face : faces) {
+      if (occupied(v.x() + face.normal.x(), v.y() + face.normal.y(), v.z() + face.normal.z())) {
+        continue;
+      }
+      std::array<int, 4> corner{};
+      for (size_t c = 0; c < 4; ++c) corner[c] = vertex_at(v + face.corners[c].cast<int>(), color);
+      mesh.faces.push_back({corner[0], corner[1], corner[2]});
+      mesh.faces.push_back({corner[0], corner[2], corner[3]});
+    }
+  }
+  for (size_t i = 0; i < mesh.colors.size(); ++i) {
+    mesh.colors[i] /= static_cast<float>(corner_faces[i]);
+  }
+  return mesh;
+}
+
+void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format) {
+  // Refused, not exported: with no vertices, assimp's scene copy (SceneCombiner::Copy, which the
+  // exporter always makes) copies only the colour sets it thinks present (HasVertexColors() needs
+  // mNumVertices > 0), so the copy would share this scene's colour array and both scenes would
+  // delete it (ASan: double free in aiScene::~aiScene). An empty mesh is the caller's result to
+  // report.
+  if (mesh.faces.empty() || mesh.vertices.empty() || mesh.colors.size() != mesh.vertices.size()) {
+    throw std::invalid_argument(path + ": cannot write a mesh without faces");
+  }
+  // One mesh under the root node. Every array below is allocated with new[] (objects with new)
+  // because the scene's destructors free them with delete[] (delete): the scene owns them, and
+  // none is empty (see above).
+  aiScene scene;
+  scene.mRootNode = new aiNode();
+  scene.mMaterials = new aiMaterial*[1];
+  scene.mMaterials[0] = new aiMaterial();
+  scene.mNumMaterials = 1;
+  scene.mMeshes = new aiMesh*[1];
+  scene.mNumMeshes = 1;
+  auto* out = new aiMesh();
+  scene.mMeshes[0] = out;
+  out->mMaterialIndex = 0;
+  out->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  out->mNumVertices = static_cast<unsigned>(mesh.vertices.size());
+  out->mVertices = new aiVector3D[out->mNumVertices];
+  out->mColors[0] = new aiColor4D[out->mNumVertices];
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Eigen::Vector3f& p = mesh.vertices[i];
+    const Eigen::Vector3f& c = mesh.colors[i];
+    out->mVertices[i] = aiVector3D(p.x(), p.y(), p.z());
+    out->mColors[0][i] = aiColor4D(c.x(), c.y(), c.z(), 1.0f);
+  }
+  out->mNumFaces = static_cast<unsigned>(mesh.faces.size());
+  out->mFaces = new aiFace[out->mNumFaces];
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    aiFace& face = out->mFaces[f];
+    face.mNumIndices = 3;
+    face.mIndices = new unsigned[3];
+    for (int k = 0; k < 3; ++k) face.mIndices[k] = static_cast<unsigned>(mesh.faces[f][k]);
+  }
+  scene.mRootNode->mMeshes = new unsigned[1]{0};
+  scene.mRootNode->mNumMeshes = 1;
+
+  const char* id = format == "glb" ? "glb2" : format == "obj" ? "obj" : "ply";
+  Assimp::Exporter exporter;
+  if (exporter.Export(&scene, id, path) != AI_SUCCESS) {
+    throw std::runtime_error(path + ": could not write the mesh (" + exporter.GetErrorString() +
+                             ")");
+  }
+}
+
+}  // namespace stillmap

@@ -1,0 +1,30 @@
+// `stillmap build`: a sequence in, every map output out. Library code, so that tests drive it
+// exactly as the command line does. The steps live in pipeline/src, one file each: inputs, the
+// frame reader, the ground-truth and tracked pose loops, the keyframe fuser, the map outputs,
+// the evaluation and the report.
+#pragma once
+
+#include <string>
+
+#include "stillmap/pipeline/build_result.h"
+#include "stillmap/pipeline/config.h"
+
+namespace stillmap {
+
+struct BuildRequest {
+  std::string sequence_dir;
+  std::string output_dir;
+  BuildConfig config;
+  PoseSource poses = PoseSource::kTracking;
+  std::string detector = "none";  // none, yolox, deeplab or both
+  std::string models_dir;         // holds yolox_nano/ and deeplabv3_mnv2_voc/
+  int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
+  bool show_progress = false;  // a progress line on stderr
+};
+
+// Runs the whole build. Throws InputError for bad input or options (before anything is written),
+// std::runtime_error when the run fails (an empty map among others). The outputs are staged aside
+// and swapped in whole only when all exist (io/output_files.h); the output folder is locked.
+BuildResult RunBuild(const BuildRequest& request);
+
+}  // namespace stillmap

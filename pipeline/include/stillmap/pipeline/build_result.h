@@ -1,0 +1,131 @@
+// What a `stillmap build` run did, as one typed value: report.json, report.html and the terminal
+// summary are all written from it (pipeline/report.h).
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/evaluation.h"
+#include "stillmap/mapping/map_cleaning.h"
+#include "stillmap/mapping/map_quality.h"
+#include "stillmap/mapping/mapper.h"
+#include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/tracking/mask_stage.h"
+#include "stillmap/tracking/tracker.h"
+
+namespace stillmap {
+
+// Where the camera poses come from.
+enum class PoseSource {
+  kGroundTruth,  // the sequence's groundtruth.txt, interpolated to each frame's time
+  kTracking,     // the tracker of tracking/ (the default)
+};
+
+struct FrameCounts {
+  size_t color_images = 0;       // lines of rgb.txt
+  size_t depth_images = 0;       // lines of depth.txt
+  size_t pairs_in_sequence = 0;  // color/depth pairs
+  size_t pairs_used = 0;         // pairs in the range used (sequence.first_frame, max_frames)
+  size_t without_pose = 0;       // outside the ground truth (or across a gap in it)
+  size_t tracked = 0;            // frames with a pose in trajectory.txt
+  size_t fused = 0;              // frames back-projected into the map
+};
+
+// Per-frame tracking figures (tracked runs).
+struct TrackingFigures {
+  TrackerStatistics statistics;
+  std::map<std::string, size_t> status_counts;  // TrackStatusName -> frames
+  std::vector<double> lost_times;               // frames without a pose [s]
+  std::vector<double> extract_ms, match_ms, pose_ms, keyframe_ms, total_ms;  // per frame
+  double fuse_ms = 0.0;  // fusing final keyframes into the map, on the main thread
+  bool bundle_adjustment_thread = false;
+};
+
+// Keyframe selection and the map re-check (tracked runs; with known poses every frame is fused).
+struct SelectionFigures {
+  size_t invalid = 0;            // not fused: too much of the frame masked
+  size_t redundant = 0;          // not fused: landmarks already seen by the selected ones
+  size_t recheck_additions = 0;  // keyframes the map re-check added moving pixels to
+};
+
+struct MaskingFigures {
+  bool enabled = false;
+  std::string detector = "none";
+  bool semantics = false;  // a detector ran
+  MaskingStatistics statistics;
+};
+
+struct MapFigures {
+  MapperStatistics statistics;
+  MapCleaningResult cleaning;
+  size_t voxels = 0;               // in the voxel table
+  size_t voxels_written = 0;       // in map.ply
+  size_t voxels_out_of_range = 0;  // points beyond the voxel grid's reach
+  double voxel_table_mib = 0.0;
+  size_t octomap_leaves = 0;
+  size_t octomap_occupied_leaves = 0;
+  size_t octomap_points_out_of_range = 0;
+};
+
+struct MeshFigures {
+  std::string file;  // mesh.glb, mesh.obj or mesh.ply
+  size_t voxels = 0, vertices = 0, triangles = 0;
+};
+
+// Against the sequence's ground truth, when it has some.
+struct EvaluationFigures {
+  std::optional<AteResult> ate;
+  std::optional<RpeResult> rpe;
+  std::string trajectory_note;  // why the trajectory was not evaluated (or is partly)
+  std::string rpe_note;
+  std::optional<MapQuality> map_quality;  // against static_gt.ply
+  std::string map_quality_note;
+  std::string static_groundtruth;  // its path
+  double map_evaluation_s = 0.0;
+  std::optional<GridQuality> grid_quality;
+  bool moving_objects_known = false;  // objects.txt gave the moving objects' paths
+};
+
+// Wall-clock times of the stages [ms] (not repeatable from run to run).
+struct StageTimings {
+  double processing_ms = 0.0;   // reading, masking, tracking and fusing every frame
+  double load_wait_ms = 0.0;    // waiting for decoded frames
+  std::vector<double> flow_ms;  // flow-check image work per frame, ahead with the decoding
+  double map_cleaning_ms = 0.0, grid_ms = 0.0, mesh_ms = 0.0, write_ms = 0.0;
+  std::optional<double> renders_ms;
+};
+
+struct BuildResult {
+  std::string sequence_dir;
+  PoseSource poses = PoseSource::kTracking;
+  Camera camera;
+  int threads = 1;
+  FrameCounts frames;
+  std::optional<TrackingFigures> tracking;  // tracked runs
+  SelectionFigures selection;
+  MaskingFigures masking;
+  MapFigures map;
+  std::optional<MeshFigures> mesh;    // when mesh.enabled
+  std::optional<OccupancyGrid> grid;  // when written (grid.enabled and the OctoMap on)
+  EvaluationFigures evaluation;
+  std::optional<std::vector<std::string>> renders;  // files under renders/, when render.enabled
+  StageTimings timings;
+  // What the user should know about the result (parts of the map that may be misaligned, points
+  // the maps could not hold, earlier outputs restored).
+  std::vector<std::string> warnings;
+  double wall_time_s = 0.0;        // up to the written outputs (evaluation and renders aside)
+  double frames_per_second = 0.0;  // frames.pairs_used / wall_time_s
+  double peak_memory_mib = 0.0;
+
+  bool tracked() const { return poses == PoseSource::kTracking; }
+  // ATE RMSE [m] of the tracked trajectory, when it was evaluated.
+  std::optional<double> AteRmse() const {
+    if (!evaluation.ate) return std::nullopt;
+    return evaluation.ate->translation.rmse;
+  }
+};
+
+}  // namespace stillmap

@@ -1,0 +1,74 @@
+// The configuration of a `stillmap build` run: every option of every component under one dotted
+// key ("mapping.voxel_leaf"), read from a YAML file and `--set key=value`, written back as the
+// effective configuration next to the outputs.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "stillmap/io/evaluation.h"
+#include "stillmap/io/sequence.h"
+#include "stillmap/mapping/keyframe_selection.h"
+#include "stillmap/mapping/map_mesh.h"
+#include "stillmap/mapping/mapper.h"
+#include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/tracking/detector.h"
+#include "stillmap/tracking/dynamic_mask.h"
+#include "stillmap/tracking/tracker.h"
+
+namespace stillmap {
+
+struct BuildConfig {
+  CameraOverrides camera;
+  SequenceOptions sequence;
+  size_t first_frame = 0;  // index of the first color/depth pair to use
+  size_t max_frames = 0;   // pairs to use from first_frame; 0 = all
+  MapperOptions mapping;
+  TrackerOptions tracking;
+  bool masking_enabled = true;  // false: no dynamic rejection at all (the ablation baseline)
+  DynamicMaskOptions masking;
+  // Before a keyframe is fused, the depth check is run again against keyframes on both sides of
+  // it in time, with final poses (catches people the online check could not see yet, e.g. in the
+  // first keyframe).
+  bool map_recheck = true;
+  KeyframeSelectionOptions selection;
+  GridOptions grid;
+  MapMeshOptions mesh;
+  struct {
+    bool enabled = true;  // renders/ at the end of the build
+  } render;
+  YoloxOptions yolox;
+  std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
+  AteOptions ate;
+  RpeOptions rpe;
+
+  // Throws InputError naming the key of the first impossible value.
+  void Validate() const;
+};
+
+// One configurable key, for help texts.
+struct ConfigKeyInfo {
+  std::string name;
+  std::string help;
+};
+std::vector<ConfigKeyInfo> ListConfigKeys();
+
+// The motion-level table with config.detector_levels applied (InputError for a bad entry).
+MotionLevelTable MotionLevels(const BuildConfig& config);
+
+// Sets one key from its text value; throws InputError naming `where` (the file and line, or
+// "--set") for an unknown key (listing the known ones) or a value of the wrong type.
+void SetConfigValue(BuildConfig* config, const std::string& key, const std::string& value,
+                    const std::string& where);
+
+// Applies "key=value" as given to --set.
+void ApplySetArgument(BuildConfig* config, const std::string& argument);
+
+// Applies a YAML file of nested sections ("mapping:\n  voxel_leaf: 0.02") or dotted keys.
+void ApplyConfigFile(BuildConfig* config, const std::string& path);
+
+// The effective configuration as YAML, every key with its value; reading it back with
+// ApplyConfigFile reproduces `config`.
+std::string ConfigToYaml(const BuildConfig& config);
+
+}  // namespace stillmap

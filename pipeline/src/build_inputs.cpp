@@ -1,0 +1,97 @@
+#include "build_inputs.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+namespace {
+
+// Refuses ground-truth poses the maps cannot hold (a motion-capture world far from its origin):
+// OctoMap's keys reach +-1.6 km at 5 cm, and beyond them every insertion would be dropped.
+void CheckWithinMapExtent(const std::vector<StampedPose>& poses, const BuildConfig& config) {
+  double farthest = 0.0;
+  for (const StampedPose& pose : poses) {
+    farthest = std::max(farthest, pose.world_from_camera.translation().cwiseAbs().maxCoeff());
+  }
+  const double reach = farthest + config.mapping.back_projection.max_depth;
+  const double extent = config.mapping.Extent();
+  if (reach >= extent) {
+    throw InputError(fmt::format(
+        "groundtruth.txt: the camera lies up to {:.0f} m from the ground truth's origin along an "
+        "axis, but the maps reach {:.0f} m (octomap.resolution {} m, mapping.voxel_leaf {} m); "
+        "shift the ground truth nearer its origin or coarsen the maps",
+        farthest, extent, config.mapping.occupancy.resolution, config.mapping.voxel.leaf_size));
+  }
+}
+
+// The frames of [begin, end) to process; with ground-truth poses only those the ground truth
+// covers, with their poses.
+void PickFrames(const BuildRequest& request, size_t begin, size_t end, BuildInputs* inputs) {
+  const bool tracking = request.poses == PoseSource::kTracking;
+  for (size_t i = begin; i < end; ++i) {
+    if (tracking) {
+      inputs->frame_indices.push_back(i);
+      continue;
+    }
+    const double time = inputs->sequence.frames()[i].time;
+    const std::optional<Eigen::Isometry3d> world_from_camera =
+        inputs->sequence.groundtruth()->Interpolate(time,
+                                                    request.config.sequence.max_groundtruth_gap);
+    if (!world_from_camera) continue;
+    inputs->frame_indices.push_back(i);
+    inputs->groundtruth_poses.push_back({time, *world_from_camera});
+  }
+}
+
+}  // namespace
+
+BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result) {
+  const BuildConfig& config = request.config;
+  std::error_code folder_error;
+  if (!std::filesystem::is_directory(request.sequence_dir, folder_error)) {
+    throw InputError(request.sequence_dir +
+                     ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
+                     "depth.txt)");
+  }
+  const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
+  BuildInputs inputs{camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};
+  const bool tracking = request.poses == PoseSource::kTracking;
+  if (!tracking && !inputs.sequence.groundtruth()) {
+    throw InputError(request.sequence_dir +
+                     ": no groundtruth.txt; --poses groundtruth needs the sequence's ground truth");
+  }
+  const size_t total_pairs = inputs.sequence.frames().size();
+  if (config.first_frame >= total_pairs) {
+    throw InputError("sequence.first_frame=" + std::to_string(config.first_frame) +
+                     " but the sequence has " + std::to_string(total_pairs) + " color/depth pairs");
+  }
+  const size_t end = config.max_frames == 0
+                         ? total_pairs
+                         : std::min(total_pairs, config.first_frame + config.max_frames);
+  PickFrames(request, config.first_frame, end, &inputs);
+  FrameCounts& frames = result->frames;
+  frames.color_images = inputs.sequence.color_count();
+  frames.depth_images = inputs.sequence.depth_count();
+  frames.pairs_in_sequence = total_pairs;
+  frames.pairs_used = end - config.first_frame;
+  frames.without_pose = frames.pairs_used - inputs.frame_indices.size();
+  if (inputs.frame_indices.empty()) {
+    throw InputError(request.sequence_dir +
+                     ": no frame lies within the ground truth's time range (compare the timestamps "
+                     "of rgb.txt and groundtruth.txt)");
+  }
+  if (!tracking) CheckWithinMapExtent(inputs.groundtruth_poses, config);
+  if (frames.without_pose > 0) {
+    spdlog::warn(
+        "{} of {} frames lie outside the ground truth (or across a gap wider than {} s) "
+        "and are left out",
+        frames.without_pose, frames.pairs_used, config.sequence.max_groundtruth_gap);
+  }
+  return inputs;
+}
+
+}  // namespace stillmap

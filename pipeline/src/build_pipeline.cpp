@@ -1,0 +1,136 @@
+#include "stillmap/pipeline/build_pipeline.h"
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <fstream>
+#include <opencv2/core.hpp>
+#include <thread>
+
+#include "build_evaluation.h"
+#include "build_inputs.h"
+#include "frame_reader.h"
+#include "map_outputs.h"
+#include "pose_loops.h"
+#include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
+#include "stillmap/pipeline/progress.h"
+#include "stillmap/pipeline/report.h"
+#include "stillmap/pipeline/report_html.h"
+
+namespace stillmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+double PeakMemoryMib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+// Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
+// that no file of an earlier run stays beside the new set (a grid when the OctoMap is now off).
+const std::vector<std::string>& BuildOutputNames() {
+  static const std::vector<std::string> kNames = {
+      "map.ply",  "map.pcd",     "map.bt",      "map.ot",     "trajectory.txt", "keyframes.txt",
+      "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",   "mesh.mtl",       "mesh.ply",
+      "renders/", "config.yaml", "report.json", "report.html"};
+  return kNames;
+}
+
+void CheckRequest(const BuildRequest& request) {
+  request.config.Validate();
+  if (request.threads < 1) throw InputError("--threads must be at least 1");
+  // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads, at
+  // most one per core: TBB, OpenCV's backend, warns on stderr about more, even under --quiet.
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  cv::setNumThreads(std::min(request.threads, cores));
+}
+
+// The mask stage with its detector (loaded here, so that its errors come before any output).
+std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Camera& camera,
+                                         BuildResult* result) {
+  const BuildConfig& config = request.config;
+  std::unique_ptr<Detector> detector;
+  if (config.masking_enabled) {
+    detector =
+        MakeDetector(request.detector, request.models_dir, MotionLevels(config), config.yolox);
+  }
+  auto masks = std::make_unique<MaskStage>(camera, config.masking, config.masking_enabled,
+                                           std::move(detector), request.sequence_dir);
+  result->masking.enabled = masks->enabled();
+  result->masking.detector = masks->detector_name();
+  result->masking.semantics = masks->semantics();
+  return masks;
+}
+
+PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, MaskStage& masks,
+                        Mapper& mapper, BuildResult* result) {
+  const BuildConfig& config = request.config;
+  ProgressLine progress("stillmap build", inputs.frame_indices.size(), request.show_progress);
+  std::optional<FlowTracker> flow;
+  if (config.masking_enabled && config.masking.TracksFlow()) {
+    flow.emplace(config.masking.flow_points, config.masking.flow);
+  }
+  FrameReader reader(inputs.sequence, inputs.frame_indices, request.threads > 1, std::move(flow));
+  const LoopStages stages{reader, masks, mapper, progress};
+  PosedFrames posed = result->tracked() ? RunTrackedLoop(inputs, request, stages, result)
+                                        : RunGroundTruthLoop(inputs, stages);
+  progress.Finish();
+  result->timings.load_wait_ms = reader.wait_ms();
+  result->timings.flow_ms = reader.flow_ms();
+  result->masking.statistics = masks.statistics();
+  return posed;
+}
+
+void WriteText(const std::string& path, const std::string& text, const char* name) {
+  std::ofstream out(path);
+  out << text;
+  if (!out.flush()) throw std::runtime_error(std::string("could not write ") + name);
+}
+
+}  // namespace
+
+BuildResult RunBuild(const BuildRequest& request) {
+  const Clock::time_point start = Clock::now();
+  CheckRequest(request);
+  BuildResult result;
+  result.sequence_dir = request.sequence_dir;
+  result.poses = request.poses;
+  result.threads = request.threads;
+  const BuildInputs inputs = OpenInputs(request, &result);  // checked before anything is written
+  result.camera = inputs.camera;
+  const std::unique_ptr<MaskStage> masks = MakeMaskStage(request, inputs.camera, &result);
+
+  // Locks the output folder and stages the outputs aside until all are written.
+  OutputSet outputs(request.output_dir, BuildOutputNames());
+  if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
+
+  MapperOptions mapper_options = request.config.mapping;
+  mapper_options.in_background = request.threads > 1;
+  Mapper mapper(inputs.camera, mapper_options);
+  const PosedFrames posed = RunPoseLoop(inputs, request, *masks, mapper, &result);
+  FinishedMap map = mapper.Finish();
+  result.timings.processing_ms = SecondsSince(start) * 1000.0;
+
+  std::vector<VoxelPoint> cloud =
+      WriteMapOutputs(std::move(map), posed, request, inputs.camera, outputs, &result);
+  result.wall_time_s = SecondsSince(start);
+  result.frames_per_second = static_cast<double>(result.frames.pairs_used) / result.wall_time_s;
+  result.peak_memory_mib = PeakMemoryMib();
+
+  EvaluateBuild(inputs, request, posed, cloud, &result);  // not counted in the speed above
+  WriteRenders(std::move(cloud), posed, request, outputs, &result);
+  const nlohmann::json report = ReportJson(result, request.config);
+  WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n", "report.json");
+  WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report), "report.html");
+  outputs.Commit();
+  return result;
+}
+
+}  // namespace stillmap

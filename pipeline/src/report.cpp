@@ -1,0 +1,377 @@
+#include "stillmap/pipeline/report.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+
+namespace stillmap {
+namespace {
+
+using nlohmann::json;
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t middle = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + static_cast<long>(middle), values.end());
+  return values[middle];
+}
+
+json TimingJson(const std::vector<double>& values) {
+  double total = 0.0;
+  for (double value : values) total += value;
+  return {{"median", Median(values)},
+          {"mean", values.empty() ? 0.0 : total / static_cast<double>(values.size())},
+          {"total", total}};
+}
+
+json StatisticsJson(const ErrorStatistics& statistics) {
+  return {{"count", statistics.count},   {"rmse", statistics.rmse},       {"mean", statistics.mean},
+          {"median", statistics.median}, {"std_dev", statistics.std_dev}, {"min", statistics.min},
+          {"max", statistics.max}};
+}
+
+json CameraJson(const Camera& camera) {
+  return {{"width", camera.width},
+          {"height", camera.height},
+          {"fx", camera.fx},
+          {"fy", camera.fy},
+          {"cx", camera.cx},
+          {"cy", camera.cy},
+          {"distortion", camera.distortion},
+          {"depth_factor", camera.depth_factor},
+          {"groundtruth_body_from_camera", camera.groundtruth_body_from_camera.has_value()}};
+}
+
+json FramesJson(const FrameCounts& frames) {
+  return {{"color_images", frames.color_images},
+          {"depth_images", frames.depth_images},
+          {"pairs_in_sequence", frames.pairs_in_sequence},
+          {"pairs_used", frames.pairs_used},
+          {"without_pose", frames.without_pose},
+          {"tracked", frames.tracked},
+          {"fused", frames.fused}};
+}
+
+json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
+  return {{"fused", result.frames.fused},
+          {"rejected_invalid", result.selection.invalid},
+          {"rejected_redundant", result.selection.redundant},
+          {"map_recheck_added_pixels", result.selection.recheck_additions},
+          {"selection", result.tracked() ? config.selection.Describe()
+                                         : "none: with known poses every frame is fused"}};
+}
+
+json MaskingJson(const MaskingFigures& masking, const DynamicMaskOptions& options) {
+  json out = {{"enabled", masking.enabled}};
+  if (!masking.enabled) return out;
+  const MaskingStatistics& s = masking.statistics;
+  out["detector"] = masking.detector;
+  out["semantics"] = masking.semantics;
+  out["depth_check"] = options.depth_check;
+  out["flow_check"] = options.flow_check;
+  out["outline"] = OutlineModeName(options.outline);
+  out["detector_interval"] = options.detector_interval;
+  out["frames"] = s.frames;
+  out["frames_with_moving_pixels"] = s.frames_with_mask;
+  out["mean_masked_share"] = s.MeanShare();
+  out["detections_by_level"] = s.detections_by_level;
+  out["high_level_regions"] = s.high_regions;
+  out["high_level_confirmed_by_geometry"] = s.high_confirmed;
+  out["medium_level_moving"] = s.medium_moving;
+  out["medium_level_static"] = s.medium_static;
+  out["geometric_regions_outside_detections"] = s.geometric_only;
+  out["depth_check_seed_pixels"] = s.depth_seeds;
+  out["flow_check_seed_points"] = s.flow_seeds;
+  return out;
+}
+
+json MaskQualityJson(const MaskScore& score) {
+  return {{"truth", "masks.txt"},
+          {"frames", score.frames},
+          {"precision", score.Precision()},
+          {"recall", score.Recall()},
+          {"iou", score.Iou()},
+          {"mean_frame_iou", score.MeanFrameIou()}};
+}
+
+json MapJson(const MapFigures& map, const BuildConfig& config) {
+  const MapperOptions& mapping = config.mapping;
+  return {{"voxel_leaf_m", mapping.voxel.leaf_size},
+          {"points_fused", map.statistics.points},
+          {"voxels", map.voxels},
+          {"voxels_written", map.voxels_written},
+          {"voxels_removed_seen_through", map.cleaning.seen_through},
+          {"voxels_removed_seen_through_views", map.cleaning.seen_through_views},
+          {"voxels_removed_outliers", map.cleaning.outliers},
+          {"clear_seen_through_views", mapping.cleaning.clear_seen_through_views},
+          {"clear_seen_through", mapping.cleaning.clear_seen_through && mapping.occupancy_enabled},
+          {"outlier_removal", mapping.cleaning.outlier_removal},
+          {"min_points_per_voxel", mapping.voxel.min_points_per_voxel},
+          {"voxels_out_of_range", map.voxels_out_of_range},
+          {"voxel_table_mib", map.voxel_table_mib},
+          {"octomap_enabled", mapping.occupancy_enabled},
+          {"octomap_resolution_m", mapping.occupancy.resolution},
+          {"octomap_leaves", map.octomap_leaves},
+          {"octomap_points_out_of_range", map.octomap_points_out_of_range},
+          {"octomap_occupied_leaves", map.octomap_occupied_leaves}};
+}
+
+json MeshJson(const std::optional<MeshFigures>& mesh, const MapMeshOptions& options) {
+  if (!mesh) return nullptr;
+  return {{"file", mesh->file},
+          {"voxel_m", options.voxel},
+          {"voxels", mesh->voxels},
+          {"vertices", mesh->vertices},
+          {"triangles", mesh->triangles},
+          {"method",
+           "exposed faces of the occupied voxels, shared corners colored by the voxels meeting "
+           "there"}};
+}
+
+json GridJson(const OccupancyGrid& grid) {
+  const Eigen::Matrix4d m = grid.world_from_grid.matrix();
+  std::vector<double> world_from_map;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) world_from_map.push_back(m(r, c));
+  }
+  const FloorPlane& floor = grid.floor;
+  return {{"files", {"grid.pgm", "grid.yaml"}},
+          {"width", grid.width},
+          {"height", grid.height},
+          {"resolution_m", grid.resolution},
+          {"origin_m", {grid.origin.x(), grid.origin.y()}},
+          {"band_m", {grid.min_height, grid.max_height}},
+          {"cells",
+           {{"free", grid.Count(kGridFree)},
+            {"occupied", grid.Count(kGridOccupied)},
+            {"unknown", grid.Count(kGridUnknown)},
+            {"occupied_unconfirmed_made_unknown", grid.unconfirmed_cells}}},
+          {"frame",
+           "x, y in the floor plane, z up from the floor, origin on the floor below the world "
+           "origin"},
+          {"world_from_map", world_from_map},
+          {"floor",
+           {{"source", floor.source},
+            {"up", {floor.up.x(), floor.up.y(), floor.up.z()}},
+            {"offset_m", floor.offset},
+            {"world_origin_height_m", floor.offset},
+            {"tilt_to_cameras_up_deg", floor.tilt_to_cameras_deg},
+            {"plane_voxels", floor.inliers}}}};
+}
+
+json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {
+  if (!options.depth_self_calibration) return {{"enabled", false}};
+  const auto& p = t.depth_correction.coefficients;
+  const DepthCorrectionFit& last = t.last_depth_calibration;
+  return {{"enabled", true},
+          {"model", "z_true = z (1 + p1 x + p2 y + p3 x^2 + p4 y^2 + p5 x y), x, y normalized"},
+          {"coefficients", {p[0], p[1], p[2], p[3], p[4]}},
+          {"fits_accepted", t.depth_calibrations},
+          {"fits_refused", t.depth_calibrations_refused},
+          {"time_ms_total", t.depth_calibration_ms},
+          {"last_fit",
+           {{"accepted", last.ok},
+            {"pairs", last.pairs},
+            {"pairs_used", last.pairs_used},
+            {"spread_before_m", last.spread_before_m},
+            {"spread_after_m", last.spread_after_m}}}};
+}
+
+json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options) {
+  const TrackerStatistics& t = tracking.statistics;
+  const double median_track_ms = Median(tracking.total_ms);
+  return {{"frames", t.frames},
+          {"tracked", t.tracked},
+          {"lost", t.lost},
+          {"relocalized", t.relocalized},
+          {"new_maps", t.new_maps},
+          {"status_counts", tracking.status_counts},
+          {"lost_frame_times", tracking.lost_times},
+          {"keyframes", t.keyframes},
+          {"landmarks_alive", t.landmarks},
+          {"landmarks_created", t.landmarks_created},
+          {"landmarks_culled", t.landmarks_culled},
+          {"bundle_adjustments", t.bundle_adjustments},
+          {"bundle_adjustment_observations_rejected", t.observations_rejected},
+          {"tracking_frames_per_second_median", median_track_ms > 0 ? 1000.0 / median_track_ms : 0},
+          {"depth_self_calibration", DepthCalibrationJson(t, options)},
+          {"bundle_adjustment_thread", tracking.bundle_adjustment_thread}};
+}
+
+json TrackingTimingJson(const TrackingFigures& tracking) {
+  const TrackerStatistics& t = tracking.statistics;
+  return {{"extract", TimingJson(tracking.extract_ms)},
+          {"match", TimingJson(tracking.match_ms)},
+          {"pose", TimingJson(tracking.pose_ms)},
+          {"keyframe", TimingJson(tracking.keyframe_ms)},
+          {"track_total", TimingJson(tracking.total_ms)},
+          {"local_bundle_adjustment",
+           {{"runs", t.bundle_adjustments},
+            {"mean", t.bundle_adjustments > 0
+                         ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
+                         : 0.0},
+            {"total", t.bundle_adjustment_ms}}},
+          {"fuse_keyframes_total", tracking.fuse_ms}};
+}
+
+json TimingsJson(const BuildResult& result) {
+  const StageTimings& t = result.timings;
+  const MapperStatistics& stats = result.map.statistics;
+  const double n = static_cast<double>(std::max<size_t>(stats.frames, 1));
+  const double frames = static_cast<double>(result.frames.pairs_used - result.frames.without_pose);
+  json timing = {
+      {"load_wait_total", t.load_wait_ms},
+      {"grid", t.grid_ms},
+      {"mesh", t.mesh_ms},
+      {"map_cleaning", t.map_cleaning_ms},
+      {"back_projection_total", stats.back_projection_ms},
+      {"voxel_total", stats.voxel_ms},
+      {"octomap_total", stats.occupancy_ms},
+      {"octomap_wait_total", stats.occupancy_wait_ms},
+      {"fusion_wait_total", stats.wait_ms},
+      {"write_outputs", t.write_ms},
+      {"per_fused_frame",
+       {{"back_projection", stats.back_projection_ms / n},
+        {"voxel", stats.voxel_ms / n},
+        {"octomap", stats.occupancy_ms / n},
+        {"octomap_wait", stats.occupancy_wait_ms / n}}},
+      {"per_frame", {{"load_wait", t.load_wait_ms / frames}, {"total", t.processing_ms / frames}}}};
+  if (result.tracking) timing["tracking_ms"] = TrackingTimingJson(*result.tracking);
+  if (result.masking.enabled) {
+    // The flow check's image work runs ahead with the decoding (on the reading thread when
+    // threads > 1), so it is not part of "mask".
+    timing["masking_ms"] = {{"detector", TimingJson(result.masking.statistics.detector_ms)},
+                            {"mask", TimingJson(result.masking.statistics.mask_ms)},
+                            {"flow_ahead", TimingJson(t.flow_ms)}};
+  }
+  if (t.renders_ms) timing["renders"] = *t.renders_ms;
+  return timing;
+}
+
+void AddTrajectoryError(const EvaluationFigures& evaluation, const BuildConfig& config,
+                        json* report) {
+  (*report)["trajectory_error"] = nullptr;
+  if (!evaluation.ate) {
+    (*report)["trajectory_error_note"] = evaluation.trajectory_note;
+    return;
+  }
+  json error = {{"ate_m", StatisticsJson(evaluation.ate->translation)},
+                {"ate_max_time_difference_s", config.ate.max_time_difference}};
+  if (evaluation.rpe) {
+    error["rpe_delta_s"] = config.rpe.delta;
+    error["rpe_translation_m"] = StatisticsJson(evaluation.rpe->translation);
+    error["rpe_rotation_deg"] = StatisticsJson(evaluation.rpe->rotation);
+  } else {
+    error["rpe_note"] = evaluation.rpe_note;
+  }
+  (*report)["trajectory_error"] = error;
+}
+
+void AddMapQuality(const BuildResult& result, json* report) {
+  const EvaluationFigures& evaluation = result.evaluation;
+  if (evaluation.static_groundtruth.empty()) return;
+  if (!evaluation.map_quality) {
+    (*report)["map_quality"] = nullptr;
+    (*report)["map_quality_note"] = evaluation.map_quality_note;
+    return;
+  }
+  const MapQuality& quality = *evaluation.map_quality;
+  (*report)["map_quality"] = {
+      {"groundtruth", evaluation.static_groundtruth},
+      {"aligned_by", result.tracked() ? "the ground-truth pose of the first tracked frame"
+                                      : "nothing: the poses are the ground truth"},
+      {"map_points", quality.map_points},
+      {"groundtruth_points", quality.groundtruth_points},
+      {"accuracy_mean_m", quality.accuracy_mean},
+      {"accuracy_median_m", quality.accuracy_median},
+      {"completeness", quality.completeness},
+      {"ghost_share", quality.ghost_share},
+      {"evaluation_s", evaluation.map_evaluation_s}};
+  if (!evaluation.grid_quality) return;
+  const GridQuality& grid = *evaluation.grid_quality;
+  (*report)["grid_quality"] = {
+      {"observed_cells", grid.observed_cells},
+      {"agreement", grid.agreement},
+      {"occupied_cells", grid.occupied_cells},
+      {"occupied_without_static_truth", grid.false_occupied},
+      {"of_those_on_moving_objects_paths",
+       evaluation.moving_objects_known ? json(grid.false_occupied_on_paths) : json(nullptr)},
+      {"path_margin_m", grid.path_margin_m},
+      {"free_where_truth_occupied", grid.missed_occupied}};
+}
+
+}  // namespace
+
+json ReportJson(const BuildResult& result, const BuildConfig& config) {
+  json report;
+  report["stillmap_version"] = STILLMAP_VERSION;
+  report["sequence"] = result.sequence_dir;
+  report["poses"] = result.tracked() ? "tracking" : "groundtruth";
+  report["world_frame"] =
+      result.tracked() ? "the first tracked camera frame" : "the ground truth's world frame";
+  report["camera"] = CameraJson(result.camera);
+  report["frames"] = FramesJson(result.frames);
+  report["keyframes"] = KeyframesJson(result, config);
+  report["dynamic_share"] = result.masking.statistics.MeanShare();
+  report["masking"] = MaskingJson(result.masking, config.masking);
+  if (result.masking.statistics.score) {
+    report["mask_quality"] = MaskQualityJson(*result.masking.statistics.score);
+  }
+  report["map"] = MapJson(result.map, config);
+  report["mesh"] = MeshJson(result.mesh, config.mesh);
+  if (result.grid) {
+    report["grid"] = GridJson(*result.grid);
+  } else {
+    report["grid"] = nullptr;
+    report["grid_note"] = config.grid.enabled ? "not written: the OctoMap is off (octomap.enabled)"
+                                              : "not written: grid.enabled=false";
+  }
+  if (result.tracking) report["tracking"] = TrackingJson(*result.tracking, config.tracking);
+  report["timing_ms"] = TimingsJson(result);
+  report["warnings"] = result.warnings;
+  report["wall_time_s"] = result.wall_time_s;
+  report["frames_per_second"] = result.frames_per_second;
+  report["peak_memory_mib"] = result.peak_memory_mib;
+  report["threads"] = result.threads;
+  if (!result.tracked()) {
+    report["trajectory_error"] = nullptr;
+    report["trajectory_error_note"] = result.evaluation.trajectory_note;
+  } else {
+    AddTrajectoryError(result.evaluation, config, &report);
+  }
+  AddMapQuality(result, &report);
+  report["renders"] = result.renders ? json(*result.renders) : json(nullptr);
+  return report;
+}
+
+std::vector<std::string> SummaryLines(const BuildResult& result, const std::string& output_dir) {
+  std::vector<std::string> lines;
+  lines.push_back(fmt::format(
+      "{} of {} frames tracked, {} fused, {} map points, {:.1f} frames/s, peak memory {:.0f} MiB; "
+      "outputs in {}",
+      result.frames.tracked, result.frames.pairs_used, result.frames.fused,
+      result.map.voxels_written, result.frames_per_second, result.peak_memory_mib, output_dir));
+  if (result.AteRmse()) {
+    lines.push_back(
+        fmt::format("trajectory vs ground truth: ATE RMSE {:.1f} mm (report.json has RPE)",
+                    *result.AteRmse() * 1e3));
+  }
+  lines.push_back(
+      fmt::format("keyframes: {} fused, {} invalid, {} redundant; mean masked share {:.1f} %",
+                  result.frames.fused, result.selection.invalid, result.selection.redundant,
+                  100.0 * result.masking.statistics.MeanShare()));
+  if (const std::optional<MaskScore>& score = result.masking.statistics.score) {
+    lines.push_back(fmt::format("masks vs masks/: precision {:.3f}, recall {:.3f}, IoU {:.3f}",
+                                score->Precision(), score->Recall(), score->Iou()));
+  }
+  if (const std::optional<MapQuality>& quality = result.evaluation.map_quality) {
+    lines.push_back(fmt::format(
+        "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; completeness {:.1f} %; "
+        "ghost share {:.2f} %",
+        quality->accuracy_median * 1e3, quality->accuracy_mean * 1e3, 100.0 * quality->completeness,
+        100.0 * quality->ghost_share));
+  }
+  return lines;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,63 @@
+#include "keyframe_fuser.h"
+#include "pose_loops.h"
+
+namespace stillmap {
+namespace {
+
+void Record(const TrackResult& result, double time, TrackingFigures* figures) {
+  figures->extract_ms.push_back(result.timings.extract_ms);
+  figures->match_ms.push_back(result.timings.match_ms);
+  figures->pose_ms.push_back(result.timings.pose_ms);
+  figures->keyframe_ms.push_back(result.timings.keyframe_ms);
+  figures->total_ms.push_back(result.timings.total_ms);
+  ++figures->status_counts[TrackStatusName(result.status)];
+  if (!result.tracked()) figures->lost_times.push_back(time);
+}
+
+}  // namespace
+
+PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& request,
+                           LoopStages stages, BuildResult* result) {
+  const BuildConfig& config = request.config;
+  TrackerOptions tracker_options = config.tracking;
+  if (request.threads == 1) tracker_options.background_bundle_adjustment = false;
+  Tracker tracker(inputs.camera, tracker_options);
+  KeyframeFuser fuser(inputs.camera, config, stages.masks, &stages.mapper);
+  auto fuse_final = [&tracker, &fuser] {
+    const std::vector<FinalKeyframe> finals = tracker.TakeFinalKeyframes();
+    if (!finals.empty()) fuser.Fuse(finals, tracker.statistics().depth_correction);
+  };
+  TrackingFigures figures;
+  for (size_t k = 0; k < stages.reader.size(); ++k) {
+    PreparedFrame prepared = stages.reader.Get(k);
+    Frame& frame = prepared.frame;
+    const cv::Mat mask = stages.masks.Compute(
+        frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, tracker.PredictedPose());
+    const TrackResult tracked =
+        tracker.Track(frame.index, frame.time, prepared.gray, frame.depth_m, mask);
+    Record(tracked, frame.time, &figures);
+    if (tracked.keyframe_id >= 0) {
+      stages.masks.AddReference(frame, mask, tracked.world_from_camera);
+      fuser.Hold(tracked.keyframe_id, std::move(frame), mask, tracked.world_from_camera);
+    }
+    fuse_final();
+    stages.progress.Update(k + 1);
+  }
+  tracker.Finish();
+  fuse_final();
+  PosedFrames posed{tracker.TrackedTrajectory(), fuser.fused_poses()};
+  if (posed.trajectory.empty()) {
+    throw std::runtime_error(
+        "no frame could be tracked (too few ORB features with depth: is the depth scale right? "
+        "see camera.depth_factor)");
+  }
+  figures.statistics = tracker.statistics();
+  figures.fuse_ms = fuser.fuse_ms();
+  figures.bundle_adjustment_thread =
+      config.tracking.background_bundle_adjustment && request.threads > 1;
+  result->tracking = std::move(figures);
+  result->selection = fuser.figures();
+  return posed;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,101 @@
+#include "stillmap/pipeline/config.h"
+
+#include <gtest/gtest.h>
+
+#include "stillmap/io/error.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+std::string ErrorOf(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ConfigTest, DefaultsAreTheDesignDefaults) {
+  const BuildConfig config;
+  EXPECT_DOUBLE_EQ(config.mapping.voxel.leaf_size, 0.01);
+  EXPECT_DOUBLE_EQ(config.mapping.occupancy.resolution, 0.05);
+  EXPECT_DOUBLE_EQ(config.mapping.back_projection.min_depth, 0.1);
+  EXPECT_DOUBLE_EQ(config.mapping.back_projection.max_depth, 4.0);
+  EXPECT_DOUBLE_EQ(config.sequence.max_pair_time_difference, 0.02);
+  EXPECT_NO_THROW(config.Validate());
+}
+
+TEST(ConfigTest, SetArgumentsReachTheirFields) {
+  BuildConfig config;
+  ApplySetArgument(&config, "mapping.voxel_leaf=0.02");
+  ApplySetArgument(&config, "octomap.enabled=false");
+  ApplySetArgument(&config, "camera.preset=tum1");
+  ApplySetArgument(&config, "camera.distortion=[0.1,0,0,0,0]");
+  ApplySetArgument(&config, "sequence.max_frames=30");
+  EXPECT_DOUBLE_EQ(config.mapping.voxel.leaf_size, 0.02);
+  EXPECT_FALSE(config.mapping.occupancy_enabled);
+  EXPECT_EQ(config.camera.preset, "tum1");
+  EXPECT_DOUBLE_EQ((*config.camera.distortion)[0], 0.1);
+  EXPECT_EQ(config.max_frames, 30u);
+}
+
+TEST(ConfigTest, UnknownKeysAndBadValuesAreNamed) {
+  BuildConfig config;
+  const std::string unknown = ErrorOf([&] { ApplySetArgument(&config, "mapping.voxel_size=1"); });
+  EXPECT_NE(unknown.find("unknown configuration key 'mapping.voxel_size'"), std::string::npos);
+  EXPECT_NE(unknown.find("mapping.voxel_leaf"), std::string::npos);  // lists the known keys
+  EXPECT_NE(ErrorOf([&] {
+              ApplySetArgument(&config, "mapping.voxel_leaf=big");
+            }).find("expected a finite number"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ApplySetArgument(&config, "novalue"); }).find("key=value"),
+            std::string::npos);
+  EXPECT_NE(
+      ErrorOf([&] { ApplySetArgument(&config, "camera.preset=kinect9"); }).find("unknown preset"),
+      std::string::npos);
+  ApplySetArgument(&config, "mapping.max_depth=0.05");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("mapping.max_depth"), std::string::npos);
+}
+
+TEST(ConfigTest, FileErrorsNameTheLine) {
+  testing::TempDir dir;
+  testing::WriteText(dir / "c.yaml", "mapping:\n  voxel_leaf: 0.02\n  voxel_size: 3\n");
+  BuildConfig config;
+  const std::string error = ErrorOf([&] { ApplyConfigFile(&config, dir / "c.yaml"); });
+  EXPECT_NE(error.find("c.yaml:3"), std::string::npos) << error;
+}
+
+TEST(ConfigTest, EffectiveConfigurationReadsBackToTheSameConfiguration) {
+  testing::TempDir dir;
+  BuildConfig config;
+  ApplySetArgument(&config, "mapping.voxel_leaf=0.025");
+  ApplySetArgument(&config, "camera.fx=500");
+  ApplySetArgument(&config, "camera.distortion=0.1,0.2,0,0,0.3");
+  ApplySetArgument(&config, "octomap.max_range=3.5");
+  const std::string yaml = ConfigToYaml(config);
+  testing::WriteText(dir / "config.yaml", yaml);
+  BuildConfig read_back;
+  ApplyConfigFile(&read_back, dir / "config.yaml");
+  EXPECT_EQ(ConfigToYaml(read_back), yaml);
+  EXPECT_DOUBLE_EQ(read_back.mapping.voxel.leaf_size, 0.025);
+  EXPECT_DOUBLE_EQ(*read_back.camera.fx, 500.0);
+}
+
+// Whole numbers are checked against their field's type: no wrap-around (4294968496 is not read
+// as 1200 features, 4294967297 not as a stride of 1).
+TEST(ConfigTest, WholeNumbersOutsideTheirTypeAreRefused) {
+  BuildConfig config;
+  EXPECT_THROW(ApplySetArgument(&config, "tracking.max_features=4294968496"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "mapping.pixel_stride=4294967297"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "sequence.first_frame=-1"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "sequence.max_frames=1e30"), InputError);
+  EXPECT_THROW(ApplySetArgument(&config, "mapping.pixel_stride=2.5"), InputError);
+  ApplySetArgument(&config, "mapping.pixel_stride=2147483647");
+  EXPECT_EQ(config.mapping.back_projection.pixel_stride, 2147483647);
+  ApplySetArgument(&config, "sequence.max_frames=1e3");
+  EXPECT_EQ(config.max_frames, 1000u);
+}
+}  // namespace
+}  // namespace stillmap

@@ -1,0 +1,72 @@
+// The dynamic-rejection stage of a build: the detector (when one runs every n-th frame), the
+// masker, the score against ground-truth masks and the figures for the report.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/sequence.h"
+#include "stillmap/io/truth_files.h"
+#include "stillmap/tracking/detector.h"
+#include "stillmap/tracking/dynamic_mask.h"
+#include "stillmap/tracking/flow_check.h"
+
+namespace stillmap {
+
+// What the mask stage did over a run.
+struct MaskingStatistics {
+  size_t frames = 0;
+  size_t frames_with_mask = 0;  // frames with at least one moving pixel
+  double share_sum = 0.0;       // sum of the frames' masked shares
+  size_t depth_seeds = 0, flow_seeds = 0, high_regions = 0, high_confirmed = 0;
+  size_t medium_moving = 0, medium_static = 0, geometric_only = 0;
+  std::map<std::string, size_t> detections_by_level;  // motion level name -> detections
+  std::vector<double> detector_ms, mask_ms;           // per detector run, per frame
+  std::optional<MaskScore> score;                     // against masks.txt, when it has frames
+
+  double MeanShare() const { return frames > 0 ? share_sum / static_cast<double>(frames) : 0.0; }
+};
+
+class MaskStage {
+ public:
+  // `enabled` false: Compute returns empty masks and nothing runs. `detector` may be null
+  // (geometry only). Ground-truth masks are read from SEQUENCE/masks.txt when it exists.
+  MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
+            std::unique_ptr<Detector> detector, const std::string& sequence_dir);
+
+  bool enabled() const { return enabled_; }
+  const DynamicMaskOptions& options() const { return options_; }
+  const DynamicMasker* masker() const { return masker_.get(); }
+  // "none" when no detector runs.
+  std::string detector_name() const { return detector_ ? detector_->name() : "none"; }
+  bool semantics() const { return options_.semantics && detector_ != nullptr; }
+
+  // The moving pixels of a frame (CV_8UC1, 255 = moving; empty when masking is off), from its gray
+  // image, the flow step from the previous frame (may be null) and its predicted pose (none:
+  // the depth check has nothing to project). Throws InputError for an unreadable truth mask.
+  cv::Mat Compute(const Frame& frame, const cv::Mat& gray, const FlowStep* flow,
+                  const std::optional<Eigen::Isometry3d>& world_from_camera);
+
+  // A keyframe with its mask and pose becomes a depth-check reference.
+  void AddReference(const Frame& frame, const cv::Mat& mask,
+                    const Eigen::Isometry3d& world_from_camera);
+
+  // The figures so far (the score set when truth masks were found for some frame).
+  MaskingStatistics statistics() const;
+
+ private:
+  bool enabled_;
+  DynamicMaskOptions options_;
+  TruthMasks truth_;
+  std::unique_ptr<Detector> detector_;
+  std::unique_ptr<DynamicMasker> masker_;
+  MaskScore score_;
+  MaskingStatistics statistics_;
+};
+
+}  // namespace stillmap
