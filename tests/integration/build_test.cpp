@@ -1,5 +1,5 @@
-// The build pipeline end to end on synthetic planes (exact truth) and, when present, on the real
-// TUM teddy sequence with its motion-capture trajectory.
+// The build pipeline end to end on synthetic sequences with exact truth (planes, rooms, walking
+// people). The real sequences are in real_data_test.cpp.
 #include <gtest/gtest.h>
 #include <octomap/OcTree.h>
 #include <pcl/kdtree/kdtree_flann.h>
@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "build_helpers.h"
 #include "stillmap/io/camera.h"
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/io/evaluation.h"
@@ -30,22 +31,8 @@ namespace stillmap {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr const char* kOutputs[] = {"map.ply",
-                                    "map.pcd",
-                                    "map.bt",
-                                    "map.ot",
-                                    "trajectory.txt",
-                                    "keyframes.txt",
-                                    "grid.pgm",
-                                    "grid.yaml",
-                                    "mesh.glb",
-                                    "report.json",
-                                    "report.html",
-                                    "config.yaml",
-                                    "renders/grid_top.png",
-                                    "renders/cloud_view_1.png",
-                                    "renders/cloud_view_2.png"};
+using testing::kOutputs;
+using testing::TrackRepeatably;
 
 TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   testing::TempDir dir;
@@ -168,66 +155,6 @@ TEST(BuildTest, FramesOutsideTheGroundTruthAreLeftOutNotInvented) {
 // to the map of frames 5-44 (nearest map point). For scale: a 1 cm voxel grid alone leaves up to
 // 8.7 mm to the nearest voxel centroid (about 3-4 mm typical on a surface), and depth noise of
 // the Kinect at 1-2 m is a few mm.
-TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
-  const std::optional<std::string> sequence = testing::SharedSequence("tum_fr3_teddy_200");
-  if (!sequence)
-    GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
-  testing::TempDir dir;
-  BuildRequest request;
-  request.sequence_dir = *sequence;
-  request.output_dir = dir / "out";
-  request.poses = PoseSource::kGroundTruth;
-  ApplySetArgument(&request.config,
-                   "sequence.first_frame=5");  // frames 0-4 precede the ground truth
-  ApplySetArgument(&request.config, "sequence.max_frames=40");
-  const BuildResult summary = RunBuild(request);
-  EXPECT_EQ(summary.frames.fused, 40u);
-  for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
-
-  pcl::PointCloud<pcl::PointXYZ>::Ptr map(new pcl::PointCloud<pcl::PointXYZ>);
-  for (const VoxelPoint& p : ReadCloud(dir / "out/map.ply")) {
-    pcl::PointXYZ point;
-    point.getVector3fMap() = p.position;
-    map->push_back(point);
-  }
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-  tree.setInputCloud(map);
-  const Camera camera = ResolveCamera(*sequence, {});
-  const Sequence frames = Sequence::Open(*sequence, camera);
-  BackProjectionOptions every_third;
-  every_third.pixel_stride = 3;
-  const DepthBackProjector projector(camera, every_third);
-  for (const size_t held_out : {46, 50, 55}) {
-    const Frame frame = frames.LoadFrame(held_out);
-    ColoredPoints points;
-    projector.BackProject(frame.depth_m, frame.color, cv::Mat(),
-                          frames.groundtruth()->Interpolate(frame.time, 0.1)->cast<float>(),
-                          &points);
-    std::vector<double> distances;
-    std::vector<int> index(1);
-    std::vector<float> squared(1);
-    for (const Eigen::Vector3f& p : points.positions) {
-      pcl::PointXYZ query;
-      query.getVector3fMap() = p;
-      if (tree.nearestKSearch(query, 1, index, squared) == 1)
-        distances.push_back(std::sqrt(squared[0]));
-    }
-    // Parts of the frame the map never saw are left out: the overlap is within 5 cm.
-    const size_t all = distances.size();
-    distances.erase(
-        std::remove_if(distances.begin(), distances.end(), [](double d) { return d > 0.05; }),
-        distances.end());
-    ASSERT_GT(distances.size(), 0.8 * all);
-    std::sort(distances.begin(), distances.end());
-    const double median = distances[distances.size() / 2];
-    std::cout << "teddy map (frames 5-44) vs held-out frame " << held_out
-              << ": point-to-map distance median " << median * 1e3 << " mm, p90 "
-              << distances[distances.size() * 9 / 10] * 1e3 << " mm, overlap "
-              << 100.0 * distances.size() / all << " % of " << all << " points\n";
-    EXPECT_LT(median, 0.006);
-  }
-}
-
 // Writes a synthetic sequence of `scenario`, `frames` frames long, to `sequence_dir`.
 void WriteScenario(const std::string& sequence_dir, const std::string& scenario, size_t frames) {
   SynthOptions options;
@@ -482,22 +409,6 @@ TEST(BuildTest, TrackingNothingFailsWithoutOutputs) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
-// Tracks a sequence with the bundle adjustment inline (the figure does not depend on thread
-// timing) and no OctoMap (not under test), plus `settings`; the outputs go to `output_dir`, or to
-// a temporary folder when it is empty.
-BuildResult TrackRepeatably(const std::string& sequence,
-                            const std::vector<std::string>& settings = {},
-                            const std::string& output_dir = {}) {
-  testing::TempDir dir;
-  BuildRequest request;
-  request.sequence_dir = sequence;
-  request.output_dir = output_dir.empty() ? dir / "out" : output_dir;
-  ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
-  ApplySetArgument(&request.config, "octomap.enabled=false");
-  for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
-  return RunBuild(request);
-}
-
 // Depth self-calibration on exact truth: the synthetic room's depth images rewritten as a sensor
 // with a smooth error over the image would read them (z / (1 + delta(x, y)), delta about what
 // Bonn's Xtion shows, up to 10 % at the corners). With the calibration the tracker finds its
@@ -560,46 +471,6 @@ TEST(BuildTest, DepthSelfCalibrationFindsAKnownDepthErrorOnASyntheticRoom) {
   EXPECT_LT(*calibrated.AteRmse(), 0.4 * *plain.AteRmse());
   EXPECT_LT(calibrated.evaluation.map_quality->accuracy_median,
             plain.evaluation.map_quality->accuracy_median);
-}
-
-// Real data: TUM fr3/teddy tracked against its motion-capture trajectory. The target is
-// an ATE RMSE of at most 6 mm with every frame tracked (ORB-SLAM2 RGB-D: 5.9 to 6.9 mm here). The
-// bundle adjustment runs inline, so the figure does not depend on thread timing.
-TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
-  const auto sequence = testing::SharedSequence("tum_fr3_teddy_200");
-  if (!sequence) {
-    GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
-  }
-  const BuildResult summary = TrackRepeatably(*sequence);
-  EXPECT_EQ(summary.frames.tracked, summary.frames.pairs_used);
-  ASSERT_TRUE(summary.AteRmse().has_value());
-  std::cout << "teddy tracked: " << summary.frames.tracked << " of " << summary.frames.pairs_used
-            << " frames, ATE RMSE " << *summary.AteRmse() * 1e3 << " mm\n";
-  EXPECT_LT(*summary.AteRmse(), 0.006);
-}
-
-// Real data with people: Bonn crowd (three people walking through the view), tracked with the
-// geometric dynamic rejection only and the defaults, which include the depth self-calibration.
-// The target is an ATE RMSE of at most 2 cm (ORB-SLAM2 here: 0.44 to 1.74 m, it follows
-// the people; without rejection stillmap gives 0.48 m). Without the self-calibration the Xtion's
-// depth error over the image bends the trajectory: 44 mm.
-TEST(BuildTest, TrackingRealBonnCrowdMeetsTheAccuracyTarget) {
-  const auto sequence = testing::SharedSequence("bonn_crowd_a");
-  if (!sequence) GTEST_SKIP() << "bonn_crowd_a not found (set STILLMAP_DATA or ../shared/data)";
-  const BuildResult summary = TrackRepeatably(*sequence);
-  EXPECT_EQ(summary.frames.tracked, summary.frames.pairs_used);
-  ASSERT_TRUE(summary.AteRmse().has_value());
-  const BuildResult uncorrected =
-      TrackRepeatably(*sequence, {"tracking.depth_self_calibration=false"});
-  ASSERT_TRUE(uncorrected.AteRmse().has_value());
-  std::cout << "bonn crowd tracked: " << summary.frames.tracked << " of "
-            << summary.frames.pairs_used << " frames, ATE RMSE " << *summary.AteRmse() * 1e3
-            << " mm (" << *uncorrected.AteRmse() * 1e3
-            << " mm without depth self-calibration), masked share "
-            << summary.masking.statistics.MeanShare() << "\n";
-  EXPECT_LT(*summary.AteRmse(), 0.020);
-  EXPECT_LT(*summary.AteRmse(), 0.6 * *uncorrected.AteRmse());
-  EXPECT_GT(summary.selection.invalid, 0u);  // frames a person fills are kept out of the map
 }
 
 }  // namespace
