@@ -26,6 +26,8 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
       [&positions](const VoxelPoint& point) { positions.push_back(point.position); });
   std::vector<std::uint8_t> drop(positions.size(), 0);
   const PixelProjection project(camera);
+  const float margin_m = static_cast<float>(options.view_margin_m);
+  const float margin_sigmas = static_cast<float>(options.view_margin_sigmas);
   cv::parallel_for_(cv::Range(0, static_cast<int>(positions.size())), [&](const cv::Range& range) {
     for (int k = range.start; k < range.end; ++k) {
       int free = 0, seen = 0;
@@ -45,7 +47,7 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
         const int u = static_cast<int>(half_u), v = static_cast<int>(half_v);
         const float reading = view.depth_m.at<float>(v, u);
         if (!(reading > 0.0f)) continue;
-        const float margin = 0.02f + 3.0f * KinectDepthSigma(q.z());
+        const float margin = margin_m + margin_sigmas * KinectDepthSigma(q.z());
         if (reading > q.z() + margin) {
           ++free;
         } else if (reading >= q.z() - margin) {
@@ -95,6 +97,10 @@ void MapCleaningOptions::Validate() const {
   if (!(outlier_std_ratio > 0.0)) throw InputError("mapping.outlier_std_ratio must be positive");
   if (min_free_views < 1) throw InputError("mapping.min_free_views must be >= 1");
   if (!(free_view_ratio >= 0.0)) throw InputError("mapping.free_view_ratio must not be negative");
+  if (!(view_margin_m >= 0.0 && view_margin_m <= 1.0 && view_margin_sigmas >= 0.0 &&
+        view_margin_sigmas <= 100.0)) {
+    throw InputError("mapping.view_margin must be 0..1 m and mapping.view_margin_sigmas 0..100");
+  }
 }
 
 MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyMap* occupancy,

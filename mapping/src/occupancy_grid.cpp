@@ -57,6 +57,13 @@ void GridOptions::Validate() const {
   if (!(confirm_probability >= 0.5 && confirm_probability < 1.0)) {
     throw InputError("grid.confirm_probability must be in [0.5, 1)");
   }
+  if (floor_ransac_rounds < 1 || floor_ransac_rounds > 100 || floor_ransac_iterations < 1 ||
+      floor_ransac_iterations > 1000000 || floor_min_points < 3 ||
+      floor_min_inliers_per_mille < 0 || floor_min_inliers_per_mille > 1000) {
+    throw InputError(
+        "grid.floor_ransac_rounds must be 1..100, grid.floor_ransac_iterations 1..1000000, "
+        "grid.floor_min_points at least 3 and grid.floor_min_inliers_per_mille 0..1000");
+  }
   if (!(max_floor_tilt_deg > 0.0 && max_floor_tilt_deg < 90.0)) {
     throw InputError("grid.max_floor_tilt_deg must be in (0, 90)");
   }
@@ -111,19 +118,23 @@ FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
     pcl::console::VERBOSITY_LEVEL level;
     ~RestoreVerbosity() { pcl::console::setVerbosityLevel(level); }
   } restore{verbosity};
-  for (int round = 0; round < 4 && remaining.size() >= 50; ++round) {
+  const auto min_points = static_cast<size_t>(options.floor_min_points);
+  const size_t min_inliers = std::max(
+      min_points, cloud->size() * static_cast<size_t>(options.floor_min_inliers_per_mille) / 1000);
+  for (int round = 0; round < options.floor_ransac_rounds && remaining.size() >= min_points;
+       ++round) {
     auto model = pcl::make_shared<pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>>(
         cloud, remaining);
     model->setAxis(hint.cast<float>());
     model->setEpsAngle(options.max_floor_tilt_deg * kDegree);
     pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold);
-    ransac.setMaxIterations(500);
+    ransac.setMaxIterations(options.floor_ransac_iterations);
     if (!ransac.computeModel()) break;
     std::vector<int> inliers;
     ransac.getInliers(inliers);
     Eigen::VectorXf coefficients;
     ransac.getModelCoefficients(coefficients);
-    if (inliers.size() < std::max<size_t>(50, cloud->size() / 50) || coefficients.size() != 4) {
+    if (inliers.size() < min_inliers || coefficients.size() != 4) {
       break;
     }
     Eigen::Vector3d up = coefficients.head<3>().cast<double>();

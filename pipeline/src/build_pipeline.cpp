@@ -80,7 +80,7 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
   FrameReader reader(inputs.sequence, inputs.frame_indices, request.threads > 1, std::move(flow));
   const LoopStages stages{reader, masks, mapper, progress};
   PosedFrames posed = result->tracked() ? RunTrackedLoop(inputs, request, stages, result)
-                                        : RunGroundTruthLoop(inputs, stages);
+                                        : RunGroundTruthLoop(inputs, config, stages);
   progress.Finish();
   result->timings.load_wait_ms = reader.wait_ms();
   result->timings.flow_ms = reader.flow_ms();

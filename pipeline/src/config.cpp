@@ -233,6 +233,12 @@ const std::vector<ConfigKey>& Keys() {
         "mapping.clear_seen_through_views",
         "drop cloud voxels that fused keyframes saw through, at the cloud's resolution",
         [](BuildConfig& c) -> bool& { return c.mapping.cleaning.clear_seen_through_views; }));
+    k.push_back(DoubleKey(
+        "mapping.view_margin", "view cleaning: a reading farther by this [m] + sigmas sees through",
+        [](BuildConfig& c) -> double& { return c.mapping.cleaning.view_margin_m; }));
+    k.push_back(DoubleKey(
+        "mapping.view_margin_sigmas", "view cleaning: Kinect noise sigmas added to view_margin",
+        [](BuildConfig& c) -> double& { return c.mapping.cleaning.view_margin_sigmas; }));
     k.push_back(IntKey("mapping.min_free_views",
                        "view check: keyframes that must have seen through a voxel",
                        [](BuildConfig& c) -> int& { return c.mapping.cleaning.min_free_views; }));
@@ -323,6 +329,23 @@ const std::vector<ConfigKey>& Keys() {
     tracking_int("min_keyframe_interval",
                  "keyframes at least this many frames apart unless tracking is weak",
                  &TrackerOptions::min_keyframe_interval);
+    tracking_int("min_keyframe_inliers", "no keyframe with this many inliers or fewer",
+                 &TrackerOptions::min_keyframe_inliers);
+    tracking_int("close_tracked_max",
+                 "near-point rule: fewer near points than this tracked (with close_untracked_min)",
+                 &TrackerOptions::close_tracked_max);
+    tracking_int("close_untracked_min", "near-point rule: more near points than this untracked",
+                 &TrackerOptions::close_untracked_min);
+    tracking_double("cull_found_ratio",
+                    "recent landmarks found in fewer than this share of their visible frames go",
+                    &TrackerOptions::cull_found_ratio);
+    tracking_int("cull_min_visible", "frames a landmark must be visible in before that rule",
+                 &TrackerOptions::cull_min_visible);
+    tracking_int("cull_single_view_age",
+                 "keyframes after which a landmark seen by one keyframe only goes",
+                 &TrackerOptions::cull_single_view_age);
+    tracking_int("cull_recent_age", "keyframes a landmark stays subject to culling",
+                 &TrackerOptions::cull_recent_age);
     tracking_int("local_map_keyframes", "keyframes whose landmarks are searched for per frame",
                  &TrackerOptions::local_map_keyframes);
     tracking_int("local_window", "keyframes optimized by the local bundle adjustment",
@@ -393,6 +416,14 @@ const std::vector<ConfigKey>& Keys() {
     masking_double("grow_depth_difference",
                    "regions grow over pixels nearer than the static depth by this [m] (+ noise)",
                    &DynamicMaskOptions::grow_depth_difference_m);
+    masking_double("grow_noise_sigmas",
+                   "growth margin: grow_depth_difference + this many sigmas of Kinect noise",
+                   &DynamicMaskOptions::grow_noise_sigmas);
+    masking_double("seed_noise_factor", "seeds lie nearer by more than this many growth margins",
+                   &DynamicMaskOptions::seed_noise_factor);
+    masking_double("block_continuity",
+                   "a reading takes its check block's verdict within 1 cm + this share of depth",
+                   &DynamicMaskOptions::block_continuity);
     masking_double("continuity", "neighbours within 1 cm + this share of depth are one surface",
                    &DynamicMaskOptions::continuity);
     masking_int("max_unknown_steps", "growth through pixels no reference saw [px]",
@@ -421,6 +452,9 @@ const std::vector<ConfigKey>& Keys() {
                 &DynamicMaskOptions::margin_px);
     masking_int("min_region_px", "geometric regions smaller than this are dropped [px]",
                 &DynamicMaskOptions::min_region_px);
+    k.push_back(IntKey("masking.groundtruth_reference_interval",
+                       "with --poses groundtruth, every n-th frame is a depth-check reference",
+                       [](BuildConfig& c) -> int& { return c.groundtruth_reference_interval; }));
     k.push_back(BoolKey("masking.map_recheck",
                         "re-run the depth check on each keyframe against its neighbours (both "
                         "sides in time, final poses) before fusing it",
@@ -451,6 +485,15 @@ const std::vector<ConfigKey>& Keys() {
         "grid.confirm_probability",
         "occupied cells stay occupied only when connected to one above this (else unknown)",
         [](BuildConfig& c) -> double& { return c.grid.confirm_probability; }));
+    k.push_back(IntKey("grid.floor_ransac_rounds", "floor fit: planes tried at most",
+                       [](BuildConfig& c) -> int& { return c.grid.floor_ransac_rounds; }));
+    k.push_back(IntKey("grid.floor_ransac_iterations", "floor fit: RANSAC samples per plane",
+                       [](BuildConfig& c) -> int& { return c.grid.floor_ransac_iterations; }));
+    k.push_back(IntKey("grid.floor_min_points", "floor fit: fewest inliers of a plane",
+                       [](BuildConfig& c) -> int& { return c.grid.floor_min_points; }));
+    k.push_back(IntKey("grid.floor_min_inliers_per_mille",
+                       "floor fit: fewest inliers, per mille of the voxels",
+                       [](BuildConfig& c) -> int& { return c.grid.floor_min_inliers_per_mille; }));
     k.push_back(DoubleKey("grid.max_floor_tilt_deg",
                           "a fitted floor's normal is within this of the cameras' up",
                           [](BuildConfig& c) -> double& { return c.grid.max_floor_tilt_deg; }));
@@ -550,6 +593,9 @@ void BuildConfig::Validate() const {
     throw InputError("eval.max_time_difference must be in (0, 1] s");
   }
   if (!(rpe.delta > 0.0)) throw InputError("eval.rpe_delta must be > 0");
+  if (groundtruth_reference_interval < 1 || groundtruth_reference_interval > 1000) {
+    throw InputError("masking.groundtruth_reference_interval must be 1..1000 frames");
+  }
   mapping.Validate();
   tracking.Validate();
   masking.Validate();

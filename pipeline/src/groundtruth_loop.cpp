@@ -2,17 +2,16 @@
 
 namespace stillmap {
 
-PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, LoopStages stages) {
-  // References for the depth check every fifth frame: 6 per second at 30 Hz, enough for its
-  // spacing (masking.reference_spacing_s) without a reference per frame.
-  constexpr size_t kReferenceEvery = 5;
+PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const BuildConfig& config,
+                               LoopStages stages) {
+  const auto reference_every = static_cast<size_t>(config.groundtruth_reference_interval);
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     const PreparedFrame prepared = stages.reader.Get(k);
     const Frame& frame = prepared.frame;
     const Eigen::Isometry3d& pose = inputs.groundtruth_poses[k].world_from_camera;
     const cv::Mat mask =
         stages.masks.Compute(frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, pose);
-    if (k % kReferenceEvery == 0) stages.masks.AddReference(frame, mask, pose);
+    if (k % reference_every == 0) stages.masks.AddReference(frame, mask, pose);
     stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
     stages.progress.Update(k + 1);
   }

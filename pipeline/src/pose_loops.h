@@ -26,9 +26,10 @@ struct LoopStages {
   ProgressLine& progress;
 };
 
-// With the ground truth's poses: every frame is fused; every fifth one becomes a depth-check
-// reference.
-PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, LoopStages stages);
+// With the ground truth's poses: every frame is fused; every
+// config.groundtruth_reference_interval-th one becomes a depth-check reference.
+PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const BuildConfig& config,
+                               LoopStages stages);
 
 // With tracked poses: keyframes are fused once their pose is final (they left the bundle
 // adjustment window). Fills result->tracking and result->selection. Throws std::runtime_error

@@ -2,6 +2,8 @@
 // geometry, the location of the real data, and running the stillmap binary.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
@@ -10,7 +12,8 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/trajectory.h"
 
-namespace stillmap::testing {
+namespace stillmap {
+namespace testing {
 
 // A folder under the system temp dir, removed with everything in it on destruction.
 class TempDir {
@@ -62,4 +65,22 @@ std::string ReadText(const std::string& path);
 // `prefix` runs it under another command (xvfb-run -a).
 int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix = "");
 
-}  // namespace stillmap::testing
+// A fixture for the tests that run the binary on a small sequence: WriteSmallPlaneSequence in
+// dir_/seq (sequence_), builds going to dir_/out (output_).
+class SmallSequenceTest : public ::testing::Test {
+ protected:
+  void SetUp() override { WriteSmallPlaneSequence(sequence_); }
+  // `stillmap build SEQUENCE -o OUT --poses groundtruth --quiet EXTRA`: its exit status, and its
+  // terminal output in *output.
+  int Build(const std::string& extra, std::string* output) const {
+    return RunStillmap(
+        "build " + sequence_ + " -o " + output_ + " --poses groundtruth --quiet " + extra, output);
+  }
+
+  TempDir dir_;
+  std::string sequence_ = dir_ / "seq";
+  std::string output_ = dir_ / "out";
+};
+
+}  // namespace testing
+}  // namespace stillmap

@@ -16,13 +16,8 @@ using testing::RunStillmap;
 using testing::TempDir;
 using testing::WriteText;
 
-class BadInputTest : public ::testing::Test {
+class BadInputTest : public testing::SmallSequenceTest {
  protected:
-  void SetUp() override {
-    sequence_ = dir_ / "seq";
-    output_ = dir_ / "out";
-    testing::WriteSmallPlaneSequence(sequence_);
-  }
 
   // Runs `build` and checks the contract: exit 2, a single "stillmap: error:" line mentioning
   // `expected`, and no output folder (it did not exist before).
@@ -44,9 +39,6 @@ class BadInputTest : public ::testing::Test {
     return sequence_ + "/" + list.substr(line, list.find('\n', line) - line);
   }
 
-  TempDir dir_;
-  std::string sequence_;
-  std::string output_;
 };
 
 TEST_F(BadInputTest, TheGoodSequenceBuilds) {

@@ -23,18 +23,8 @@ using testing::TempDir;
 using testing::WriteText;
 
 // A plane seen by a small camera from four ground-truth poses.
-class ReliabilityTest : public ::testing::Test {
+class ReliabilityTest : public testing::SmallSequenceTest {
  protected:
-  void SetUp() override {
-    sequence_ = dir_ / "seq";
-    output_ = dir_ / "out";
-    testing::WriteSmallPlaneSequence(sequence_);
-  }
-
-  int Build(const std::string& extra, std::string* output) {
-    return RunStillmap(
-        "build " + sequence_ + " -o " + output_ + " --poses groundtruth --quiet " + extra, output);
-  }
 
   // Exit `status`, the last line "stillmap: <kind>: ..." holding `expected`, and no output folder.
   void ExpectFailure(int status, const std::string& expected, const std::string& extra = "") {
@@ -63,9 +53,6 @@ class ReliabilityTest : public ::testing::Test {
     WriteText(sequence_ + "/camera.yaml", camera);
   }
 
-  TempDir dir_;
-  std::string sequence_;
-  std::string output_;
 };
 
 // ---- Output folders -----------------------------------------------------------------------------

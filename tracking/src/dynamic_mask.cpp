@@ -167,6 +167,9 @@ void DynamicMaskOptions::Validate() const {
   check(grow_depth_difference_m > 0.0 && grow_depth_difference_m <= depth.max_depth_difference_m,
         "grow_depth_difference_m must be > 0 and <= depth_difference");
   check(continuity > 0.0 && continuity < 1.0, "continuity must be in (0, 1)");
+  check(block_continuity > 0.0 && block_continuity < 1.0, "block_continuity must be in (0, 1)");
+  check(grow_noise_sigmas >= 0.0 && grow_noise_sigmas <= 100.0, "grow_noise_sigmas must be 0..100");
+  check(seed_noise_factor >= 0.0 && seed_noise_factor <= 100.0, "seed_noise_factor must be 0..100");
   // Steps are counted in one byte per pixel (GeometricMasker::Compute): 255 at most.
   check(max_unknown_steps >= 0 && max_unknown_steps <= 255, "max_unknown_steps must be 0..255");
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
@@ -200,6 +203,8 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
   // surface there, get no verdict from it.
   const float seed_difference = static_cast<float>(options_.depth.max_depth_difference_m);
   const float grow_difference = static_cast<float>(options_.grow_depth_difference_m);
+  const float grow_sigmas = static_cast<float>(options_.grow_noise_sigmas);
+  const float seed_factor = static_cast<float>(options_.seed_noise_factor);
   cv::Mat state(height, width, CV_8UC1, cv::Scalar(kNoVerdict));
   std::uint8_t* s = state.data;
   const float* z = depth_m.ptr<float>();
@@ -244,10 +249,9 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
         if (cos_angle < cos_limit) return kNoVerdict;
       }
       const float difference = seen - q.z();
-      const float noise = grow_difference + 6.0f * KinectDepthSigma(q.z());
-      // Beyond about 3.4 m twice the growth margin exceeds tau_d: far seeds must stand clear of
-      // the sensor noise too (TUM teddy, static, masked share 2.51 -> 2.38 %; walking unchanged).
-      if (difference > std::max(seed_difference, 2.0f * noise)) return kSeed;
+      const float noise = grow_difference + grow_sigmas * KinectDepthSigma(q.z());
+      // Far seeds must stand clear of the sensor noise too (options: seed_noise_factor).
+      if (difference > std::max(seed_difference, seed_factor * noise)) return kSeed;
       if (difference > noise) return kCandidate;
       if (difference > -noise) return kConsistent;
       return kNoVerdict;  // hidden behind a nearer surface in the reference
@@ -271,7 +275,8 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
               const int i = v * width + u;
               if (!(z[i] > 0.0f) || s[i] == kSeed) continue;
               const std::uint8_t verdict =
-                  centre_depth > 0.0f && (i == centre_index || Continuous(centre_depth, z[i], 0.01))
+                  centre_depth > 0.0f && (i == centre_index ||
+                                          Continuous(centre_depth, z[i], options_.block_continuity))
                       ? centre_verdict
                       : judge(i);
               s[i] = std::max(s[i], verdict);

@@ -19,12 +19,14 @@ struct MapCleaningOptions {
   bool clear_seen_through = true;
   // The same at the cloud's resolution, against the fused keyframes' own depth: a voxel that at
   // least min_free_views keyframes saw *through* (their reading along its ray lies farther than
-  // it by more than 2 cm + 3 sigma of Kinect noise), more than free_view_ratio times as many as
-  // saw it there, is dropped. It catches what an OctoMap leaf shared with the floor keeps (a shoe
-  // on the floor for one keyframe).
+  // it by more than view_margin_m + view_margin_sigmas sigma of Kinect noise), more than
+  // free_view_ratio times as many as saw it there, is dropped. It catches what an OctoMap leaf
+  // shared with the floor keeps (a shoe on the floor for one keyframe).
   bool clear_seen_through_views = true;
   int min_free_views = 2;
   double free_view_ratio = 2.0;
+  double view_margin_m = 0.02;  // [m]
+  double view_margin_sigmas = 3.0;
   // PCL StatisticalOutlierRemoval: a voxel whose mean distance to its outlier_neighbors nearest
   // voxels exceeds the cloud's mean of that distance by outlier_std_ratio standard deviations.
   bool outlier_removal = false;

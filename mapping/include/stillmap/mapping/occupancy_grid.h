@@ -34,6 +34,14 @@ struct GridOptions {
   double confirm_probability = 0.8;
   // A fitted floor's normal must lie within this angle of the cameras' mean up direction.
   double max_floor_tilt_deg = 30.0;
+  // The floor fit (PCL RANSAC of planes perpendicular to the cameras' up, threshold one OctoMap
+  // voxel): up to floor_ransac_rounds planes of floor_ransac_iterations samples each, while at
+  // least floor_min_points voxels remain; a plane needs floor_min_points inliers and at least
+  // floor_min_inliers_per_mille of the occupied voxels.
+  int floor_ransac_rounds = 4;
+  int floor_ransac_iterations = 500;
+  int floor_min_points = 50;
+  int floor_min_inliers_per_mille = 20;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;

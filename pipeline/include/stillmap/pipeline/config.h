@@ -31,6 +31,9 @@ struct BuildConfig {
   // it in time, with final poses (catches people the online check could not see yet, e.g. in the
   // first keyframe).
   bool map_recheck = true;
+  // With --poses groundtruth every frame is fused and every n-th one becomes a depth-check
+  // reference (5: 6 per second at 30 Hz, enough for masking.reference_spacing_s).
+  int groundtruth_reference_interval = 5;
   KeyframeSelectionOptions selection;
   GridOptions grid;
   MapMeshOptions mesh;

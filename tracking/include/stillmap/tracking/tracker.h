@@ -69,8 +69,14 @@ struct TrackerOptions {
 
   // Keyframes (ORB-SLAM2, RGB-D): a new keyframe when the inliers fall below keyframe_ratio of
   // the landmarks the reference keyframe tracks well, when few near points are tracked while many
-  // are not, or at the latest every max_keyframe_interval frames; never with fewer than 15.
+  // are not, or at the latest every max_keyframe_interval frames; never with
+  // min_keyframe_inliers or fewer.
   double keyframe_ratio = 0.75;
+  int min_keyframe_inliers = 15;  // ORB-SLAM2 (RGB-D)
+  // The near-point rule (ORB-SLAM2, RGB-D): fewer than close_tracked_max near points (closer than
+  // close_depth) tracked while more than close_untracked_min are not.
+  int close_tracked_max = 100;
+  int close_untracked_min = 70;
   int max_keyframe_interval = 15;
   // Unless tracking is weak (fewer inliers than weak_tracking_inliers), keyframes are at least
   // min_keyframe_interval frames apart: moving people otherwise trigger the near-point rule in
@@ -78,6 +84,15 @@ struct TrackerOptions {
   int min_keyframe_interval = 5;
   int weak_tracking_inliers = 50;
   double close_depth = 3.0;  // [m] "near" for the near-point rule
+
+  // Culling of recent landmarks (ORB-SLAM2): dropped when found in fewer than cull_found_ratio of
+  // the frames in which they were visible (once visible in cull_min_visible frames), or observed
+  // by a single keyframe cull_single_view_age keyframes after their creation; landmarks are
+  // recent until cull_recent_age keyframes old.
+  double cull_found_ratio = 0.25;
+  int cull_min_visible = 4;
+  int cull_single_view_age = 2;
+  int cull_recent_age = 3;
 
   int local_map_keyframes = 25;  // keyframes whose landmarks are searched for in each frame
   int local_window = 8;          // keyframes optimized by the local bundle adjustment
