@@ -200,109 +200,121 @@ Camera SynthCamera() {
   return camera;
 }
 
-SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  options.Validate();
-  // Refuse to write into anything but a new or empty folder or an earlier synthetic sequence (it
-  // has synth.json); in the latter, only what synth writes is replaced.
-  std::error_code error;
-  if (fs::is_directory(out_dir, error) &&
-      !PathExists((fs::path(out_dir) / "synth.json").string())) {
-    for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, error)) {
-      if (OutputSet::IsInternalName(entry.path().filename().string())) continue;
-      throw InputError(out_dir +
-                       ": exists and is not an earlier stillmap synth output; choose an "
-                       "empty or new folder");
-    }
-  }
-  OutputSet outputs(
-      out_dir, {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt",
-                "objects.txt", "groundtruth.txt", "camera.yaml", "static_gt.ply", "synth.json"});
-  const fs::path work = outputs.staging_dir();
-  for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
+namespace {
 
-  // The scene: meshes written as OBJ and read back through assimp, which is what renders.
-  synth::Scene scene = synth::BuildScene(options.scenario, options.seed);
-  for (synth::StaticObject& object : scene.statics) {
+// Refuses to write into anything but a new or empty folder or an earlier synthetic sequence (it
+// has synth.json); in the latter, only what synth writes is replaced.
+void CheckSynthFolder(const std::string& out_dir) {
+  std::error_code error;
+  if (!fs::is_directory(out_dir, error) ||
+      PathExists((fs::path(out_dir) / "synth.json").string())) {
+    return;
+  }
+  for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, error)) {
+    if (OutputSet::IsInternalName(entry.path().filename().string())) continue;
+    throw InputError(out_dir +
+                     ": exists and is not an earlier stillmap synth output; choose an "
+                     "empty or new folder");
+  }
+}
+
+// The scene's meshes written as OBJ into WORK/scene and read back through assimp, which is what
+// renders.
+void PassMeshesThroughFiles(const fs::path& work, synth::Scene* scene) {
+  for (synth::StaticObject& object : scene->statics) {
     const std::string path = (work / "scene" / (object.name + ".obj")).string();
     WriteObj(path, object.mesh);
     object.mesh = LoadMesh(path);
   }
-  for (synth::MovingObject& object : scene.movers) {
+  for (synth::MovingObject& object : scene->movers) {
     for (synth::MovingPart& part : object.parts) {
       const std::string path = (work / "scene" / (object.name + "_" + part.name + ".obj")).string();
       WriteObj(path, part.mesh);
       part.mesh = LoadMesh(path);
     }
   }
+}
 
-  const Camera camera = SynthCamera();
-  // The static ground truth: surface samples, kept when some frame sees them.
-  const std::vector<VoxelPoint> surface = SampleStaticSurfaces(scene, options.static_gt_spacing);
-  std::vector<std::atomic<std::uint8_t>> seen(surface.size());
-  for (auto& flag : seen) flag.store(0, std::memory_order_relaxed);
-  std::vector<double> dynamic_share(options.frames, 0.0);
+// What rendering the frames shares, and what it gathers.
+struct FrameJob {
+  const synth::Scene& scene;
+  const SynthOptions& options;
+  const Camera& camera;
+  const fs::path& work;
+  const std::vector<VoxelPoint>& surface;        // static surface samples
+  std::vector<std::atomic<std::uint8_t>>& seen;  // per sample: some frame saw it
+  std::vector<double>& dynamic_share;            // per frame
+};
+
+// The color image of frame time `time`, with motion blur and noise when asked.
+cv::Mat ColorImage(const FrameJob& job, double time, cv::RNG& rng, Rasterizer* raster) {
+  cv::Mat color = raster->Shade(job.scene.materials);
+  if (job.options.motion_blur) {
+    // Two more renders 8 ms either side of the frame time, averaged (color only).
+    cv::Mat sum;
+    color.convertTo(sum, CV_32FC3);
+    for (double offset : {-0.008, 0.008}) {
+      Render(job.scene, job.options.scenario, time + offset, raster, nullptr);
+      cv::Mat other;
+      raster->Shade(job.scene.materials).convertTo(other, CV_32FC3);
+      sum += other;
+    }
+    sum.convertTo(color, CV_8UC3, 1.0 / 3.0);
+  }
+  if (job.options.color_noise) {
+    cv::Mat noise(color.size(), CV_16SC3);
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
+    cv::Mat noisy;
+    color.convertTo(noisy, CV_16SC3);
+    noisy += noise;
+    noisy.convertTo(color, CV_8UC3);
+  }
+  return color;
+}
+
+// Renders frame i and writes its color, depth and mask images.
+void RenderFrame(const FrameJob& job, size_t i, Rasterizer* raster) {
+  const SynthOptions& options = job.options;
+  const double time = static_cast<double>(i) / kFrameRate;
+  cv::Mat static_depth;
+  Render(job.scene, options.scenario, time, raster, &static_depth);
+  MarkVisible(job.surface, synth::CameraPose(options.scenario, time).inverse(), static_depth,
+              job.camera, options.static_gt_max_range, &job.seen);
+  cv::RNG rng(options.seed * 1000003ULL + i);
+  const cv::Mat depth = DepthModel(raster->buffers(), job.camera, options.depth_noise, rng);
+  const cv::Mat mask = raster->buffers().object_id >= kFirstDynamicId;
+  job.dynamic_share[i] = cv::countNonZero(mask) / static_cast<double>(mask.total());
+  const cv::Mat color = ColorImage(job, time, rng, raster);
+  WritePng((job.work / "rgb" / FrameName(i)).string(), color);
+  WritePng((job.work / "depth" / FrameName(i)).string(), depth);
+  WritePng((job.work / "masks" / FrameName(i)).string(), mask);
+}
+
+// Renders every frame on options.threads threads (frames taken in turn).
+void RenderFrames(const FrameJob& job) {
+  const size_t frames = job.options.frames;
   std::atomic<size_t> next{0};
   std::mutex failure_mutex;
   std::string failure;
   auto worker = [&] {
-    Rasterizer raster(camera);
+    Rasterizer raster(job.camera);
     try {
-      for (size_t i = next++; i < options.frames; i = next++) {
-        const double time = static_cast<double>(i) / kFrameRate;
-        cv::Mat static_depth;
-        Render(scene, options.scenario, time, &raster, &static_depth);
-        MarkVisible(surface, synth::CameraPose(options.scenario, time).inverse(), static_depth,
-                    camera, options.static_gt_max_range, &seen);
-        cv::RNG rng(options.seed * 1000003ULL + i);
-        const cv::Mat depth = DepthModel(raster.buffers(), camera, options.depth_noise, rng);
-        const cv::Mat mask = raster.buffers().object_id >= kFirstDynamicId;
-        dynamic_share[i] = cv::countNonZero(mask) / static_cast<double>(mask.total());
-        cv::Mat color = raster.Shade(scene.materials);
-        if (options.motion_blur) {
-          // Two more renders 8 ms either side of the frame time, averaged (color only).
-          cv::Mat sum;
-          color.convertTo(sum, CV_32FC3);
-          for (double offset : {-0.008, 0.008}) {
-            Render(scene, options.scenario, time + offset, &raster, nullptr);
-            cv::Mat other;
-            raster.Shade(scene.materials).convertTo(other, CV_32FC3);
-            sum += other;
-          }
-          sum.convertTo(color, CV_8UC3, 1.0 / 3.0);
-        }
-        if (options.color_noise) {
-          cv::Mat noise(color.size(), CV_16SC3);
-          rng.fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
-          cv::Mat noisy;
-          color.convertTo(noisy, CV_16SC3);
-          noisy += noise;
-          noisy.convertTo(color, CV_8UC3);
-        }
-        WritePng((work / "rgb" / FrameName(i)).string(), color);
-        WritePng((work / "depth" / FrameName(i)).string(), depth);
-        WritePng((work / "masks" / FrameName(i)).string(), mask);
-      }
+      for (size_t i = next++; i < frames; i = next++) RenderFrame(job, i, &raster);
     } catch (const std::exception& e) {
       const std::lock_guard<std::mutex> lock(failure_mutex);
       failure = e.what();
-      next = options.frames;
+      next = frames;
     }
   };
   std::vector<std::thread> threads;
-  for (int t = 1; t < options.threads; ++t) threads.emplace_back(worker);
+  for (int t = 1; t < job.options.threads; ++t) threads.emplace_back(worker);
   worker();
   for (std::thread& thread : threads) thread.join();
   if (!failure.empty()) throw std::runtime_error(failure);
+}
 
-  // Lists, trajectories and ground truth.
-  WriteTimestampList((work / "rgb.txt").string(), "color images (stillmap synth)", "rgb",
-                     options.frames);
-  WriteTimestampList((work / "depth.txt").string(),
-                     "depth images (16-bit PNG, 5000 per metre, stillmap synth)", "depth",
-                     options.frames);
-  WriteTimestampList((work / "masks.txt").string(),
-                     "masks of moving objects (8-bit PNG, 255 = dynamic)", "masks", options.frames);
+// objects.txt (every moving object's pose per frame) and groundtruth.txt.
+void WritePoses(const synth::Scene& scene, const SynthOptions& options, const fs::path& work) {
   std::vector<StampedPose> camera_poses;
   std::ofstream objects(work / "objects.txt");
   objects << "# world_from_object of every moving object per frame (people: feet on the floor, "
@@ -326,6 +338,58 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   Trajectory(camera_poses)
       .WriteTum((work / "groundtruth.txt").string(),
                 "stillmap synth ground truth: camera-to-world, world z up");
+}
+
+void WriteSynthInfo(const SynthOptions& options, const SynthSummary& summary, size_t movers,
+                    const fs::path& work) {
+  nlohmann::json info = {{"generator", "stillmap synth"},
+                         {"scenario", options.scenario},
+                         {"frames", options.frames},
+                         {"seed", options.seed},
+                         {"depth_noise", options.depth_noise},
+                         {"color_noise", options.color_noise},
+                         {"motion_blur", options.motion_blur},
+                         {"static_gt_spacing_m", options.static_gt_spacing},
+                         {"static_gt_max_range_m", options.static_gt_max_range},
+                         {"static_gt_points", summary.static_gt_points},
+                         {"moving_objects", movers},
+                         {"dynamic_pixel_share", summary.dynamic_pixel_share}};
+  std::ofstream info_file(work / "synth.json");
+  info_file << info.dump(2) << "\n";
+  if (!info_file.flush()) throw std::runtime_error("could not write synth.json");
+}
+
+}  // namespace
+
+SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  options.Validate();
+  CheckSynthFolder(out_dir);
+  OutputSet outputs(
+      out_dir, {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt",
+                "objects.txt", "groundtruth.txt", "camera.yaml", "static_gt.ply", "synth.json"});
+  const fs::path work = outputs.staging_dir();
+  for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
+  synth::Scene scene = synth::BuildScene(options.scenario, options.seed);
+  PassMeshesThroughFiles(work, &scene);
+
+  const Camera camera = SynthCamera();
+  // The static ground truth: surface samples, kept when some frame sees them.
+  const std::vector<VoxelPoint> surface = SampleStaticSurfaces(scene, options.static_gt_spacing);
+  std::vector<std::atomic<std::uint8_t>> seen(surface.size());
+  for (auto& flag : seen) flag.store(0, std::memory_order_relaxed);
+  std::vector<double> dynamic_share(options.frames, 0.0);
+  RenderFrames({scene, options, camera, work, surface, seen, dynamic_share});
+
+  // Lists, trajectories and ground truth.
+  WriteTimestampList((work / "rgb.txt").string(), "color images (stillmap synth)", "rgb",
+                     options.frames);
+  WriteTimestampList((work / "depth.txt").string(),
+                     "depth images (16-bit PNG, 5000 per metre, stillmap synth)", "depth",
+                     options.frames);
+  WriteTimestampList((work / "masks.txt").string(),
+                     "masks of moving objects (8-bit PNG, 255 = dynamic)", "masks", options.frames);
+  WritePoses(scene, options, work);
   WriteCameraYaml((work / "camera.yaml").string(), camera,
                   "stillmap synth camera: ideal pinhole, depth registered to color");
   std::vector<VoxelPoint> static_gt;
@@ -339,23 +403,7 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   summary.static_gt_points = static_gt.size();
   for (double share : dynamic_share) summary.dynamic_pixel_share += share / options.frames;
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  nlohmann::json info = {{"generator", "stillmap synth"},
-                         {"scenario", options.scenario},
-                         {"frames", options.frames},
-                         {"seed", options.seed},
-                         {"depth_noise", options.depth_noise},
-                         {"color_noise", options.color_noise},
-                         {"motion_blur", options.motion_blur},
-                         {"static_gt_spacing_m", options.static_gt_spacing},
-                         {"static_gt_max_range_m", options.static_gt_max_range},
-                         {"static_gt_points", summary.static_gt_points},
-                         {"moving_objects", scene.movers.size()},
-                         {"dynamic_pixel_share", summary.dynamic_pixel_share}};
-  std::ofstream info_file(work / "synth.json");
-  info_file << info.dump(2) << "\n";
-  if (!info_file.flush()) throw std::runtime_error("could not write synth.json");
-  info_file.close();
-
+  WriteSynthInfo(options, summary, scene.movers.size(), work);
   // Replace an earlier output only now that this one is complete.
   outputs.Commit();
   return summary;
