@@ -12,6 +12,8 @@
 #include <random>
 #include <sstream>
 
+#include "stillmap/io/error.h"
+
 namespace stillmap::testing {
 
 namespace fs = std::filesystem;
@@ -141,6 +143,15 @@ int RunStillmap(const std::string& arguments, std::string* output, const std::st
     output->append(buffer.data(), read);
   const int status = pclose(pipe);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string ErrorOf(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace stillmap::testing

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -64,6 +65,9 @@ std::string ReadText(const std::string& path);
 // stderr (and stdout) in `output`.
 // `prefix` runs it under another command (xvfb-run -a).
 int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix = "");
+
+// The message of the InputError `call` throws, or "" when it throws none.
+std::string ErrorOf(const std::function<void()>& call);
 
 // A fixture for the tests that run the binary on a small sequence: WriteSmallPlaneSequence in
 // dir_/seq (sequence_), builds going to dir_/out (output_).

@@ -18,7 +18,6 @@ using testing::WriteText;
 
 class BadInputTest : public testing::SmallSequenceTest {
  protected:
-
   // Runs `build` and checks the contract: exit 2, a single "stillmap: error:" line mentioning
   // `expected`, and no output folder (it did not exist before).
   void ExpectRefused(const std::string& expected, const std::string& extra = "") {
@@ -38,7 +37,6 @@ class BadInputTest : public testing::SmallSequenceTest {
     const size_t line = list.find("depth/");
     return sequence_ + "/" + list.substr(line, list.find('\n', line) - line);
   }
-
 };
 
 TEST_F(BadInputTest, TheGoodSequenceBuilds) {

@@ -25,7 +25,6 @@ using testing::WriteText;
 // A plane seen by a small camera from four ground-truth poses.
 class ReliabilityTest : public testing::SmallSequenceTest {
  protected:
-
   // Exit `status`, the last line "stillmap: <kind>: ..." holding `expected`, and no output folder.
   void ExpectFailure(int status, const std::string& expected, const std::string& extra = "") {
     std::string output;
@@ -52,7 +51,6 @@ class ReliabilityTest : public testing::SmallSequenceTest {
     camera.replace(at, camera.find('\n', at) - at, key + ": " + value);
     WriteText(sequence_ + "/camera.yaml", camera);
   }
-
 };
 
 // ---- Output folders -----------------------------------------------------------------------------

@@ -19,14 +19,7 @@ void Truncate(const std::string& path, double keep_fraction) {
   std::filesystem::resize_file(path, static_cast<uintmax_t>(size * keep_fraction));
 }
 
-std::string ErrorOf(const std::function<void()>& call) {
-  try {
-    call();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
 
 TEST(ImageIoTest, DepthIsConvertedToMetres) {
   TempDir dir;

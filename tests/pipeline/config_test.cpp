@@ -8,14 +8,7 @@
 namespace stillmap {
 namespace {
 
-std::string ErrorOf(const std::function<void()>& call) {
-  try {
-    call();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using testing::ErrorOf;
 
 TEST(ConfigTest, DefaultsAreTheDesignDefaults) {
   const BuildConfig config;

@@ -7,42 +7,16 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "mask_growth.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
 
 namespace {
 
-bool Continuous(float a, float b, double continuity) {
-  return std::abs(a - b) <= 0.01f + static_cast<float>(continuity) * a;
-}
-
-// Pixel verdicts of the depth check, by strength of evidence (the strongest over references
-// wins).
-enum : std::uint8_t { kNoVerdict = 0, kConsistent = 1, kCandidate = 2, kSeed = 3 };
-
-cv::Rect Clip(const cv::Rect& box, const cv::Size& size) {
-  return box & cv::Rect(cv::Point(), size);
-}
-
-// Breadth-first growth over 4-neighbours of `region` (CV_8UC1, seeds set) restricted to `allowed`
-// pixels (a predicate on the linear index and the pixel grown from).
-template <typename Allowed>
-void Grow(cv::Mat* region, std::vector<int> queue, const Allowed& allowed) {
-  const int width = region->cols, height = region->rows;
-  std::uint8_t* out = region->data;
-  for (size_t head = 0; head < queue.size(); ++head) {
-    const int index = queue[head];
-    const int u = index % width, v = index / width;
-    const int neighbours[4] = {u > 0 ? index - 1 : -1, u + 1 < width ? index + 1 : -1,
-                               v > 0 ? index - width : -1, v + 1 < height ? index + width : -1};
-    for (int next : neighbours) {
-      if (next < 0 || out[next] != 0 || !allowed(next, index)) continue;
-      out[next] = 255;
-      queue.push_back(next);
-    }
-  }
-}
+using mask_growth::Clip;
+using mask_growth::Continuous;
+using mask_growth::Grow;
 
 // The object in `box` cut to its outline. kDepth: the depth-continuous foreground grown from the
 // box's centre (people fill the middle of their boxes), not into `excluded` readings; kEdges: the
@@ -122,6 +96,117 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excl
   return region;
 }
 
+// Detections carried to a frame the detector skipped: each moved by the median flow of the
+// tracked points inside it (at least 3), its mask clipped to the image.
+void CarryDetections(const std::vector<cv::Point2f>& moved_from,
+                     const std::vector<cv::Point2f>& moved_to, const cv::Size& size,
+                     std::vector<Detection>* carried) {
+  for (Detection& detection : *carried) {
+    std::vector<float> dx, dy;
+    for (size_t i = 0; i < moved_from.size(); ++i) {
+      if (!detection.box.contains(moved_from[i])) continue;
+      dx.push_back(moved_to[i].x - moved_from[i].x);
+      dy.push_back(moved_to[i].y - moved_from[i].y);
+    }
+    if (dx.size() < 3) continue;
+    std::nth_element(dx.begin(), dx.begin() + static_cast<long>(dx.size() / 2), dx.end());
+    std::nth_element(dy.begin(), dy.begin() + static_cast<long>(dy.size() / 2), dy.end());
+    const cv::Point2f shift(dx[dx.size() / 2], dy[dy.size() / 2]);
+    const cv::Rect before(detection.box);
+    detection.box = cv::Rect2f(detection.box.tl() + shift, detection.box.size());
+    if (!detection.mask.empty()) {
+      // Keep the part of the mask that stays in the image.
+      const cv::Rect moved(cv::Rect(detection.box).tl(), before.size());
+      const cv::Rect inside = Clip(moved, size);
+      if (inside.area() == 0) {
+        detection.mask = cv::Mat();
+        detection.box = cv::Rect2f();
+        continue;
+      }
+      detection.mask = detection.mask(cv::Rect(inside.tl() - moved.tl(), inside.size())).clone();
+      detection.box = cv::Rect2f(inside);
+    } else {
+      detection.box &=
+          cv::Rect2f(0.0f, 0.0f, static_cast<float>(size.width), static_cast<float>(size.height));
+    }
+  }
+}
+
+// The detections' outlines into `mask` (high-level objects always, medium-level ones when
+// geometry sees enough of them moving) and into `claimed` (every outline); counts in `result`.
+void MaskDetections(const std::vector<Detection>& detections, const cv::Mat& gray,
+                    const cv::Mat& depth_m, const cv::Mat& geometric, const cv::Mat& consistent,
+                    const DynamicMaskOptions& options, cv::Mat* mask, cv::Mat* claimed,
+                    DynamicMaskResult* result) {
+  const cv::Size size = gray.size();
+  for (const Detection& detection : detections) {
+    if (detection.level == MotionLevel::kLow) continue;
+    const cv::Rect box = Clip(cv::Rect(detection.box), size);
+    if (box.area() == 0) continue;
+    cv::Mat outline;
+    if (!detection.mask.empty() && detection.mask.size() == box.size()) {
+      outline = detection.mask;
+    } else if (!detection.mask.empty()) {
+      continue;  // a clipped carried mask that no longer matches its box
+    } else {
+      outline = Outline(gray, depth_m, cv::Mat(), consistent, box, options.outline,
+                        options.continuity, options.outline_whole_box);
+      // An object geometry sees moving is trimmed of the readings it confirms as static (the
+      // floor at a walker's feet); an object at rest keeps its whole outline.
+      if (!consistent.empty() && options.outline == OutlineMode::kDepth &&
+          cv::countNonZero(geometric(box) & outline) > 0) {
+        outline = Outline(gray, depth_m, consistent, consistent, box, options.outline,
+                          options.continuity, options.outline_whole_box);
+      }
+    }
+    const int area = cv::countNonZero(outline);
+    if (area == 0) continue;
+    const int moving = cv::countNonZero(geometric(box) & outline);
+    (*claimed)(box).setTo(255, outline);
+    if (detection.level == MotionLevel::kHigh) {
+      ++result->high_regions;
+      result->high_confirmed += moving > 0 ? 1 : 0;
+      (*mask)(box).setTo(255, outline);
+    } else if (moving >= options.medium_min_moving_share * area) {
+      ++result->medium_moving;
+      (*mask)(box).setTo(255, outline);
+    } else {
+      ++result->medium_static;
+    }
+  }
+}
+
+// Moving regions of the geometry that no detection's outline touches.
+int GeometricOnlyRegions(const cv::Mat& geometric, const cv::Mat& claimed) {
+  if (cv::countNonZero(geometric) == 0) return 0;
+  const cv::Size size = geometric.size();
+  int regions = 0;
+  cv::Mat labels;
+  const int count = cv::connectedComponents(geometric, labels, 8, CV_32S);
+  std::vector<std::uint8_t> inside(static_cast<size_t>(count), 0);
+  for (int v = 0; v < size.height; ++v) {
+    const int* label = labels.ptr<int>(v);
+    const std::uint8_t* claim = claimed.ptr<std::uint8_t>(v);
+    for (int u = 0; u < size.width; ++u) {
+      if (label[u] > 0 && claim[u] != 0) inside[static_cast<size_t>(label[u])] = 1;
+    }
+  }
+  for (int k = 1; k < count; ++k) regions += inside[static_cast<size_t>(k)] ? 0 : 1;
+  return regions;
+}
+
+// Closes small holes (missing readings inside people), then adds the safety margin.
+void CloseAndAddMargin(int margin_px, cv::Mat* mask) {
+  if (cv::countNonZero(*mask) > 0) {
+    cv::morphologyEx(*mask, *mask, cv::MORPH_CLOSE,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
+    if (margin_px > 0) {
+      const int k = 2 * margin_px + 1;
+      cv::dilate(*mask, *mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
+    }
+  }
+}
+
 }  // namespace
 
 cv::Mat NearestStaticDepth(const MaskReference& reference) {
@@ -177,163 +262,6 @@ void DynamicMaskOptions::Validate() const {
   check(detector_interval >= 1, "detector_interval must be >= 1");
   check(margin_px >= 0 && margin_px <= 50, "margin_px must be 0..50");
   check(min_region_px >= 0, "min_region_px must be >= 0");
-}
-
-// ---- Geometry ----------------------------------------------------------------------------------
-
-GeometricMasker::GeometricMasker(const Camera& camera, const DynamicMaskOptions& options)
-    : camera_(camera), options_(options), rays_(PixelRays(camera)) {}
-
-cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d& world_from_camera,
-                                 const std::vector<const MaskReference*>& references,
-                                 const std::vector<cv::Point>& extra_seeds, int* depth_seeds,
-                                 cv::Mat* consistent) const {
-  CV_Assert(depth_m.type() == CV_32FC1 && depth_m.isContinuous());
-  const int width = depth_m.cols, height = depth_m.rows;
-  const PixelProjection project(camera_);
-  const float cos_limit =
-      static_cast<float>(std::cos(options_.depth.max_parallax_deg * M_PI / 180.0));
-
-  // Each current reading is placed in 3-D and looked up in every reference. Where a reference
-  // saw farther than the point along the same ray, the point was not there then: the space it
-  // occupies now was free (paper 002's test, depth difference above tau_d, evaluated for every
-  // current pixel so that visibility is explicit). The reference depth is the minimum over a
-  // 5x5 neighbourhood (one-pixel pose or edge errors at thin objects are no evidence); points
-  // outside a reference, where it had no reading or its own mask, or hidden behind a nearer
-  // surface there, get no verdict from it.
-  const float seed_difference = static_cast<float>(options_.depth.max_depth_difference_m);
-  const float grow_difference = static_cast<float>(options_.grow_depth_difference_m);
-  const float grow_sigmas = static_cast<float>(options_.grow_noise_sigmas);
-  const float seed_factor = static_cast<float>(options_.seed_noise_factor);
-  cv::Mat state(height, width, CV_8UC1, cv::Scalar(kNoVerdict));
-  std::uint8_t* s = state.data;
-  const float* z = depth_m.ptr<float>();
-  const float sin_limit =
-      static_cast<float>(std::sin(options_.depth.max_parallax_deg * M_PI / 180.0));
-  const int stride = options_.depth_check_stride;
-  cv::Mat computed;
-  for (const MaskReference* reference : references) {
-    if (reference->depth_m.size() != depth_m.size()) continue;
-    const cv::Mat* nearest = &reference->nearest_depth_m;
-    if (nearest->empty()) {
-      computed = NearestStaticDepth(*reference);
-      nearest = &computed;
-    }
-    const float* near = nearest->ptr<float>();
-    const Eigen::Isometry3f reference_from_current =
-        (reference->world_from_camera.inverse() * world_from_camera).cast<float>();
-    const Eigen::Matrix3f rotation = reference_from_current.linear();
-    const Eigen::Vector3f centre = reference_from_current.translation();  // current centre
-    const float baseline_squared = centre.squaredNorm();
-    // The verdict of this reference on current pixel i.
-    auto judge = [&](int i) -> std::uint8_t {
-      const float depth = z[i];
-      const Eigen::Vector2f& ray = rays_[static_cast<size_t>(i)];
-      const Eigen::Vector3f q =
-          rotation * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre;
-      if (q.z() < 0.1f) return kNoVerdict;
-      const Eigen::Vector2f pixel = project(q.x() / q.z(), q.y() / q.z());
-      const float pu = pixel.x() + 0.5f, pv = pixel.y() + 0.5f;
-      if (!(pu >= 0.0f && pv >= 0.0f && pu < static_cast<float>(width) &&
-            pv < static_cast<float>(height))) {
-        return kNoVerdict;
-      }
-      const float seen = near[static_cast<int>(pv) * width + static_cast<int>(pu)];
-      if (!(seen > 0.0f)) return kNoVerdict;
-      // Parallax: the angle at the point between the rays to the two camera centres. Its sine is
-      // at most baseline / distance, so the exact test is needed only for near points.
-      const float distance_squared = q.squaredNorm();
-      if (baseline_squared > sin_limit * sin_limit * distance_squared) {
-        const Eigen::Vector3f to_current = centre - q;
-        const float cos_angle = (-q).dot(to_current) / (q.norm() * to_current.norm() + 1e-12f);
-        if (cos_angle < cos_limit) return kNoVerdict;
-      }
-      const float difference = seen - q.z();
-      const float noise = grow_difference + grow_sigmas * KinectDepthSigma(q.z());
-      // Far seeds must stand clear of the sensor noise too (options: seed_noise_factor).
-      if (difference > std::max(seed_difference, seed_factor * noise)) return kSeed;
-      if (difference > noise) return kCandidate;
-      if (difference > -noise) return kConsistent;
-      return kNoVerdict;  // hidden behind a nearer surface in the reference
-    };
-    // One verdict per stride x stride block, from its centre, for the readings continuous with
-    // the centre's; the others (object edges) are judged on their own. Rows of blocks are
-    // independent and run in parallel (6.8 ms per frame against three references on one core,
-    // stillmap_masking_benchmark; the growth below stays sequential).
-    const int block_rows = (height + stride - 1) / stride;
-    cv::parallel_for_(cv::Range(0, block_rows), [&](const cv::Range& rows) {
-      for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
-        for (int bu = 0; bu < width; bu += stride) {
-          const int v_end = std::min(bv + stride, height), u_end = std::min(bu + stride, width);
-          const int centre_index =
-              std::min(bv + stride / 2, v_end - 1) * width + std::min(bu + stride / 2, u_end - 1);
-          const float centre_depth = z[centre_index];
-          const std::uint8_t centre_verdict =
-              centre_depth > 0.0f ? judge(centre_index) : std::uint8_t{kNoVerdict};
-          for (int v = bv; v < v_end; ++v) {
-            for (int u = bu; u < u_end; ++u) {
-              const int i = v * width + u;
-              if (!(z[i] > 0.0f) || s[i] == kSeed) continue;
-              const std::uint8_t verdict =
-                  centre_depth > 0.0f && (i == centre_index ||
-                                          Continuous(centre_depth, z[i], options_.block_continuity))
-                      ? centre_verdict
-                      : judge(i);
-              s[i] = std::max(s[i], verdict);
-            }
-          }
-        }
-      }
-    });
-  }
-
-  cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
-  std::vector<int> queue;
-  for (int i = 0; i < width * height; ++i) {
-    if (s[i] == kSeed) {
-      region.data[i] = 255;
-      queue.push_back(i);
-    }
-  }
-  if (depth_seeds != nullptr) *depth_seeds = static_cast<int>(queue.size());
-  if (consistent != nullptr) *consistent = state == kConsistent;
-  for (const cv::Point& seed : extra_seeds) {
-    if (seed.x < 0 || seed.y < 0 || seed.x >= width || seed.y >= height) continue;
-    const int i = seed.y * width + seed.x;
-    if ((s[i] == kNoVerdict || s[i] == kCandidate) && z[i] > 0.0f && region.data[i] == 0) {
-      region.data[i] = 255;
-      queue.push_back(i);
-    }
-  }
-  // Growth; steps through unseen pixels are counted and bounded.
-  std::vector<std::uint8_t> unknown_steps(static_cast<size_t>(width * height), 0);
-  const int max_steps = options_.max_unknown_steps;
-  const double continuity = options_.continuity;
-  Grow(&region, std::move(queue), [&](int next, int from) {
-    if (s[next] == kConsistent || !(z[next] > 0.0f) || !Continuous(z[from], z[next], continuity)) {
-      return false;
-    }
-    if (s[next] != kNoVerdict) return true;
-    const int steps = unknown_steps[static_cast<size_t>(from)] + 1;
-    if (steps > max_steps) return false;
-    unknown_steps[static_cast<size_t>(next)] = static_cast<std::uint8_t>(steps);
-    return true;
-  });
-
-  // Specks (noise at depth edges, single flow outliers) are dropped.
-  if (options_.min_region_px > 0) {
-    cv::Mat labels, stats, centroids;
-    const int count = cv::connectedComponentsWithStats(region, labels, stats, centroids, 8, CV_32S);
-    std::vector<std::uint8_t> keep(static_cast<size_t>(count), 0);
-    for (int k = 1; k < count; ++k) {
-      keep[static_cast<size_t>(k)] = stats.at<int>(k, cv::CC_STAT_AREA) >= options_.min_region_px;
-    }
-    const int* label = labels.ptr<int>();
-    for (int i = 0; i < width * height; ++i) {
-      if (region.data[i] != 0 && keep[static_cast<size_t>(label[i])] == 0) region.data[i] = 0;
-    }
-  }
-  return region;
 }
 
 // ---- Fusion ------------------------------------------------------------------------------------
@@ -450,101 +378,19 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
     carried_ = *detections;
     result.detections_fresh = true;
   } else {
-    for (Detection& detection : carried_) {
-      std::vector<float> dx, dy;
-      for (size_t i = 0; i < moved_from.size(); ++i) {
-        if (!detection.box.contains(moved_from[i])) continue;
-        dx.push_back(moved_to[i].x - moved_from[i].x);
-        dy.push_back(moved_to[i].y - moved_from[i].y);
-      }
-      if (dx.size() < 3) continue;
-      std::nth_element(dx.begin(), dx.begin() + static_cast<long>(dx.size() / 2), dx.end());
-      std::nth_element(dy.begin(), dy.begin() + static_cast<long>(dy.size() / 2), dy.end());
-      const cv::Point2f shift(dx[dx.size() / 2], dy[dy.size() / 2]);
-      const cv::Rect before(detection.box);
-      detection.box = cv::Rect2f(detection.box.tl() + shift, detection.box.size());
-      if (!detection.mask.empty()) {
-        // Keep the part of the mask that stays in the image.
-        const cv::Rect moved(cv::Rect(detection.box).tl(), before.size());
-        const cv::Rect inside = Clip(moved, size);
-        if (inside.area() == 0) {
-          detection.mask = cv::Mat();
-          detection.box = cv::Rect2f();
-          continue;
-        }
-        detection.mask = detection.mask(cv::Rect(inside.tl() - moved.tl(), inside.size())).clone();
-        detection.box = cv::Rect2f(inside);
-      } else {
-        detection.box &=
-            cv::Rect2f(0.0f, 0.0f, static_cast<float>(size.width), static_cast<float>(size.height));
-      }
-    }
+    CarryDetections(moved_from, moved_to, size, &carried_);
   }
 
   cv::Mat mask = geometric.clone();
   cv::Mat claimed(size, CV_8UC1, cv::Scalar(0));  // pixels of any detection's outline
   if (options_.semantics) {
-    for (const Detection& detection : carried_) {
-      if (detection.level == MotionLevel::kLow) continue;
-      const cv::Rect box = Clip(cv::Rect(detection.box), size);
-      if (box.area() == 0) continue;
-      cv::Mat outline;
-      if (!detection.mask.empty() && detection.mask.size() == box.size()) {
-        outline = detection.mask;
-      } else if (!detection.mask.empty()) {
-        continue;  // a clipped carried mask that no longer matches its box
-      } else {
-        outline = Outline(gray, depth_m, cv::Mat(), consistent, box, options_.outline,
-                          options_.continuity, options_.outline_whole_box);
-        // An object geometry sees moving is trimmed of the readings it confirms as static (the
-        // floor at a walker's feet); an object at rest keeps its whole outline.
-        if (!consistent.empty() && options_.outline == OutlineMode::kDepth &&
-            cv::countNonZero(geometric(box) & outline) > 0) {
-          outline = Outline(gray, depth_m, consistent, consistent, box, options_.outline,
-                            options_.continuity, options_.outline_whole_box);
-        }
-      }
-      const int area = cv::countNonZero(outline);
-      if (area == 0) continue;
-      const int moving = cv::countNonZero(geometric(box) & outline);
-      claimed(box).setTo(255, outline);
-      if (detection.level == MotionLevel::kHigh) {
-        ++result.high_regions;
-        result.high_confirmed += moving > 0 ? 1 : 0;
-        mask(box).setTo(255, outline);
-      } else if (moving >= options_.medium_min_moving_share * area) {
-        ++result.medium_moving;
-        mask(box).setTo(255, outline);
-      } else {
-        ++result.medium_static;
-      }
-    }
+    MaskDetections(carried_, gray, depth_m, geometric, consistent, options_, &mask, &claimed,
+                   &result);
   }
   result.geometric_pixels = cv::countNonZero(geometric);
-  if (result.geometric_pixels > 0) {
-    cv::Mat labels;
-    const int count = cv::connectedComponents(geometric, labels, 8, CV_32S);
-    std::vector<std::uint8_t> inside(static_cast<size_t>(count), 0);
-    for (int v = 0; v < size.height; ++v) {
-      const int* label = labels.ptr<int>(v);
-      const std::uint8_t* claim = claimed.ptr<std::uint8_t>(v);
-      for (int u = 0; u < size.width; ++u) {
-        if (label[u] > 0 && claim[u] != 0) inside[static_cast<size_t>(label[u])] = 1;
-      }
-    }
-    for (int k = 1; k < count; ++k)
-      result.geometric_only_regions += inside[static_cast<size_t>(k)] ? 0 : 1;
-  }
-
+  result.geometric_only_regions = GeometricOnlyRegions(geometric, claimed);
   // Close small holes (missing readings inside people), then the safety margin.
-  if (cv::countNonZero(mask) > 0) {
-    cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
-                     cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
-    if (options_.margin_px > 0) {
-      const int k = 2 * options_.margin_px + 1;
-      cv::dilate(mask, mask, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)));
-    }
-  }
+  CloseAndAddMargin(options_.margin_px, &mask);
   result.mask = mask;
   result.share = static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
 
