@@ -6,7 +6,7 @@ namespace stillmap {
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const BuildConfig& config,
                              const MaskStage& masks, Mapper* mapper)
-    : masks_(masks), mapper_(*mapper), selector_(config.selection), factors_(camera) {
+    : mapper_(*mapper), selector_(config.selection), factors_(camera) {
   if (masks.enabled() && config.map_recheck && config.masking.depth_check) {
     recheck_.emplace(masks.masker()->geometry(), config.masking);
   }

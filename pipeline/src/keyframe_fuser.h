@@ -21,8 +21,8 @@ namespace stillmap {
 
 class KeyframeFuser {
  public:
-  // `masks` and `mapper` must outlive the fuser. The re-check runs when masking, the depth
-  // check and config.map_recheck are all on.
+  // `masks` (its depth check, for the re-check) and `mapper` must outlive the fuser. The
+  // re-check runs when masking, the depth check and config.map_recheck are all on.
   KeyframeFuser(const Camera& camera, const BuildConfig& config, const MaskStage& masks,
                 Mapper* mapper);
 
@@ -47,7 +47,6 @@ class KeyframeFuser {
   cv::Mat Recheck(const FinalKeyframe& keyframe, std::map<int, Waiting>::iterator it,
                   bool* changed);
 
-  const MaskStage& masks_;
   Mapper& mapper_;
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
