@@ -99,6 +99,7 @@ std::string DistortionProblem(const Camera& camera) {
   std::vector<cv::Point2d> rays, back;
   cv::undistortPoints(border, rays, k, coefficients);
   std::vector<cv::Point3d> points;
+  points.reserve(rays.size());
   for (const cv::Point2d& ray : rays) points.emplace_back(ray.x, ray.y, 1.0);
   cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, coefficients, back);
   for (size_t i = 0; i < border.size(); ++i) {

@@ -50,10 +50,12 @@ std::vector<ObjectPose> ReadObjectPoses(const std::string& path) {
       if (i != 1 && i != 2) numbers = ParseFiniteDouble(fields[i], &v[i]);
     }
     if (!numbers) {
-      throw InputError(where +
-                       ": expected 'timestamp object_id name tx ty tz qx qy qz qw' with finite "
-                       "numbers, got '" +
-                       line + "'");
+      std::string message = where;
+      message += ": expected 'timestamp object_id name tx ty tz qx qy qz qw' with finite numbers, ";
+      message += "got '";
+      message += line;
+      message += "'";
+      throw InputError(message);
     }
     const Eigen::Quaterniond q(v[9], v[6], v[7], v[8]);
     if (std::abs(q.norm() - 1.0) > 0.01) {
