@@ -55,7 +55,10 @@ void Flatten(const std::string& prefix, const nlohmann::json& value,
              std::vector<std::pair<std::string, std::string>>* rows) {
   if (value.is_object() && !value.empty()) {
     for (const auto& [key, item] : value.items()) {
-      Flatten(prefix.empty() ? key : prefix + "." + key, item, rows);
+      std::string name = prefix;
+      if (!name.empty()) name += ".";
+      name += key;
+      Flatten(name, item, rows);
     }
     return;
   }

@@ -23,8 +23,11 @@ double NiceStep(double span, int target) {
 
 namespace {
 
-const cv::Scalar kWhite(255, 255, 255), kBlack(0, 0, 0), kGrid(225, 225, 225);
-const cv::Scalar kEstimate(200, 90, 20), kError(40, 40, 220);
+const cv::Scalar kWhite(255, 255, 255);
+const cv::Scalar kBlack(0, 0, 0);
+const cv::Scalar kGrid(225, 225, 225);
+const cv::Scalar kEstimate(200, 90, 20);
+const cv::Scalar kError(40, 40, 220);
 constexpr int kShift = 4;                                        // sub-pixel drawing
 constexpr int kLeft = 90, kRight = 30, kTop = 90, kBottom = 70;  // margins [px]
 
