@@ -13,6 +13,28 @@
 
 namespace stillmap {
 
+std::vector<Eigen::Isometry3d> WorldFromCameras(const std::vector<StampedPose>& poses) {
+  std::vector<Eigen::Isometry3d> out;
+  out.reserve(poses.size());
+  for (const StampedPose& pose : poses) out.push_back(pose.world_from_camera);
+  return out;
+}
+
+Eigen::Isometry3d PoseFromTumFields(const double* v, const std::string& where) {
+  const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+  const double norm = q.norm();
+  if (std::abs(norm - 1.0) > 0.01) {
+    std::ostringstream message;
+    message << where << ": quaternion (qx qy qz qw) has norm " << norm
+            << ", expected 1 (is the column order 'tx ty tz qx qy qz qw'?)";
+    throw InputError(message.str());
+  }
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = q.normalized().toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+  return pose;
+}
+
 Trajectory::Trajectory(std::vector<StampedPose> poses) : poses_(std::move(poses)) {
   for (size_t i = 1; i < poses_.size(); ++i) {
     if (!(poses_[i].time > poses_[i - 1].time)) {
@@ -45,18 +67,9 @@ Trajectory Trajectory::ReadTum(const std::string& path) {
                          "' is not a finite number (NaN and inf are not poses)");
       }
     }
-    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-    const double norm = q.norm();
-    if (std::abs(norm - 1.0) > 0.01) {
-      std::ostringstream message;
-      message << where << ": quaternion (qx qy qz qw) has norm " << norm
-              << ", expected 1 (is the column order 'tx ty tz qx qy qz qw'?)";
-      throw InputError(message.str());
-    }
     StampedPose pose;
     pose.time = v[0];
-    pose.world_from_camera.linear() = q.normalized().toRotationMatrix();
-    pose.world_from_camera.translation() = Eigen::Vector3d(v[1], v[2], v[3]);
+    pose.world_from_camera = PoseFromTumFields(&v[1], where);
     if (!poses.empty() && pose.time <= poses.back().time) {
       std::ostringstream message;
       message << std::setprecision(16) << where << ": timestamp " << pose.time

@@ -8,6 +8,7 @@
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/input_files.h"
+#include "stillmap/io/trajectory.h"
 
 namespace stillmap {
 
@@ -57,16 +58,11 @@ std::vector<ObjectPose> ReadObjectPoses(const std::string& path) {
       message += "'";
       throw InputError(message);
     }
-    const Eigen::Quaterniond q(v[9], v[6], v[7], v[8]);
-    if (std::abs(q.norm() - 1.0) > 0.01) {
-      throw InputError(where + ": the quaternion (qx qy qz qw) is not of unit length");
-    }
     ObjectPose pose;
     pose.time = v[0];
     pose.id = fields[1];
     pose.name = fields[2];
-    pose.world_from_object.linear() = q.normalized().toRotationMatrix();
-    pose.world_from_object.translation() = Eigen::Vector3d(v[3], v[4], v[5]);
+    pose.world_from_object = PoseFromTumFields(&v[3], where);
     poses.push_back(std::move(pose));
   }
   return poses;

@@ -5,16 +5,9 @@
 #include <stdexcept>
 
 #include "stillmap/io/cloud_files.h"
+#include "stillmap/io/timing.h"
 
 namespace stillmap {
-namespace {
-
-double MillisecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
-}  // namespace
 
 double MapperOptions::Extent() const {
   const double cloud = VoxelCloud::Extent(voxel.leaf_size);

@@ -5,6 +5,7 @@
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
+#include "stillmap/io/timing.h"
 #include "stillmap/io/truth_files.h"
 
 namespace stillmap {
@@ -94,8 +95,7 @@ void EvaluateMapQuality(const BuildInputs& inputs, const BuildRequest& request,
   for (VoxelPoint& point : points) point.position = transform * point.position;
   const std::vector<VoxelPoint> truth = ReadCloud(truth_path);
   evaluation.map_quality = stillmap::EvaluateMap(points, truth);
-  evaluation.map_evaluation_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  evaluation.map_evaluation_s = SecondsSince(start);
   if (result->grid) {
     EvaluateGridAgainst(truth, groundtruth_from_map->inverse(), request.sequence_dir, result);
   }

@@ -14,6 +14,7 @@
 #include "pose_loops.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/output_files.h"
+#include "stillmap/io/timing.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report.h"
 #include "stillmap/pipeline/report_html.h"
@@ -22,10 +23,6 @@ namespace stillmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 double PeakMemoryMib() {
   rusage usage{};

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <opencv2/imgproc.hpp>
 
+#include "stillmap/io/timing.h"
+
 namespace stillmap {
 
 FrameReader::FrameReader(const Sequence& sequence, std::vector<size_t> indices, bool read_ahead,
@@ -17,8 +19,7 @@ FrameReader::FrameReader(const Sequence& sequence, std::vector<size_t> indices, 
 PreparedFrame FrameReader::Get(size_t k) {
   const auto start = std::chrono::steady_clock::now();
   PreparedFrame frame = read_ahead_ ? next_.get() : Prepare(indices_[k]);
-  wait_ms_ +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  wait_ms_ += MillisecondsSince(start);
   if (read_ahead_ && k + 1 < indices_.size()) Schedule(k + 1);
   if (frame.flow) flow_ms_.push_back(frame.flow->ms);
   return frame;

@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "stillmap/io/timing.h"
+
 namespace stillmap {
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const BuildConfig& config,
@@ -58,8 +60,7 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
     }
     waiting_.erase(it);
   }
-  fuse_ms_ +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  fuse_ms_ += MillisecondsSince(start);
 }
 
 SelectionFigures KeyframeFuser::figures() const {

@@ -7,6 +7,7 @@
 #include <future>
 
 #include "stillmap/io/image_io.h"
+#include "stillmap/io/timing.h"
 #include "stillmap/mapping/map_mesh.h"
 #include "stillmap/mapping/occupancy_grid.h"
 #include "stillmap/viewer/renders.h"
@@ -17,19 +18,8 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double MillisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
 std::launch Policy(const BuildRequest& request) {
   return request.threads > 1 ? std::launch::async : std::launch::deferred;
-}
-
-std::vector<Eigen::Isometry3d> Poses(const std::vector<StampedPose>& stamped) {
-  std::vector<Eigen::Isometry3d> poses;
-  poses.reserve(stamped.size());
-  for (const StampedPose& pose : stamped) poses.push_back(pose.world_from_camera);
-  return poses;
 }
 
 // Why a build ends without a map, from the figures that explain it: an empty map is a failed run
@@ -61,7 +51,7 @@ std::optional<OccupancyGrid> WriteGridFiles(const FinishedMap& map, const PosedF
                                             const GridOptions& options, OutputSet& outputs) {
   if (!options.enabled || map.occupancy == nullptr) return std::nullopt;
   const FloorPlane floor =
-      FindFloor(*map.occupancy, MeanCameraUp(Poses(posed.fused_poses)), options);
+      FindFloor(*map.occupancy, MeanCameraUp(WorldFromCameras(posed.fused_poses)), options);
   OccupancyGrid grid = ProjectToGrid(*map.occupancy, floor, options);
   WriteGrid(grid, outputs.TemporaryPath("grid.pgm"), outputs.TemporaryPath("grid.yaml"),
             "grid.pgm");
@@ -184,8 +174,8 @@ void WriteRenders(std::vector<VoxelPoint> cloud, const PosedFrames& posed,
   RenderInput input;
   input.cloud = std::move(cloud);
   input.grid = result->grid;
-  input.trajectory = Poses(posed.trajectory.poses());
-  input.keyframes = Poses(posed.fused_poses);
+  input.trajectory = WorldFromCameras(posed.trajectory.poses());
+  input.keyframes = WorldFromCameras(posed.fused_poses);
   input.title = SequenceName(request.sequence_dir);
   std::vector<std::string> names;
   for (const auto& [name, image] : RenderViews(input)) {

@@ -15,6 +15,7 @@
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
 #include "stillmap/io/output_files.h"
+#include "stillmap/io/timing.h"
 #include "stillmap/io/trajectory.h"
 #include "synthetic_scene.h"
 
@@ -402,7 +403,7 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   summary.frames = options.frames;
   summary.static_gt_points = static_gt.size();
   for (double share : dynamic_share) summary.dynamic_pixel_share += share / options.frames;
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
   WriteSynthInfo(options, summary, scene.movers.size(), work);
   // Replace an earlier output only now that this one is complete.
   outputs.Commit();

@@ -9,6 +9,7 @@
 
 #include "mask_growth.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/timing.h"
 
 namespace stillmap {
 
@@ -394,8 +395,7 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   result.mask = mask;
   result.share = static_cast<double>(cv::countNonZero(mask)) / static_cast<double>(mask.total());
 
-  result.ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  result.ms = MillisecondsSince(start);
   return result;
 }
 

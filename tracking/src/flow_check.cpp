@@ -7,6 +7,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "stillmap/io/timing.h"
+
 namespace stillmap {
 
 std::vector<int> Dbscan(const std::vector<cv::Point2f>& points, double epsilon, int min_points) {
@@ -79,8 +81,7 @@ FlowStep FlowTracker::Next(const cv::Mat& gray) {
   }
   previous_pyramid_ = std::move(pyramid);
   previous_corners_ = FlowCorners(gray, corners_, 8.0);
-  step.ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  step.ms = MillisecondsSince(start);
   return step;
 }
 

@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "stillmap/io/timing.h"
+
 namespace stillmap {
 
 MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
@@ -22,9 +24,7 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   if (detect) {
     const auto start = std::chrono::steady_clock::now();
     detections = detector_->Detect(frame.color);
-    s.detector_ms.push_back(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-            .count());
+    s.detector_ms.push_back(MillisecondsSince(start));
     for (const Detection& detection : detections) {
       ++s.detections_by_level[MotionLevelName(detection.level)];
     }

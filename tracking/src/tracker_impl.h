@@ -22,15 +22,12 @@
 #include <utility>
 #include <vector>
 
+#include "stillmap/io/timing.h"
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
 
 using Clock = std::chrono::steady_clock;
-
-inline double MillisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // A 256-bit ORB descriptor as four words, so that the Hamming distance is four popcounts.
 using Descriptor = std::array<uint64_t, 4>;

@@ -27,10 +27,7 @@ RenderInput ReadBuildFolder(const std::string& out_dir) {
     if (!PathExists((out / name).string())) continue;
     std::vector<Eigen::Isometry3d>& poses =
         std::string(name) == "trajectory.txt" ? input.trajectory : input.keyframes;
-    const Trajectory trajectory = Trajectory::ReadTum((out / name).string());
-    for (const StampedPose& pose : trajectory.poses()) {
-      poses.push_back(pose.world_from_camera);
-    }
+    poses = WorldFromCameras(Trajectory::ReadTum((out / name).string()).poses());
   }
   std::error_code error;
   if (fs::is_regular_file(out / "report.json", error)) {  // only a caption: skipped when odd

@@ -14,6 +14,13 @@ struct StampedPose {
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
 };
 
+// The poses alone (camera-to-world), in order.
+std::vector<Eigen::Isometry3d> WorldFromCameras(const std::vector<StampedPose>& poses);
+
+// The pose of the TUM fields "tx ty tz qx qy qz qw" (`v`, 7 finite numbers). Throws InputError
+// at `where` (file:line) when the quaternion is far from unit length.
+Eigen::Isometry3d PoseFromTumFields(const double* v, const std::string& where);
+
 // A time-ordered list of poses with strictly increasing timestamps.
 class Trajectory {
  public:
