@@ -21,10 +21,11 @@
 namespace {
 
 std::string ConfigKeysHelp() {
-  std::string text = "Configuration keys (--set key=value, or in --config FILE.yaml):\n";
+  std::string text =
+      "Configuration keys (--set key=value, or in --config FILE.yaml), with their defaults:\n";
   for (const stillmap::ConfigKeyInfo& key : stillmap::ListConfigKeys()) {
-    text += "  " + key.name + std::string(key.name.size() < 36 ? 36 - key.name.size() : 1, ' ') +
-            key.help + "\n";
+    const std::string value = key.default_value.empty() ? "(from the sequence)" : key.default_value;
+    text += "  " + key.name + " = " + value + "\n      " + key.help + "\n";
   }
   return text;
 }

@@ -99,7 +99,7 @@ void MapCleaningOptions::Validate() const {
   if (!(free_view_ratio >= 0.0)) throw InputError("mapping.free_view_ratio must not be negative");
   if (!(view_margin_m >= 0.0 && view_margin_m <= 1.0 && view_margin_sigmas >= 0.0 &&
         view_margin_sigmas <= 100.0)) {
-    throw InputError("mapping.view_margin must be 0..1 m and mapping.view_margin_sigmas 0..100");
+    throw InputError("mapping.view_margin_m must be 0..1 m and mapping.view_margin_sigmas 0..100");
   }
 }
 

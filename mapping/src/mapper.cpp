@@ -11,7 +11,7 @@ namespace stillmap {
 
 double MapperOptions::Extent() const {
   const double cloud = VoxelCloud::Extent(voxel.leaf_size);
-  return occupancy_enabled ? std::min(cloud, OccupancyMap::Extent(occupancy.resolution)) : cloud;
+  return occupancy.enabled ? std::min(cloud, OccupancyMap::Extent(occupancy.resolution)) : cloud;
 }
 
 void MapperOptions::Validate() const {
@@ -27,7 +27,7 @@ Mapper::Mapper(const Camera& camera, const MapperOptions& options)
       cloud_(options.voxel),
       camera_(camera) {
   options_.Validate();
-  if (options_.occupancy_enabled) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
+  if (options_.occupancy.enabled) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
 }
 
 Mapper::~Mapper() {

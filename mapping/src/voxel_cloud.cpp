@@ -30,15 +30,15 @@ inline std::int64_t AxisIndex(std::uint64_t key, int axis) {
 
 void VoxelCloudOptions::Validate() const {
   if (!(leaf_size >= 0.001 && leaf_size <= 10.0)) {
-    throw InputError("mapping.voxel_leaf must be between 0.001 and 10 m");
+    throw InputError("mapping.voxel_leaf_size must be between 0.001 and 10 m");
   }
-  if (min_points_per_voxel < 1) throw InputError("mapping.min_points_per_voxel must be >= 1");
+  if (min_points < 1) throw InputError("mapping.voxel_min_points must be >= 1");
 }
 
 VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)
     : leaf_size_(options.leaf_size),
       inverse_leaf_(1.0 / options.leaf_size),
-      min_points_(static_cast<std::uint32_t>(std::max(1, options.min_points_per_voxel))) {
+      min_points_(static_cast<std::uint32_t>(std::max(1, options.min_points))) {
   options.Validate();
   slots_.assign(1 << 16, Slot{kEmpty, {}, {}, 0});
 }

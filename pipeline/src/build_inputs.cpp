@@ -22,7 +22,8 @@ void CheckWithinMapExtent(const std::vector<StampedPose>& poses, const BuildConf
   if (reach >= extent) {
     throw InputError(fmt::format(
         "groundtruth.txt: the camera lies up to {:.0f} m from the ground truth's origin along an "
-        "axis, but the maps reach {:.0f} m (octomap.resolution {} m, mapping.voxel_leaf {} m); "
+        "axis, but the maps reach {:.0f} m (octomap.resolution {} m, mapping.voxel_leaf_size {} "
+        "m); "
         "shift the ground truth nearer its origin or coarsen the maps",
         farthest, extent, config.mapping.occupancy.resolution, config.mapping.voxel.leaf_size));
   }

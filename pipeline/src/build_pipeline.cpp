@@ -55,8 +55,8 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
   const BuildConfig& config = request.config;
   std::unique_ptr<Detector> detector;
   if (config.masking_enabled) {
-    detector =
-        MakeDetector(request.detector, request.models_dir, MotionLevels(config), config.yolox);
+    detector = MakeDetector(request.detector, request.models_dir, MotionLevels(config),
+                            config.yolox, config.deeplab);
   }
   auto masks = std::make_unique<MaskStage>(camera, config.masking, config.masking_enabled,
                                            std::move(detector), request.sequence_dir);

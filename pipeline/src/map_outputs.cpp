@@ -178,7 +178,7 @@ void WriteRenders(std::vector<VoxelPoint> cloud, const PosedFrames& posed,
   input.keyframes = WorldFromCameras(posed.fused_poses);
   input.title = SequenceName(request.sequence_dir);
   std::vector<std::string> names;
-  for (const auto& [name, image] : RenderViews(input)) {
+  for (const auto& [name, image] : RenderViews(input, request.config.render)) {
     WriteImage(outputs.TemporaryPath("renders/" + name), image, ".png");
     names.push_back("renders/" + name);
   }

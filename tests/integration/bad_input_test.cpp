@@ -131,7 +131,7 @@ TEST_F(BadInputTest, SetOfAnUnknownKey) {
 }
 
 TEST_F(BadInputTest, ImpossibleValue) {
-  ExpectRefused("mapping.voxel_leaf", "--set mapping.voxel_leaf=-1");
+  ExpectRefused("mapping.voxel_leaf_size", "--set mapping.voxel_leaf_size=-1");
 }
 
 TEST_F(BadInputTest, OutputFolderThatCannotBeWritten) {

@@ -49,7 +49,7 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   request.sequence_dir = dir / "seq";
   request.output_dir = dir / "out";
   request.poses = PoseSource::kGroundTruth;
-  ApplySetArgument(&request.config, "mapping.voxel_leaf=0.02");
+  ApplySetArgument(&request.config, "mapping.voxel_leaf_size=0.02");
   const BuildResult summary = RunBuild(request);
   EXPECT_EQ(summary.frames.fused, 6u);
   EXPECT_EQ(summary.frames.without_pose, 0u);
@@ -128,7 +128,8 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   EXPECT_EQ(report["map"]["voxels_written"], cloud.size());
   EXPECT_GT(report["frames_per_second"].get<double>(), 0.0);
   EXPECT_GT(report["peak_memory_mib"].get<double>(), 0.0);
-  EXPECT_NE(testing::ReadText(dir / "out/config.yaml").find("voxel_leaf: 0.02"), std::string::npos);
+  EXPECT_NE(testing::ReadText(dir / "out/config.yaml").find("voxel_leaf_size: 0.02"),
+            std::string::npos);
 }
 
 TEST(BuildTest, FramesOutsideTheGroundTruthAreLeftOutNotInvented) {

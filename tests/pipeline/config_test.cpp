@@ -22,13 +22,13 @@ TEST(ConfigTest, DefaultsAreTheDesignDefaults) {
 
 TEST(ConfigTest, SetArgumentsReachTheirFields) {
   BuildConfig config;
-  ApplySetArgument(&config, "mapping.voxel_leaf=0.02");
+  ApplySetArgument(&config, "mapping.voxel_leaf_size=0.02");
   ApplySetArgument(&config, "octomap.enabled=false");
   ApplySetArgument(&config, "camera.preset=tum1");
   ApplySetArgument(&config, "camera.distortion=[0.1,0,0,0,0]");
   ApplySetArgument(&config, "sequence.max_frames=30");
   EXPECT_DOUBLE_EQ(config.mapping.voxel.leaf_size, 0.02);
-  EXPECT_FALSE(config.mapping.occupancy_enabled);
+  EXPECT_FALSE(config.mapping.occupancy.enabled);
   EXPECT_EQ(config.camera.preset, "tum1");
   EXPECT_DOUBLE_EQ((*config.camera.distortion)[0], 0.1);
   EXPECT_EQ(config.max_frames, 30u);
@@ -38,9 +38,13 @@ TEST(ConfigTest, UnknownKeysAndBadValuesAreNamed) {
   BuildConfig config;
   const std::string unknown = ErrorOf([&] { ApplySetArgument(&config, "mapping.voxel_size=1"); });
   EXPECT_NE(unknown.find("unknown configuration key 'mapping.voxel_size'"), std::string::npos);
-  EXPECT_NE(unknown.find("mapping.voxel_leaf"), std::string::npos);  // lists the known keys
+  EXPECT_NE(unknown.find("mapping.voxel_leaf_size"),
+            std::string::npos);  // lists the section's keys
+  EXPECT_EQ(unknown.find("tracking."), std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ApplySetArgument(&config, "maping.voxel=1"); }).find("mapping.*"),
+            std::string::npos);  // an unknown section: the sections
   EXPECT_NE(ErrorOf([&] {
-              ApplySetArgument(&config, "mapping.voxel_leaf=big");
+              ApplySetArgument(&config, "mapping.voxel_leaf_size=big");
             }).find("expected a finite number"),
             std::string::npos);
   EXPECT_NE(ErrorOf([&] { ApplySetArgument(&config, "novalue"); }).find("key=value"),
@@ -54,7 +58,7 @@ TEST(ConfigTest, UnknownKeysAndBadValuesAreNamed) {
 
 TEST(ConfigTest, FileErrorsNameTheLine) {
   testing::TempDir dir;
-  testing::WriteText(dir / "c.yaml", "mapping:\n  voxel_leaf: 0.02\n  voxel_size: 3\n");
+  testing::WriteText(dir / "c.yaml", "mapping:\n  voxel_leaf_size: 0.02\n  voxel_size: 3\n");
   BuildConfig config;
   const std::string error = ErrorOf([&] { ApplyConfigFile(&config, dir / "c.yaml"); });
   EXPECT_NE(error.find("c.yaml:3"), std::string::npos) << error;
@@ -63,7 +67,7 @@ TEST(ConfigTest, FileErrorsNameTheLine) {
 TEST(ConfigTest, EffectiveConfigurationReadsBackToTheSameConfiguration) {
   testing::TempDir dir;
   BuildConfig config;
-  ApplySetArgument(&config, "mapping.voxel_leaf=0.025");
+  ApplySetArgument(&config, "mapping.voxel_leaf_size=0.025");
   ApplySetArgument(&config, "camera.fx=500");
   ApplySetArgument(&config, "camera.distortion=0.1,0.2,0,0,0.3");
   ApplySetArgument(&config, "octomap.max_range=3.5");

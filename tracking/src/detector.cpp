@@ -302,7 +302,8 @@ std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
 }
 
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
-                                       const MotionLevelTable& levels, const YoloxOptions& yolox) {
+                                       const MotionLevelTable& levels, const YoloxOptions& yolox,
+                                       const DeeplabOptions& deeplab) {
   if (name == "none" || name.empty()) return nullptr;
   if (models_dir.empty()) {
     throw InputError("--detector " + name +
@@ -310,10 +311,10 @@ std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::strin
                      "deeplabv3_mnv2_voc/) or set STILLMAP_MODELS");
   }
   if (name == "yolox") return MakeYoloxDetector(models_dir, levels, yolox);
-  if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels);
+  if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels, deeplab);
   if (name == "both") {
     return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, yolox),
-                                MakeDeeplabDetector(models_dir, levels));
+                                MakeDeeplabDetector(models_dir, levels, deeplab));
   }
   throw InputError("--detector " + name + ": expected none, yolox, deeplab or both");
 }

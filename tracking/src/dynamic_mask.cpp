@@ -240,18 +240,25 @@ void DynamicMaskOptions::Validate() const {
   auto check = [](bool ok, const char* what) {
     if (!ok) throw InputError(std::string("masking.") + what);
   };
-  check(depth.max_depth_difference_m > 0.0, "depth_difference must be > 0 (paper 002: 0.4 m)");
+  check(depth.max_depth_difference_m > 0.0,
+        "max_depth_difference_m must be > 0 (paper 002: 0.4 m)");
   check(depth.max_parallax_deg > 0.0 && depth.max_parallax_deg <= 180.0,
         "max_parallax_deg must be in (0, 180] (paper 002: 30)");
-  check(flow.dbscan_epsilon_px > 0.0, "flow_epsilon_px must be > 0");
-  check(flow.min_epipolar_distance_px >= 0.0, "flow_min_epipolar_px must be >= 0");
-  check(flow.dbscan_min_points >= 1, "flow_min_points must be >= 1");
+  check(flow.dbscan_epsilon_px > 0.0, "flow_dbscan_epsilon_px must be > 0");
+  check(flow.min_epipolar_distance_px >= 0.0, "flow_min_epipolar_distance_px must be >= 0");
+  check(flow.dbscan_min_points >= 1, "flow_dbscan_min_points must be >= 1");
+  check(flow.ransac_threshold_px > 0.0 && flow.ransac_threshold_px <= 100.0,
+        "flow_ransac_threshold_px must be in (0, 100]");
+  check(flow.max_forward_backward_px > 0.0, "flow_max_forward_backward_px must be > 0");
+  // OpenCV's KLT: a window of at least 3 px; its cost grows with the window's area.
+  check(flow.klt_window >= 3 && flow.klt_window <= 101, "flow_klt_window must be 3..101");
+  check(flow.klt_levels >= 0 && flow.klt_levels <= 8, "flow_klt_levels must be 0..8");
   check(flow_points >= 8 && flow_points <= 20000, "flow_points must be 8..20000");
   check(reference_keyframes >= 1 && reference_keyframes <= 50, "reference_keyframes must be 1..50");
   check(reference_spacing_s >= 0.0, "reference_spacing_s must be >= 0");
   check(depth_check_stride >= 1 && depth_check_stride <= 16, "depth_check_stride must be 1..16");
   check(grow_depth_difference_m > 0.0 && grow_depth_difference_m <= depth.max_depth_difference_m,
-        "grow_depth_difference_m must be > 0 and <= depth_difference");
+        "grow_depth_difference_m must be > 0 and <= max_depth_difference_m");
   check(continuity > 0.0 && continuity < 1.0, "continuity must be in (0, 1)");
   check(block_continuity > 0.0 && block_continuity < 1.0, "block_continuity must be in (0, 1)");
   check(grow_noise_sigmas >= 0.0 && grow_noise_sigmas <= 100.0, "grow_noise_sigmas must be 0..100");

@@ -13,9 +13,11 @@ void FeatureOptions::Validate() const {
   if (max_features < 50 || max_features > 100000) {
     throw InputError("tracking.max_features must be between 50 and 100000");
   }
-  if (grid_columns < 1 || grid_rows < 1) throw InputError("tracking.grid must be at least 1x1");
-  if (pyramid_levels < 1 || !(scale_factor > 1.0f)) {
-    throw InputError("tracking.pyramid_levels must be >= 1 and scale_factor > 1");
+  if (grid_columns < 1 || grid_columns > 64 || grid_rows < 1 || grid_rows > 64) {
+    throw InputError("tracking.grid_columns and tracking.grid_rows must be 1..64");
+  }
+  if (pyramid_levels < 1 || pyramid_levels > 16 || !(scale_factor > 1.0f && scale_factor <= 4.0f)) {
+    throw InputError("tracking.pyramid_levels must be 1..16 and tracking.scale_factor in (1, 4]");
   }
   if (fast_threshold < 1 || fast_threshold > 255) {
     throw InputError("tracking.fast_threshold must be 1..255 (a gray-level difference)");

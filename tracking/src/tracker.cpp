@@ -14,7 +14,12 @@ void TrackerOptions::Validate() const {
   };
   require(search_radius_px > 0.0 && wide_search_radius_px >= search_radius_px &&
               refine_search_radius_px > 0.0,
-          "tracking.search_radius must be positive and at most tracking.wide_search_radius");
+          "tracking.search_radius_px and tracking.refine_search_radius_px must be positive, "
+          "tracking.search_radius_px at most tracking.wide_search_radius_px");
+  // The projection search visits the feature-grid cells the radius covers: bounded work.
+  require(wide_search_radius_px <= 1000.0 && refine_search_radius_px <= 1000.0,
+          "tracking.wide_search_radius_px and tracking.refine_search_radius_px must be at most "
+          "1000");
   require(max_descriptor_distance > 0 && max_descriptor_distance <= 256,
           "tracking.max_descriptor_distance must lie in 1..256");
   require(match_ratio > 0.0f && match_ratio <= 1.0f, "tracking.match_ratio must lie in (0, 1]");
@@ -23,12 +28,16 @@ void TrackerOptions::Validate() const {
           "tracking.sigma_px and tracking.sigma_inverse_depth must be positive");
   require(depth_calibration_interval > 0,
           "tracking.depth_calibration_interval must be a positive number of keyframes");
-  require(depth_calibration.min_pairs > 0 && depth_calibration.max_residual_m > 0.0 &&
-              depth_calibration.max_delta > 0.0 && depth_calibration.coefficient_sigma > 0.0 &&
-              depth_calibration.residual_sigma_m > 0.0 &&
-              depth_calibration.min_spread_reduction >= 0.0 &&
-              depth_calibration.min_spread_reduction_m >= 0.0,
-          "tracking.depth_calibration_* must be positive (the minimum reductions: not negative)");
+  const DepthCorrectionFitOptions& fit = depth_calibration;
+  require(fit.min_pairs > 0 && fit.max_residual_m > 0.0 && fit.max_delta > 0.0,
+          "tracking.depth_calibration_min_pairs, tracking.depth_calibration_max_residual_m and "
+          "tracking.depth_calibration_max_delta must be positive");
+  require(fit.coefficient_sigma > 0.0 && fit.residual_sigma_m > 0.0,
+          "tracking.depth_calibration_coefficient_sigma and "
+          "tracking.depth_calibration_residual_sigma_m must be positive");
+  require(fit.min_spread_reduction >= 0.0 && fit.min_spread_reduction_m >= 0.0,
+          "tracking.depth_calibration_min_spread_reduction and "
+          "tracking.depth_calibration_min_spread_reduction_m must not be negative");
   require(far_depth > 0.0 && far_depth_power >= 0.0,
           "tracking.far_depth must be positive and tracking.far_depth_power not negative");
   require(min_landmark_depth > 0.0 && max_landmark_depth > min_landmark_depth,
@@ -48,6 +57,30 @@ void TrackerOptions::Validate() const {
           "tracking.cull_single_view_age");
   require(local_window >= 2 && local_map_keyframes >= 1,
           "tracking.local_window must be at least 2 and tracking.local_map_keyframes at least 1");
+  require(weak_tracking_inliers >= 0, "tracking.weak_tracking_inliers must not be negative");
+  require(close_depth > 0.0, "tracking.close_depth must be positive");
+  require(pnp.max_reprojection_error > 0.0 && pnp.refine_reprojection_error > 0.0,
+          "tracking.pnp_max_reprojection_error and tracking.pnp_refine_reprojection_error must "
+          "be positive");
+  require(pnp.iterations >= 1 && pnp.iterations <= 100000,
+          "tracking.pnp_iterations must be 1..100000");
+  require(pnp.confidence > 0.0 && pnp.confidence < 1.0,
+          "tracking.pnp_confidence must be in (0, 1)");
+  require(pnp.min_inliers >= 4, "tracking.pnp_min_inliers must be at least 4");
+  require(refinement.rounds >= 1 && refinement.rounds <= 20 &&
+              refinement.iterations_per_round >= 1 && refinement.iterations_per_round <= 1000,
+          "tracking.refinement_rounds must be 1..20 and tracking.refinement_iterations_per_round "
+          "1..1000");
+  require(refinement.chi2_without_depth > 0.0 && refinement.chi2_with_depth > 0.0,
+          "tracking.refinement_chi2_without_depth and tracking.refinement_chi2_with_depth must "
+          "be positive");
+  require(refinement.min_inliers >= 4, "tracking.refinement_min_inliers must be at least 4");
+  require(bundle_adjustment.iterations_first >= 1 && bundle_adjustment.iterations_first <= 1000 &&
+              bundle_adjustment.iterations_second >= 1 &&
+              bundle_adjustment.iterations_second <= 1000,
+          "tracking.bundle_adjustment_iterations_first and _second must be 1..1000");
+  require(bundle_adjustment.chi2_without_depth > 0.0 && bundle_adjustment.chi2_with_depth > 0.0,
+          "tracking.bundle_adjustment_chi2_without_depth and _chi2_with_depth must be positive");
   require(min_tracked >= 6 && min_relocalized >= min_tracked,
           "tracking.min_tracked must be at least 6 and at most tracking.min_relocalized");
   require(relocalization_keyframes >= 1, "tracking.relocalization_keyframes must be at least 1");

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "stillmap/io/option_fields.h"
 #include "stillmap/io/trajectory.h"
 
 namespace stillmap {
@@ -26,6 +27,13 @@ ErrorStatistics ComputeStatistics(std::vector<double> errors);
 
 struct AteOptions {
   double max_time_difference = 0.02;  // association window [s] (evaluate_ate.py --max_difference)
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("max_time_difference", self.max_time_difference,
+          "ATE association window [s] (evaluate_ate.py --max_difference)");
+  }
 };
 
 // Absolute trajectory error: the estimate is associated to the ground truth by timestamp, aligned
@@ -47,6 +55,12 @@ AteResult ComputeAte(const Trajectory& groundtruth, const Trajectory& estimate,
 
 struct RpeOptions {
   double delta = 1.0;  // fixed time delta between the poses of a pair [s] (--fixed_delta --delta 1)
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("delta", self.delta, "RPE pose-pair time delta [s] (evaluate_rpe.py --delta)");
+  }
 };
 
 // Relative pose error over pairs of estimate poses `delta` seconds apart, as evaluate_rpe.py

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "stillmap/io/camera.h"
+#include "stillmap/io/option_fields.h"
 #include "stillmap/io/trajectory.h"
 
 namespace stillmap {
@@ -21,6 +22,21 @@ struct CameraOverrides {
   std::optional<double> fx, fy, cx, cy;             // [px]
   std::optional<std::array<double, 5>> distortion;  // k1 k2 p1 p2 k3
   std::optional<double> depth_factor;               // depth PNG value per metre
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("preset", self.preset,
+          "tum1|tum2|tum3|bonn|ros_default; used instead of the sequence's camera.yaml");
+    visit("width", self.width, "image width [px]");
+    visit("height", self.height, "image height [px]");
+    visit("fx", self.fx, "focal length x [px]");
+    visit("fy", self.fy, "focal length y [px]");
+    visit("cx", self.cx, "principal point x [px]");
+    visit("cy", self.cy, "principal point y [px]");
+    visit("distortion", self.distortion, "k1,k2,p1,p2,k3 (OpenCV radial-tangential)");
+    visit("depth_factor", self.depth_factor, "depth PNG value per metre");
+  }
 };
 
 // The sequence's camera: the named preset, else SEQUENCE_DIR/camera.yaml, else the camera keys
@@ -35,6 +51,15 @@ std::string SequenceName(const std::string& sequence_dir);
 struct SequenceOptions {
   double max_pair_time_difference = 0.02;  // color/depth association window [s] (TUM associate.py)
   double max_groundtruth_gap = 0.1;  // widest ground-truth gap a pose is interpolated across [s]
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("max_pair_time_difference", self.max_pair_time_difference,
+          "color/depth association window [s] (TUM associate.py: 0.02)");
+    visit("max_groundtruth_gap", self.max_groundtruth_gap,
+          "widest ground-truth gap a pose is interpolated across [s]");
+  }
 };
 
 // One color/depth pair of the sequence.

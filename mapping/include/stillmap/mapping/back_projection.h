@@ -24,6 +24,16 @@ struct BackProjectionOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("min_depth", self.min_depth, "depth readings nearer are ignored [m]");
+    visit("max_depth", self.max_depth, "depth readings farther are ignored [m]");
+    visit("pixel_stride", self.pixel_stride, "back-project every n-th pixel along u and v");
+    visit("smoothing_radius", self.smoothing_radius,
+          "edge-preserving depth smoothing radius [px] (0 = off; noise model: Nguyen et al. 2012)");
+  }
 };
 
 // Colored points, structure of arrays (the hot loops touch positions and colors separately).

@@ -21,6 +21,17 @@ struct KeyframeSelectionOptions {
   void Validate() const;
   // The rule in one sentence, for the report.
   std::string Describe() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("enabled", self.enabled, "fuse only valid, non-redundant keyframes (paper 000)");
+    visit("max_masked_share", self.max_masked_share,
+          "invalid: a larger share of the frame is masked as moving (paper 000: 0.5)");
+    visit("max_shared_landmarks", self.max_shared_landmarks,
+          "redundant: more than this share of its landmarks is seen by the selected keyframes "
+          "(paper 000: 0.5)");
+  }
 };
 
 enum class KeyframeVerdict {

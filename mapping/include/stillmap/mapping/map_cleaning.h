@@ -35,6 +35,28 @@ struct MapCleaningOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("clear_seen_through", self.clear_seen_through,
+          "drop cloud voxels the OctoMap ends up calling free (later rays saw through them)");
+    visit("clear_seen_through_views", self.clear_seen_through_views,
+          "drop cloud voxels that fused keyframes saw through, at the cloud's resolution");
+    visit("min_free_views", self.min_free_views,
+          "view cleaning: keyframes that must have seen through a voxel");
+    visit("free_view_ratio", self.free_view_ratio,
+          "view cleaning: keyframes seeing through a voxel outnumber those seeing it this often");
+    visit("view_margin_m", self.view_margin_m,
+          "view cleaning: a reading farther by this [m] + view_margin_sigmas sees through");
+    visit("view_margin_sigmas", self.view_margin_sigmas,
+          "view cleaning: Kinect noise sigmas added to view_margin_m");
+    visit("outlier_removal", self.outlier_removal, "PCL statistical outlier removal on the cloud");
+    visit("outlier_neighbors", self.outlier_neighbors,
+          "outlier removal: neighbours averaged per voxel");
+    visit("outlier_std_ratio", self.outlier_std_ratio,
+          "outlier removal: voxels this many standard deviations above the mean distance go");
+  }
 };
 
 // A fused keyframe as the view check needs it: its depth at half resolution (the nearest reading

@@ -26,6 +26,15 @@ struct MapMeshOptions {
   // Throws InputError naming the first impossible value.
   void Validate() const;
   std::string FileName() const { return "mesh." + format; }
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("enabled", self.enabled, "write the mesh (mesh.glb, or mesh.obj / mesh.ply)");
+    visit("format", self.format, "glb, obj or ply");
+    visit("voxel", self.voxel, "edge of the mesh's voxels [m]");
+    visit("min_points", self.min_points, "map points a mesh voxel needs");
+  }
 };
 
 struct ColoredMesh {

@@ -21,7 +21,6 @@ struct MapperOptions {
   VoxelCloudOptions voxel;
   OccupancyMapOptions occupancy;
   MapCleaningOptions cleaning;
-  bool occupancy_enabled = true;  // build the OctoMap (ray casting is the costliest stage)
   // Fuse on worker threads: the caller hands a frame over and goes on (tracking the next frames),
   // and the OctoMap insertion of one frame overlaps the voxelization of the next (the two stages
   // cost about the same). On bonn_crowd_a this takes 2.6 ms per frame off the tracking thread.
@@ -31,6 +30,17 @@ struct MapperOptions {
   // The maps hold points within +-Extent() of the origin on every axis [m] (the voxel cloud's and,
   // when enabled, the OctoMap's key range).
   double Extent() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit.Nested("", self.back_projection);
+    visit.Nested("voxel_", self.voxel);
+    visit.Section("octomap", self.occupancy);
+    visit.Nested("", self.cleaning);
+    visit("in_background", self.in_background,
+          "fuse on worker threads while tracking goes on (false: on the calling thread)");
+  }
 };
 
 // One frame to fuse: images as decoded by io, a mask of pixels to leave out (CV_8UC1, non-zero =
@@ -57,7 +67,7 @@ struct MapperStatistics {
 // The map a Mapper built, handed out once by Mapper::Finish.
 struct FinishedMap {
   VoxelCloud cloud;
-  std::unique_ptr<OccupancyMap> occupancy;  // null when mapping.occupancy_enabled is false
+  std::unique_ptr<OccupancyMap> occupancy;  // null when occupancy.enabled is false
   MapperStatistics statistics;
   std::vector<KeyframeView> views;  // of the fused frames, for the map cleaning
 

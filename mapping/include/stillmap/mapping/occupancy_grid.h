@@ -45,6 +45,29 @@ struct GridOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("enabled", self.enabled, "write the 2-D occupancy grid (grid.pgm, grid.yaml)");
+    visit("min_height", self.min_height, "lowest height above the floor that blocks a cell [m]");
+    visit("max_height", self.max_height, "robot height: highest blocking height [m]");
+    visit("floor", self.floor,
+          "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 in the "
+          "world frame, (a, b, c) pointing up");
+    visit("occupied_probability", self.occupied_probability,
+          "a voxel blocks its grid cell above this occupancy probability");
+    visit("confirm_probability", self.confirm_probability,
+          "occupied cells stay occupied only when connected to one above this (else unknown)");
+    visit("max_floor_tilt_deg", self.max_floor_tilt_deg,
+          "a fitted floor's normal is within this of the cameras' up [deg]");
+    visit("floor_ransac_rounds", self.floor_ransac_rounds, "floor fit: planes tried at most");
+    visit("floor_ransac_iterations", self.floor_ransac_iterations,
+          "floor fit: RANSAC samples per plane");
+    visit("floor_min_points", self.floor_min_points, "floor fit: fewest inliers of a plane");
+    visit("floor_min_inliers_per_mille", self.floor_min_inliers_per_mille,
+          "floor fit: fewest inliers, per mille of the occupied voxels");
+  }
 };
 
 struct FloorPlane {

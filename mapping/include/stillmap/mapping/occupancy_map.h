@@ -11,8 +11,9 @@
 namespace stillmap {
 
 struct OccupancyMapOptions {
-  double resolution = 0.05;      // leaf voxel edge [m]
-  double max_range = 4.0;        // rays are truncated here (free up to it, no hit) [m]; <= 0: none
+  bool enabled = true;       // the Mapper builds one (ray casting is the costliest mapping stage)
+  double resolution = 0.05;  // leaf voxel edge [m]
+  double max_range = 4.0;    // rays are truncated here (free up to it, no hit) [m]; <= 0: none
   double probability_hit = 0.7;  // OctoMap's default sensor model
   double probability_miss = 0.4;
   double clamping_min = 0.1192;  // OctoMap's default clamping thresholds
@@ -20,6 +21,20 @@ struct OccupancyMapOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("enabled", self.enabled, "build the OctoMap (map.bt, map.ot)");
+    visit("resolution", self.resolution, "OctoMap leaf size [m]");
+    visit("max_range", self.max_range, "rays truncated at this range [m]; <= 0: none");
+    visit("probability_hit", self.probability_hit,
+          "sensor model: P(occupied | hit) (OctoMap: 0.7)");
+    visit("probability_miss", self.probability_miss,
+          "sensor model: P(occupied | pass-through) (OctoMap: 0.4)");
+    visit("clamping_min", self.clamping_min, "lower probability clamp (OctoMap: 0.1192)");
+    visit("clamping_max", self.clamping_max, "upper probability clamp (OctoMap: 0.971)");
+  }
 };
 
 // Owns an octomap::OcTree (kept out of this header: OctoMap stays in the .cpp).

@@ -17,10 +17,18 @@ struct VoxelCloudOptions {
   double leaf_size = 0.01;  // voxel edge [m]
   // Voxels that received fewer points are left out of the output: isolated depth noise and
   // transient objects hit few points, surfaces seen over many frames many.
-  int min_points_per_voxel = 1;
+  int min_points = 1;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("leaf_size", self.leaf_size, "voxel edge of the colored cloud [m]");
+    visit("min_points", self.min_points,
+          "voxels with fewer points are left out of map.ply/map.pcd");
+  }
 };
 
 // Hash-keyed voxel grid with open addressing (linear probing, power-of-two capacity, load factor
@@ -52,7 +60,7 @@ class VoxelCloud {
   double leaf_size() const { return leaf_size_; }
   // The key range: coordinates within +-Extent(leaf) of the origin on every axis [m].
   static double Extent(double leaf_size) { return 1048575.0 * leaf_size; }
-  // Voxels that reach min_points_per_voxel (what ForEachPoint and Points visit).
+  // Voxels that reach min_points (what ForEachPoint and Points visit).
   size_t OutputSize() const;
   // Bytes held by the table.
   size_t MemoryBytes() const;

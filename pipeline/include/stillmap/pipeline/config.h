@@ -1,5 +1,5 @@
 // The configuration of a `stillmap build` run: every option of every component under one dotted
-// key ("mapping.voxel_leaf"), read from a YAML file and `--set key=value`, written back as the
+// key ("mapping.voxel_leaf_size"), read from a YAML file and `--set key=value`, written back as the
 // effective configuration next to the outputs.
 #pragma once
 
@@ -15,6 +15,7 @@
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
+#include "stillmap/viewer/renders.h"
 
 namespace stillmap {
 
@@ -37,22 +38,52 @@ struct BuildConfig {
   KeyframeSelectionOptions selection;
   GridOptions grid;
   MapMeshOptions mesh;
-  struct {
-    bool enabled = true;  // renders/ at the end of the build
-  } render;
+  RenderOptions render;
   YoloxOptions yolox;
+  DeeplabOptions deeplab;
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;
   RpeOptions rpe;
 
   // Throws InputError naming the key of the first impossible value.
   void Validate() const;
+
+  // The configuration keys: "section.key", each field of each component once
+  // (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit.Section("camera", self.camera);
+    visit.Section("sequence", self.sequence);
+    visit("sequence.first_frame", self.first_frame, "index of the first color/depth pair used");
+    visit("sequence.max_frames", self.max_frames, "pairs used from first_frame; 0 = all");
+    visit.Section("mapping", self.mapping);
+    visit.Section("tracking", self.tracking);
+    visit("masking.enabled", self.masking_enabled,
+          "dynamic rejection (false: every pixel is used)");
+    visit.Section("masking", self.masking);
+    visit("masking.map_recheck", self.map_recheck,
+          "re-run the depth check on each keyframe against its neighbours (both sides in time, "
+          "final poses) before fusing it");
+    visit("masking.groundtruth_reference_interval", self.groundtruth_reference_interval,
+          "with --poses groundtruth, every n-th frame is a depth-check reference");
+    visit.Section("keyframes", self.selection);
+    visit.Section("grid", self.grid);
+    visit.Section("mesh", self.mesh);
+    visit.Section("render", self.render);
+    visit.Section("detector", self.yolox);
+    visit.Section("detector", self.deeplab);
+    visit("detector.levels", self.detector_levels,
+          "motion-level overrides, e.g. chair=low,book=high (levels: high, medium, low)");
+    visit.Section("eval", self.ate);
+    visit.Section("eval", self.rpe, "rpe_");
+  }
 };
 
 // One configurable key, for help texts.
 struct ConfigKeyInfo {
   std::string name;
   std::string help;
+  std::string default_value;  // as written in config.yaml; empty: unset (taken from the sequence)
 };
 std::vector<ConfigKeyInfo> ListConfigKeys();
 
@@ -67,7 +98,7 @@ void SetConfigValue(BuildConfig* config, const std::string& key, const std::stri
 // Applies "key=value" as given to --set.
 void ApplySetArgument(BuildConfig* config, const std::string& argument);
 
-// Applies a YAML file of nested sections ("mapping:\n  voxel_leaf: 0.02") or dotted keys.
+// Applies a YAML file of nested sections ("mapping:\n  voxel_leaf_size: 0.02") or dotted keys.
 void ApplyConfigFile(BuildConfig* config, const std::string& path);
 
 // The effective configuration as YAML, every key with its value; reading it back with

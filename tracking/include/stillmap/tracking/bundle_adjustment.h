@@ -17,6 +17,19 @@ struct BundleAdjustmentOptions {
   // Chi-square thresholds at 95 % for whitened residuals (2 dof without depth, 3 with).
   double chi2_without_depth = 5.991;
   double chi2_with_depth = 7.815;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("iterations_first", self.iterations_first,
+          "Levenberg-Marquardt iterations before outliers are removed (ORB-SLAM2: 5)");
+    visit("iterations_second", self.iterations_second,
+          "Levenberg-Marquardt iterations after outliers are removed (ORB-SLAM2: 10)");
+    visit("chi2_without_depth", self.chi2_without_depth,
+          "outlier threshold, whitened, 2 dof (chi-square 95 %: 5.991)");
+    visit("chi2_with_depth", self.chi2_with_depth,
+          "outlier threshold, whitened, 3 dof (chi-square 95 %: 7.815)");
+  }
 };
 
 struct BundleAdjustmentKeyframe {

@@ -17,6 +17,15 @@ namespace stillmap {
 struct DepthCheckOptions {
   double max_depth_difference_m = 0.4;  // tau_d, paper 002
   double max_parallax_deg = 30.0;       // paper 002
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("max_depth_difference_m", self.max_depth_difference_m,
+          "tau_d: nearer than the keyframe's static depth by this [m] (paper 002: 0.4)");
+    visit("max_parallax_deg", self.max_parallax_deg,
+          "depth-check points seen under more parallax are skipped [deg] (paper 002: 30)");
+  }
 };
 
 enum class DepthVerdict { kStatic, kDynamic, kSkipped };

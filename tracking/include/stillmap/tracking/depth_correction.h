@@ -82,6 +82,23 @@ struct DepthCorrectionFitOptions {
   // rendered room: spread 0.6 -> 0.3 mm with a 5 % tilt "found", camera errors 0.2 -> 178 mm).
   // Bonn crowd's fits remove 9 mm.
   double min_spread_reduction_m = 0.002;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("min_pairs", self.min_pairs, "landmark depth pairs a fit needs at least");
+    visit("max_residual_m", self.max_residual_m,
+          "pairs disagreeing by more are not the same static point [m]");
+    visit("max_delta", self.max_delta,
+          "a depth correction beyond this share anywhere in the image is refused");
+    visit("coefficient_sigma", self.coefficient_sigma, "prior on each correction coefficient");
+    visit("residual_sigma_m", self.residual_sigma_m,
+          "depth disagreement of a pair, for the prior's weight [m]");
+    visit("min_spread_reduction", self.min_spread_reduction,
+          "a fit must shrink the pairs' robust spread by this share at least");
+    visit("min_spread_reduction_m", self.min_spread_reduction_m,
+          "... and by this much at least [m]");
+  }
 };
 
 struct DepthCorrectionFit {

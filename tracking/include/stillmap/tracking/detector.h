@@ -53,6 +53,15 @@ struct YoloxOptions {
   int input_height = 320;        // 30 ms here against 40 ms at 416x416, same detections)
   double score_threshold = 0.3;  // objectness x class probability
   double nms_threshold = 0.45;   // IoU, per class
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("input_width", self.input_width, "YOLOX letterbox width [px] (a multiple of 32)");
+    visit("input_height", self.input_height, "YOLOX letterbox height [px] (a multiple of 32)");
+    visit("score_threshold", self.score_threshold, "YOLOX: objectness x class probability");
+    visit("nms_threshold", self.nms_threshold, "YOLOX: non-maximum suppression IoU, per class");
+  }
 };
 
 // YOLOX-Nano (COCO, ONNX) from MODELS_DIR/yolox_nano/{yolox_nano.onnx, coco.names}. Throws
@@ -64,6 +73,13 @@ std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
 struct DeeplabOptions {
   // Segments smaller than this share of the image are dropped (label noise at object borders).
   double min_segment_share = 0.001;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("min_segment_share", self.min_segment_share,
+          "DeepLab: segments smaller than this share of the image are dropped");
+  }
 };
 
 // DeepLabV3-MobileNetV2 (PASCAL VOC, ONNX patched for OpenCV 4.6) from
@@ -83,6 +99,7 @@ std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
 // "both", with its models from MODELS_DIR. Throws InputError for an unknown name, a missing
 // models folder or a missing model file.
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
-                                       const MotionLevelTable& levels, const YoloxOptions& yolox);
+                                       const MotionLevelTable& levels, const YoloxOptions& yolox,
+                                       const DeeplabOptions& deeplab);
 
 }  // namespace stillmap

@@ -98,6 +98,47 @@ struct DynamicMaskOptions {
   void Validate() const;
   // Flow is tracked (for the flow check, or to carry detections between detector runs).
   bool TracksFlow() const { return flow_check || semantics; }
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("semantics", self.semantics, "use the detector's detections");
+    visit("depth_check", self.depth_check, "multi-view depth check against keyframes (paper 002)");
+    visit("flow_check", self.flow_check, "KLT flow / epipolar distance DBSCAN check (paper 004)");
+    visit.Nested("", self.depth);
+    visit.Nested("flow_", self.flow);
+    visit("flow_points", self.flow_points, "corners tracked for the flow check");
+    visit("reference_keyframes", self.reference_keyframes,
+          "keyframes the depth check compares with");
+    visit("reference_spacing_s", self.reference_spacing_s,
+          "older references at least this far apart [s]");
+    visit("depth_check_stride", self.depth_check_stride,
+          "depth check: one verdict per n x n block of continuous readings");
+    visit("grow_depth_difference_m", self.grow_depth_difference_m,
+          "regions grow over pixels nearer than the static depth by this [m] (+ noise)");
+    visit("continuity", self.continuity,
+          "neighbours within 1 cm + this share of depth are one surface");
+    visit("grow_noise_sigmas", self.grow_noise_sigmas,
+          "growth margin: grow_depth_difference_m + this many sigmas of Kinect noise");
+    visit("seed_noise_factor", self.seed_noise_factor,
+          "seeds lie nearer by more than this many growth margins");
+    visit("block_continuity", self.block_continuity,
+          "a reading takes its check block's verdict within 1 cm + this share of depth");
+    visit("max_unknown_steps", self.max_unknown_steps,
+          "growth through pixels no reference saw [px] (0..255)");
+    visit("outline", self.outline,
+          "box detections cut to: depth (foreground), edges (Canny, paper 000), box");
+    visit("outline_whole_box", self.outline_whole_box,
+          "depth outline seeded anywhere in the box, not only its centre, where not confirmed "
+          "static");
+    visit("medium_min_moving_share", self.medium_min_moving_share,
+          "medium-level objects are masked when geometry marks this share of them");
+    visit("detector_interval", self.detector_interval,
+          "run the detector every n-th frame (boxes carried between by flow)");
+    visit("margin_px", self.margin_px, "safety margin around moving objects [px]");
+    visit("min_region_px", self.min_region_px,
+          "geometric regions smaller than this are dropped [px]");
+  }
 };
 
 // A keyframe as a reference for the depth check.

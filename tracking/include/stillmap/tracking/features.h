@@ -23,6 +23,19 @@ struct FeatureOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("max_features", self.max_features, "ORB features per frame (ORB-SLAM2 RGB-D: 1000)");
+    visit("grid_columns", self.grid_columns, "feature grid: cells across the image");
+    visit("grid_rows", self.grid_rows, "feature grid: cells down the image");
+    visit("pyramid_levels", self.pyramid_levels, "ORB scale pyramid levels");
+    visit("scale_factor", self.scale_factor, "ORB scale pyramid: scale between levels");
+    visit("fast_threshold", self.fast_threshold, "FAST corner threshold (lower: more corners)");
+    visit("max_depth_spread", self.max_depth_spread,
+          "keypoints on a depth edge (4x4 spread above this share of depth) get no depth");
+  }
 };
 
 // The features of one frame. Index i refers to the same feature in every vector.

@@ -29,6 +29,21 @@ struct FlowCheckOptions {
   double max_forward_backward_px = 0.5;  // KLT tracks failing the round trip are dropped
   int klt_window = 21;
   int klt_levels = 3;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("dbscan_epsilon_px", self.dbscan_epsilon_px,
+          "DBSCAN radius in the (flow length, epipolar distance) plane [px] (paper 004)");
+    visit("dbscan_min_points", self.dbscan_min_points, "DBSCAN core-point neighbours (paper 004)");
+    visit("min_epipolar_distance_px", self.min_epipolar_distance_px,
+          "points outside the camera's cluster flagged only this far off their epipolar line [px]");
+    visit("ransac_threshold_px", self.ransac_threshold_px, "fundamental matrix inliers [px]");
+    visit("max_forward_backward_px", self.max_forward_backward_px,
+          "KLT tracks failing the round trip by more are dropped [px]");
+    visit("klt_window", self.klt_window, "KLT window edge [px]");
+    visit("klt_levels", self.klt_levels, "KLT pyramid levels above the image");
+  }
 };
 
 struct FlowCheckResult {

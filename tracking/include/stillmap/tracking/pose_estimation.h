@@ -15,6 +15,18 @@ struct PnpOptions {
   int iterations = 200;  // RANSAC iterations
   double confidence = 0.999;
   int min_inliers = 12;  // fewer: the pose is not trusted
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("max_reprojection_error", self.max_reprojection_error,
+          "RANSAC inlier threshold [normalized image units; 0.006 = 3.2 px at fx 525]");
+    visit("refine_reprojection_error", self.refine_reprojection_error,
+          "inlier threshold of the final least-squares fit [normalized image units]");
+    visit("iterations", self.iterations, "RANSAC iterations at most");
+    visit("confidence", self.confidence, "RANSAC confidence");
+    visit("min_inliers", self.min_inliers, "fewer inliers: the pose is not trusted");
+  }
 };
 
 enum class PoseStatus { kOk, kTooFewPoints, kTooFewInliers };

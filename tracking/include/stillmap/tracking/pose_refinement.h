@@ -16,6 +16,19 @@ struct RefinementOptions {
   double chi2_without_depth = 5.991;
   double chi2_with_depth = 7.815;
   int min_inliers = 12;  // fewer: the refined pose is not trusted
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("rounds", self.rounds, "solve / reject outliers rounds (ORB-SLAM2: 4)");
+    visit("iterations_per_round", self.iterations_per_round,
+          "Levenberg-Marquardt iterations per round");
+    visit("chi2_without_depth", self.chi2_without_depth,
+          "outlier threshold, whitened, 2 dof (chi-square 95 %: 5.991)");
+    visit("chi2_with_depth", self.chi2_with_depth,
+          "outlier threshold, whitened, 3 dof (chi-square 95 %: 7.815)");
+    visit("min_inliers", self.min_inliers, "fewer inliers: the refined pose is not trusted");
+  }
 };
 
 // Refines camera_from_world starting from `initial` by minimizing the Huber-robustified RGB-D

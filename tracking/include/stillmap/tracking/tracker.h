@@ -106,6 +106,76 @@ struct TrackerOptions {
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit.Nested("", self.features);
+    visit.Nested("pnp_", self.pnp);
+    visit.Nested("refinement_", self.refinement);
+    visit.Nested("bundle_adjustment_", self.bundle_adjustment);
+    visit("search_radius_px", self.search_radius_px,
+          "projection search radius around the prediction [px]");
+    visit("wide_search_radius_px", self.wide_search_radius_px,
+          "second, wider projection search radius [px]");
+    visit("refine_search_radius_px", self.refine_search_radius_px,
+          "search radius for landmarks not matched yet, after the first pose [px]");
+    visit("max_descriptor_distance", self.max_descriptor_distance,
+          "largest Hamming distance of a match (of 256 bits)");
+    visit("match_ratio", self.match_ratio, "best / second-best distance within the search window");
+    visit("min_matches", self.min_matches, "fewer matches after the wide search: relocalize");
+    visit("sigma_px", self.sigma_px, "keypoint noise at pyramid level 0 [px]");
+    visit("sigma_inverse_depth", self.sigma_inverse_depth,
+          "keypoint depth noise, in inverse depth [1/m]");
+    visit("far_depth", self.far_depth, "far depth: beyond this depth [m] (see far_depth_power)");
+    visit("far_depth_power", self.far_depth_power,
+          "inverse-depth noise times (z / far_depth)^this beyond far_depth (0: off)");
+    visit("depth_self_calibration", self.depth_self_calibration,
+          "estimate and correct the depth sensor's error over the image (depth_correction.h)");
+    visit("depth_calibration_interval", self.depth_calibration_interval,
+          "refit the depth correction every n keyframes");
+    visit.Nested("depth_calibration_", self.depth_calibration);
+    visit("min_landmark_depth", self.min_landmark_depth,
+          "landmarks are made from depth from this [m]");
+    visit("max_landmark_depth", self.max_landmark_depth,
+          "landmarks are made from depth up to this [m]");
+    visit("keyframe_ratio", self.keyframe_ratio,
+          "new keyframe when inliers fall below this share of the reference's landmarks "
+          "(ORB-SLAM2 RGB-D: 0.75)");
+    visit("min_keyframe_inliers", self.min_keyframe_inliers,
+          "no keyframe with this many inliers or fewer (ORB-SLAM2 RGB-D: 15)");
+    visit("close_tracked_max", self.close_tracked_max,
+          "near-point rule: fewer near points than this tracked (ORB-SLAM2 RGB-D: 100)");
+    visit("close_untracked_min", self.close_untracked_min,
+          "near-point rule: more near points than this untracked (ORB-SLAM2 RGB-D: 70)");
+    visit("max_keyframe_interval", self.max_keyframe_interval,
+          "a keyframe at least every this many frames");
+    visit("min_keyframe_interval", self.min_keyframe_interval,
+          "keyframes at least this many frames apart unless tracking is weak");
+    visit("weak_tracking_inliers", self.weak_tracking_inliers,
+          "tracking is weak with fewer inliers (min_keyframe_interval does not apply)");
+    visit("close_depth", self.close_depth, "near-point rule: near means closer than this [m]");
+    visit("cull_found_ratio", self.cull_found_ratio,
+          "recent landmarks found in fewer than this share of their visible frames go");
+    visit("cull_min_visible", self.cull_min_visible,
+          "frames a landmark must be visible in before that rule");
+    visit("cull_single_view_age", self.cull_single_view_age,
+          "keyframes after which a landmark seen by one keyframe only goes");
+    visit("cull_recent_age", self.cull_recent_age, "keyframes a landmark stays subject to culling");
+    visit("local_map_keyframes", self.local_map_keyframes,
+          "keyframes whose landmarks are searched for per frame");
+    visit("local_window", self.local_window, "keyframes optimized by the local bundle adjustment");
+    visit("background_bundle_adjustment", self.background_bundle_adjustment,
+          "run the local bundle adjustment on its own thread (false: inline, deterministic)");
+    visit("min_tracked", self.min_tracked, "inliers for a frame to count as tracked");
+    visit("min_relocalized", self.min_relocalized, "inliers for a relocalization to be accepted");
+    visit("relocalization_keyframes", self.relocalization_keyframes,
+          "keyframes a relocalization tries");
+    visit("new_map_after_lost", self.new_map_after_lost,
+          "consecutive lost frames before a new local map starts at the last good pose");
+    visit("min_initial_points", self.min_initial_points,
+          "features with depth needed to start a map");
+  }
 };
 
 enum class TrackStatus {

@@ -25,8 +25,17 @@ struct RenderInput {
 };
 
 struct RenderOptions {
-  int width = 1200;
-  int height = 900;
+  bool enabled = true;  // a build draws them (RenderViews itself ignores this)
+  int width = 1200;     // [px]
+  int height = 900;     // [px]
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("enabled", self.enabled, "write the renders (renders/*.png) at the end of a build");
+    visit("width", self.width, "render width [px]");
+    visit("height", self.height, "render height [px]");
+  }
 };
 
 // "grid_top.png" (when there is a grid), "cloud_view_1.png" (from behind the first camera, 35

@@ -1,0 +1,55 @@
+// How an options struct lists its fields once, for the configuration (pipeline/config.h): a
+// static member template
+//
+//   template <typename Self, typename Visitor>
+//   static void VisitFields(Self& self, Visitor& visit) {
+//     visit("leaf_size", self.leaf_size, "voxel edge of the colored cloud [m]");
+//     visit.Nested("pnp_", self.pnp);          // the fields of a member struct, keys prefixed
+//     visit.Section("octomap", self.occupancy);  // ... or under a section of their own
+//   }
+//
+// called with `Self` = the struct or its const version. Every field appears exactly once, in
+// declaration order, under its own name; the help text gives the unit and, for thresholds from a
+// paper, the paper. A visitor derives from OptionVisitor, which keeps the key path.
+#pragma once
+
+#include <string>
+#include <type_traits>
+
+namespace stillmap {
+
+template <typename Derived>
+class OptionVisitor {
+ public:
+  // The fields of `options` with their keys prefixed by `prefix` in the current section.
+  template <typename Options>
+  void Nested(const char* prefix, Options& options) {
+    const std::string saved = prefix_;
+    prefix_ += prefix;
+    Visit(options);
+    prefix_ = saved;
+  }
+
+  // The fields of `options` under "section." (plus `prefix`), wherever the visit is.
+  template <typename Options>
+  void Section(const char* section, Options& options, const char* prefix = "") {
+    const std::string saved = prefix_;
+    prefix_ = std::string(section) + "." + prefix;
+    Visit(options);
+    prefix_ = saved;
+  }
+
+ protected:
+  // The full key of a field named `name` where the visit is.
+  std::string KeyOf(const char* name) const { return prefix_ + name; }
+
+ private:
+  template <typename Options>
+  void Visit(Options& options) {
+    std::remove_const_t<Options>::VisitFields(options, static_cast<Derived&>(*this));
+  }
+
+  std::string prefix_;
+};
+
+}  // namespace stillmap
