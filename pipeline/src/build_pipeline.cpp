@@ -46,7 +46,15 @@ void CheckRequest(const BuildRequest& request) {
   // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads, at
   // most one per core: TBB, OpenCV's backend, warns on stderr about more, even under --quiet.
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+#if defined(__SANITIZE_THREAD__)
+  // ThreadSanitizer cannot see TBB's hand-overs (Debian's TBB is not instrumented) and reports
+  // every parallel_for_ body as racing with its caller: OpenCV's loops run on the calling thread
+  // under TSan, and what it checks are stillmap's own threads (scripts/tsan.sh).
+  cv::setNumThreads(1);
+  static_cast<void>(cores);
+#else
   cv::setNumThreads(std::min(request.threads, cores));
+#endif
 }
 
 // The mask stage with its detector (loaded here, so that its errors come before any output).
