@@ -1,10 +1,5 @@
 #include "stillmap/mapping/occupancy_grid.h"
 
-#include <pcl/console/print.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
-#include <pcl/sample_consensus/ransac.h>
-#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -21,12 +16,6 @@
 #include "stillmap/io/input_files.h"
 
 namespace stillmap {
-
-namespace {
-
-constexpr double kDegree = M_PI / 180.0;
-
-}  // namespace
 
 Eigen::Matrix3d FloorAxes(const Eigen::Vector3d& up) {
   Eigen::Vector3d x = Eigen::Vector3d::UnitX();
@@ -72,119 +61,6 @@ void GridOptions::Validate() const {
   }
 }
 
-FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
-                     const GridOptions& options) {
-  FloorPlane floor;
-  const Eigen::Vector3d hint =
-      cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
-  if (options.floor) {
-    const double norm = options.floor->head<3>().norm();
-    floor.up = options.floor->head<3>() / norm;
-    floor.offset = (*options.floor)[3] / norm;
-    floor.source = "given (grid.floor)";
-    floor.tilt_to_cameras_deg = std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
-    return floor;
-  }
-  auto cloud = pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
-  map.ForEachLeaf([&](const Eigen::Vector3d& centre, double, bool occupied) {
-    if (occupied)
-      cloud->push_back(pcl::PointXYZ(static_cast<float>(centre.x()), static_cast<float>(centre.y()),
-                                     static_cast<float>(centre.z())));
-  });
-  if (cloud->empty()) {
-    floor.up = hint;
-    floor.offset = 0.0;
-    floor.source =
-        "none found (empty map): the plane through the world origin, normal to the "
-        "cameras' mean up";
-    return floor;
-  }
-
-  struct Candidate {
-    Eigen::Vector3d up;
-    double offset;
-    size_t inliers;
-    double mean_height;  // along the hint
-  };
-  std::vector<Candidate> candidates;
-  std::vector<int> remaining(cloud->size());
-  for (size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
-  const double threshold = map.resolution();
-  // PCL's RANSAC prints a line for every degenerate sample ("Sample points too similar or
-  // collinear!"), even under --quiet; the fit's outcome is reported instead (report.json grid).
-  const pcl::console::VERBOSITY_LEVEL verbosity = pcl::console::getVerbosityLevel();
-  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  struct RestoreVerbosity {
-    pcl::console::VERBOSITY_LEVEL level;
-    ~RestoreVerbosity() { pcl::console::setVerbosityLevel(level); }
-  } restore{verbosity};
-  const auto min_points = static_cast<size_t>(options.floor_min_points);
-  const size_t min_inliers = std::max(
-      min_points, cloud->size() * static_cast<size_t>(options.floor_min_inliers_per_mille) / 1000);
-  for (int round = 0; round < options.floor_ransac_rounds && remaining.size() >= min_points;
-       ++round) {
-    auto model = pcl::make_shared<pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>>(
-        cloud, remaining);
-    model->setAxis(hint.cast<float>());
-    model->setEpsAngle(options.max_floor_tilt_deg * kDegree);
-    pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold);
-    ransac.setMaxIterations(options.floor_ransac_iterations);
-    if (!ransac.computeModel()) break;
-    std::vector<int> inliers;
-    ransac.getInliers(inliers);
-    Eigen::VectorXf coefficients;
-    ransac.getModelCoefficients(coefficients);
-    if (inliers.size() < min_inliers || coefficients.size() != 4) {
-      break;
-    }
-    Eigen::Vector3d up = coefficients.head<3>().cast<double>();
-    double offset = coefficients[3];
-    const double norm = up.norm();
-    up /= norm;
-    offset /= norm;
-    if (up.dot(hint) < 0.0) {
-      up = -up;
-      offset = -offset;
-    }
-    double sum = 0.0;
-    for (int index : inliers)
-      sum += hint.dot(cloud->points[static_cast<size_t>(index)].getVector3fMap().cast<double>());
-    candidates.push_back({up, offset, inliers.size(), sum / static_cast<double>(inliers.size())});
-    std::vector<int> rest;
-    std::sort(inliers.begin(), inliers.end());
-    std::set_difference(remaining.begin(), remaining.end(), inliers.begin(), inliers.end(),
-                        std::back_inserter(rest));
-    remaining.swap(rest);
-  }
-  size_t largest = 0;
-  for (const Candidate& c : candidates) largest = std::max(largest, c.inliers);
-  const Candidate* best = nullptr;
-  for (const Candidate& c : candidates) {
-    if (4 * c.inliers < largest) continue;
-    if (best == nullptr || c.mean_height < best->mean_height) best = &c;
-  }
-  if (best != nullptr) {
-    floor.up = best->up;
-    floor.offset = best->offset;
-    floor.inliers = best->inliers;
-    floor.source = "fitted";
-  } else {
-    std::vector<double> heights;
-    heights.reserve(cloud->size());
-    for (const pcl::PointXYZ& p : cloud->points) {
-      heights.push_back(hint.dot(p.getVector3fMap().cast<double>()));
-    }
-    const auto nth = heights.begin() + static_cast<long>(heights.size() / 50);
-    std::nth_element(heights.begin(), nth, heights.end());
-    floor.up = hint;
-    floor.offset = -*nth;
-    floor.source =
-        "no horizontal plane found: the 2nd percentile of the map's heights along the cameras' up";
-  }
-  floor.tilt_to_cameras_deg = std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
-  return floor;
-}
-
 std::optional<Eigen::Vector2i> OccupancyGrid::CellOf(const Eigen::Vector3d& point_in_world) const {
   const Eigen::Vector3d g = world_from_grid.inverse() * point_in_world;
   const int i = static_cast<int>(std::floor((g.x() - origin.x()) / resolution));
@@ -197,52 +73,45 @@ size_t OccupancyGrid::Count(std::int8_t value) const {
   return static_cast<size_t>(std::count(cells.begin(), cells.end(), value));
 }
 
-OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
-                            const GridOptions& options) {
-  options.Validate();
-  OccupancyGrid grid;
-  grid.resolution = map.resolution();
-  grid.floor = floor;
-  grid.min_height = options.min_height;
-  grid.max_height = options.max_height;
-  // Grid frame: rotation rows x, y, up; the world origin lands at height offset above the floor.
-  const Eigen::Matrix3d axes = FloorAxes(floor.up);
-  Eigen::Isometry3d grid_from_world = Eigen::Isometry3d::Identity();
-  grid_from_world.linear() = axes;
-  grid_from_world.translation() = Eigen::Vector3d(0.0, 0.0, floor.offset);
-  grid.world_from_grid = grid_from_world.inverse();
+namespace {
 
-  const double resolution = grid.resolution;
-  // Occupied voxels this far below min_height (and above the plane's fit error) count as floor.
-  const double floor_low = -std::max(2.0 * resolution, 0.1);
-  // The grid's extent: the known voxels near the band, projected.
+// Sizes `grid` to the known voxels near its band, projected (false: none, the grid stays empty).
+bool FitExtent(const OccupancyMap& map, const Eigen::Isometry3d& grid_from_world, double floor_low,
+               double max_height, OccupancyGrid* grid) {
+  const double resolution = grid->resolution;
   Eigen::Vector2d low(std::numeric_limits<double>::infinity(),
                       std::numeric_limits<double>::infinity());
   Eigen::Vector2d high = -low;
   map.ForEachLeaf([&](const Eigen::Vector3d& centre, double size, bool) {
     const Eigen::Vector3d g = grid_from_world * centre;
     const double reach = 0.87 * size;  // half the cube's diagonal
-    if (g.z() + reach < floor_low || g.z() - reach > options.max_height) return;
+    if (g.z() + reach < floor_low || g.z() - reach > max_height) return;
     low = low.cwiseMin(g.head<2>() - Eigen::Vector2d::Constant(reach));
     high = high.cwiseMax(g.head<2>() + Eigen::Vector2d::Constant(reach));
   });
-  if (!(low.x() <= high.x())) return grid;  // nothing near the band: an empty grid
+  if (!(low.x() <= high.x())) return false;
   const int i_min = static_cast<int>(std::floor(low.x() / resolution));
   const int j_min = static_cast<int>(std::floor(low.y() / resolution));
-  grid.width = static_cast<int>(std::floor(high.x() / resolution)) - i_min + 1;
-  grid.height = static_cast<int>(std::floor(high.y() / resolution)) - j_min + 1;
-  grid.origin = Eigen::Vector2d(i_min * resolution, j_min * resolution);
-  grid.cells.assign(static_cast<size_t>(grid.width) * static_cast<size_t>(grid.height),
-                    kGridUnknown);
+  grid->width = static_cast<int>(std::floor(high.x() / resolution)) - i_min + 1;
+  grid->height = static_cast<int>(std::floor(high.y() / resolution)) - j_min + 1;
+  grid->origin = Eigen::Vector2d(i_min * resolution, j_min * resolution);
+  grid->cells.assign(static_cast<size_t>(grid->width) * static_cast<size_t>(grid->height),
+                     kGridUnknown);
+  return true;
+}
 
-  // Each cell's column is looked up in the OctoMap at its centre, every half voxel in height:
-  // the grid gets exactly what lies over each cell, whatever its angle to the OctoMap's axes
-  // (splatting voxels instead either leaves gaps or grows obstacles by up to a cell).
+// Each cell's column is looked up in the OctoMap at its centre, every half voxel in height: the
+// grid gets exactly what lies over each cell, whatever its angle to the OctoMap's axes (splatting
+// voxels instead either leaves gaps or grows obstacles by up to a cell). Returns the strongest
+// occupancy probability in each cell's band.
+std::vector<float> ClassifyCells(const OccupancyMap& map, const GridOptions& options,
+                                 double floor_low, OccupancyGrid* grid_out) {
+  OccupancyGrid& grid = *grid_out;
+  const double resolution = grid.resolution;
   const double step = resolution / 2.0;
   std::vector<double> band, floor_band;
   for (double h = options.min_height; h <= options.max_height + 1e-9; h += step) band.push_back(h);
   for (double h = floor_low; h < options.min_height; h += step) floor_band.push_back(h);
-  // The strongest occupancy probability in each cell's band.
   std::vector<float> support(grid.cells.size(), -1.0f);
   cv::parallel_for_(cv::Range(0, grid.height), [&](const cv::Range& rows) {
     for (int j = rows.start; j < rows.end; ++j) {
@@ -280,38 +149,68 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
       }
     }
   });
-  // Hysteresis: an occupied cell whose voxels were hit only weakly (about once, as the remnant of
-  // a person at a mask's edge is) stays occupied only when connected (8-neighbours, through
-  // occupied cells) to a cell confirmed above confirm_probability; otherwise it is unknown.
-  if (options.confirm_probability > options.occupied_probability) {
-    std::vector<std::uint8_t> reached(grid.cells.size(), 0);
-    std::vector<int> queue;
-    for (size_t k = 0; k < grid.cells.size(); ++k) {
-      if (grid.cells[k] == kGridOccupied && support[k] > options.confirm_probability) {
+  return support;
+}
+
+// Hysteresis: an occupied cell whose voxels were hit only weakly (about once, as the remnant of a
+// person at a mask's edge is) stays occupied only when connected (8-neighbours, through occupied
+// cells) to a cell confirmed above confirm_probability; otherwise it is unknown.
+void DropUnconfirmed(const std::vector<float>& support, double confirm_probability,
+                     OccupancyGrid* grid) {
+  std::vector<std::uint8_t> reached(grid->cells.size(), 0);
+  std::vector<int> queue;
+  for (size_t k = 0; k < grid->cells.size(); ++k) {
+    if (grid->cells[k] == kGridOccupied && support[k] > confirm_probability) {
+      reached[k] = 1;
+      queue.push_back(static_cast<int>(k));
+    }
+  }
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int i = queue[head] % grid->width, j = queue[head] / grid->width;
+    for (int dj = -1; dj <= 1; ++dj) {
+      for (int di = -1; di <= 1; ++di) {
+        const int a = i + di, b = j + dj;
+        if (a < 0 || b < 0 || a >= grid->width || b >= grid->height) continue;
+        const size_t k =
+            static_cast<size_t>(b) * static_cast<size_t>(grid->width) + static_cast<size_t>(a);
+        if (reached[k] != 0 || grid->cells[k] != kGridOccupied) continue;
         reached[k] = 1;
         queue.push_back(static_cast<int>(k));
       }
     }
-    for (size_t head = 0; head < queue.size(); ++head) {
-      const int i = queue[head] % grid.width, j = queue[head] / grid.width;
-      for (int dj = -1; dj <= 1; ++dj) {
-        for (int di = -1; di <= 1; ++di) {
-          const int a = i + di, b = j + dj;
-          if (a < 0 || b < 0 || a >= grid.width || b >= grid.height) continue;
-          const size_t k =
-              static_cast<size_t>(b) * static_cast<size_t>(grid.width) + static_cast<size_t>(a);
-          if (reached[k] != 0 || grid.cells[k] != kGridOccupied) continue;
-          reached[k] = 1;
-          queue.push_back(static_cast<int>(k));
-        }
-      }
+  }
+  for (size_t k = 0; k < grid->cells.size(); ++k) {
+    if (grid->cells[k] == kGridOccupied && reached[k] == 0) {
+      grid->cells[k] = kGridUnknown;
+      ++grid->unconfirmed_cells;
     }
-    for (size_t k = 0; k < grid.cells.size(); ++k) {
-      if (grid.cells[k] == kGridOccupied && reached[k] == 0) {
-        grid.cells[k] = kGridUnknown;
-        ++grid.unconfirmed_cells;
-      }
-    }
+  }
+}
+
+}  // namespace
+
+OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
+                            const GridOptions& options) {
+  options.Validate();
+  OccupancyGrid grid;
+  grid.resolution = map.resolution();
+  grid.floor = floor;
+  grid.min_height = options.min_height;
+  grid.max_height = options.max_height;
+  // Grid frame: rotation rows x, y, up; the world origin lands at height offset above the floor.
+  const Eigen::Matrix3d axes = FloorAxes(floor.up);
+  Eigen::Isometry3d grid_from_world = Eigen::Isometry3d::Identity();
+  grid_from_world.linear() = axes;
+  grid_from_world.translation() = Eigen::Vector3d(0.0, 0.0, floor.offset);
+  grid.world_from_grid = grid_from_world.inverse();
+  // Occupied voxels this far below min_height (and above the plane's fit error) count as floor.
+  const double floor_low = -std::max(2.0 * grid.resolution, 0.1);
+  if (!FitExtent(map, grid_from_world, floor_low, options.max_height, &grid)) {
+    return grid;  // nothing near the band: an empty grid
+  }
+  const std::vector<float> support = ClassifyCells(map, options, floor_low, &grid);
+  if (options.confirm_probability > options.occupied_probability) {
+    DropUnconfirmed(support, options.confirm_probability, &grid);
   }
   return grid;
 }

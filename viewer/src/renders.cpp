@@ -139,14 +139,31 @@ cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
   return image;
 }
 
-// A perspective view of the cloud from `azimuth_deg` around the up axis (0: along the floor's
-// x axis), `elevation_deg` above the floor, framing the cloud's central 98 %.
-cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double azimuth_deg,
-                  double elevation_deg, const std::string& name) {
-  cv::Mat image(options.height, options.width, CV_8UC3, kBackground);
-  const Eigen::Vector3d up = UpOf(input);
-  const Eigen::Matrix3d axes = FloorAxes(up);
-  const Eigen::Vector3d ex = axes.row(0).transpose(), ey = axes.row(1).transpose();
+// The virtual camera of a cloud view, with the cloud's robust extent in floor axes.
+struct ViewCamera {
+  Eigen::Vector3d ex, ey, up;  // floor axes and up
+  Eigen::Vector3d low, high;   // the cloud's 1st and 99th percentiles along them
+  Eigen::Matrix3d rotation;    // camera_from_world rows
+  Eigen::Vector3d eye;
+  double focal = 0.0, cx = 0.0, cy = 0.0;
+
+  cv::Point2d Project(const Eigen::Vector3d& world, double* depth) const {
+    const Eigen::Vector3d c = rotation * (world - eye);
+    *depth = c.z();
+    return cv::Point2d(focal * c.x() / c.z() + cx, focal * c.y() / c.z() + cy);
+  }
+};
+
+// A camera `elevation_deg` above the floor at `azimuth_deg` around the up axis (0: along the
+// floor's x axis), framing the cloud's central 98 %.
+ViewCamera FrameCloud(const RenderInput& input, const RenderOptions& options, double azimuth_deg,
+                      double elevation_deg) {
+  ViewCamera view;
+  view.up = UpOf(input);
+  const Eigen::Matrix3d axes = FloorAxes(view.up);
+  view.ex = axes.row(0).transpose();
+  view.ey = axes.row(1).transpose();
+  const Eigen::Vector3d &ex = view.ex, &ey = view.ey, &up = view.up;
   // Robust extent: per axis the 1st and 99th percentiles.
   std::vector<double> xs, ys, zs;
   const size_t stride = std::max<size_t>(1, input.cloud.size() / 200000);
@@ -162,87 +179,100 @@ cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double
     std::nth_element(v.begin(), nth, v.end());
     return *nth;
   };
-  const Eigen::Vector3d low(percentile(xs, 0.01), percentile(ys, 0.01), percentile(zs, 0.01));
-  const Eigen::Vector3d high(percentile(xs, 0.99), percentile(ys, 0.99), percentile(zs, 0.99));
-  const Eigen::Vector3d centre_f = 0.5 * (low + high);
-  const double radius = 0.5 * (high - low).norm() + 0.1;
+  view.low = Eigen::Vector3d(percentile(xs, 0.01), percentile(ys, 0.01), percentile(zs, 0.01));
+  view.high = Eigen::Vector3d(percentile(xs, 0.99), percentile(ys, 0.99), percentile(zs, 0.99));
+  const Eigen::Vector3d centre_f = 0.5 * (view.low + view.high);
+  const double radius = 0.5 * (view.high - view.low).norm() + 0.1;
   const Eigen::Vector3d centre = centre_f.x() * ex + centre_f.y() * ey + centre_f.z() * up;
   const double azimuth = azimuth_deg * M_PI / 180.0, elevation = elevation_deg * M_PI / 180.0;
   const Eigen::Vector3d back =
       std::cos(elevation) * (std::cos(azimuth) * ex + std::sin(azimuth) * ey) +
       std::sin(elevation) * up;
   const double half_fov = 25.0 * M_PI / 180.0;  // vertical
-  const double focal = 0.5 * options.height / std::tan(half_fov);
-  const Eigen::Vector3d eye = centre + back * (radius / std::sin(half_fov));
-  const Eigen::Vector3d forward = (centre - eye).normalized();
+  view.focal = 0.5 * options.height / std::tan(half_fov);
+  view.eye = centre + back * (radius / std::sin(half_fov));
+  const Eigen::Vector3d forward = (centre - view.eye).normalized();
   const Eigen::Vector3d down = -(up - up.dot(forward) * forward).normalized();
   const Eigen::Vector3d right = down.cross(forward);
-  Eigen::Matrix3d rotation;  // camera_from_world rows
-  rotation.row(0) = right.transpose();
-  rotation.row(1) = down.transpose();
-  rotation.row(2) = forward.transpose();
-  const double cx = 0.5 * options.width, cy = 0.5 * options.height;
-  auto project = [&](const Eigen::Vector3d& world, double* depth) {
-    const Eigen::Vector3d c = rotation * (world - eye);
-    *depth = c.z();
-    return cv::Point2d(focal * c.x() / c.z() + cx, focal * c.y() / c.z() + cy);
-  };
+  view.rotation.row(0) = right.transpose();
+  view.rotation.row(1) = down.transpose();
+  view.rotation.row(2) = forward.transpose();
+  view.cx = 0.5 * options.width;
+  view.cy = 0.5 * options.height;
+  return view;
+}
 
-  // The floor's 1 m grid first (points draw over it).
-  if (input.grid) {
-    const double floor_height = -input.grid->floor.offset;  // up . x on the floor
-    for (int axis = 0; axis < 2; ++axis) {
-      const double a0 = std::floor(axis == 0 ? low.x() : low.y());
-      const double a1 = std::ceil(axis == 0 ? high.x() : high.y());
-      const double b0 = std::floor(axis == 0 ? low.y() : low.x());
-      const double b1 = std::ceil(axis == 0 ? high.y() : high.x());
-      for (double a = a0; a <= a1 + 1e-9; a += 1.0) {
-        const Eigen::Vector3d p0 =
-            (axis == 0 ? a * ex + b0 * ey : b0 * ex + a * ey) + floor_height * up;
-        const Eigen::Vector3d p1 =
-            (axis == 0 ? a * ex + b1 * ey : b1 * ex + a * ey) + floor_height * up;
-        double d0 = 0.0, d1 = 0.0;
-        const cv::Point2d q0 = project(p0, &d0), q1 = project(p1, &d1);
-        if (d0 > 0.1 && d1 > 0.1) cv::line(image, q0, q1, kFloorGrid, 1, cv::LINE_AA);
-      }
+// The floor's 1 m grid under the cloud.
+void DrawFloorGrid(const ViewCamera& view, double floor_height, cv::Mat* image) {
+  const Eigen::Vector3d &ex = view.ex, &ey = view.ey, &up = view.up;
+  for (int axis = 0; axis < 2; ++axis) {
+    const double a0 = std::floor(axis == 0 ? view.low.x() : view.low.y());
+    const double a1 = std::ceil(axis == 0 ? view.high.x() : view.high.y());
+    const double b0 = std::floor(axis == 0 ? view.low.y() : view.low.x());
+    const double b1 = std::ceil(axis == 0 ? view.high.y() : view.high.x());
+    for (double a = a0; a <= a1 + 1e-9; a += 1.0) {
+      const Eigen::Vector3d p0 =
+          (axis == 0 ? a * ex + b0 * ey : b0 * ex + a * ey) + floor_height * up;
+      const Eigen::Vector3d p1 =
+          (axis == 0 ? a * ex + b1 * ey : b1 * ex + a * ey) + floor_height * up;
+      double d0 = 0.0, d1 = 0.0;
+      const cv::Point2d q0 = view.Project(p0, &d0), q1 = view.Project(p1, &d1);
+      if (d0 > 0.1 && d1 > 0.1) cv::line(*image, q0, q1, kFloorGrid, 1, cv::LINE_AA);
     }
   }
-  // Points, z-buffered, as squares that shrink with distance (about a 1.5 cm footprint).
-  cv::Mat depth_buffer(options.height, options.width, CV_32FC1, cv::Scalar(0));
-  for (const VoxelPoint& point : input.cloud) {
+}
+
+// Points, z-buffered, as squares that shrink with distance (about a 1.5 cm footprint).
+void DrawPoints(const ViewCamera& view, const std::vector<VoxelPoint>& cloud, cv::Mat* image) {
+  cv::Mat depth_buffer(image->rows, image->cols, CV_32FC1, cv::Scalar(0));
+  for (const VoxelPoint& point : cloud) {
     double depth = 0.0;
-    const cv::Point2d q = project(point.position.cast<double>(), &depth);
+    const cv::Point2d q = view.Project(point.position.cast<double>(), &depth);
     if (depth < 0.1) continue;
-    const int size = std::clamp(static_cast<int>(std::ceil(focal * 0.015 / depth)), 1, 8);
+    const int size = std::clamp(static_cast<int>(std::ceil(view.focal * 0.015 / depth)), 1, 8);
     const int u0 = static_cast<int>(q.x) - size / 2, v0 = static_cast<int>(q.y) - size / 2;
-    for (int v = std::max(0, v0); v < std::min(options.height, v0 + size); ++v) {
+    for (int v = std::max(0, v0); v < std::min(image->rows, v0 + size); ++v) {
       float* z = depth_buffer.ptr<float>(v);
-      cv::Vec3b* pixel = image.ptr<cv::Vec3b>(v);
-      for (int u = std::max(0, u0); u < std::min(options.width, u0 + size); ++u) {
+      cv::Vec3b* pixel = image->ptr<cv::Vec3b>(v);
+      for (int u = std::max(0, u0); u < std::min(image->cols, u0 + size); ++u) {
         if (z[u] != 0.0f && z[u] <= depth) continue;
         z[u] = static_cast<float>(depth);
         pixel[u] = cv::Vec3b(point.rgb[2], point.rgb[1], point.rgb[0]);  // RGB -> BGR
       }
     }
   }
-  // Trajectory and keyframes on top.
+}
+
+// The trajectory and the keyframes with their viewing directions (0.25 m long).
+void DrawCameras(const ViewCamera& view, const RenderInput& input, cv::Mat* image) {
   std::vector<cv::Point> path;
   for (const Eigen::Isometry3d& pose : input.trajectory) {
     double depth = 0.0;
-    const cv::Point2d q = project(pose.translation(), &depth);
+    const cv::Point2d q = view.Project(pose.translation(), &depth);
     if (depth > 0.1) path.emplace_back(q);
   }
-  if (path.size() >= 2) cv::polylines(image, path, false, kTrajectory, 2, cv::LINE_AA);
+  if (path.size() >= 2) cv::polylines(*image, path, false, kTrajectory, 2, cv::LINE_AA);
   for (const Eigen::Isometry3d& pose : input.keyframes) {
     double depth = 0.0;
-    const cv::Point2d q = project(pose.translation(), &depth);
+    const cv::Point2d q = view.Project(pose.translation(), &depth);
     if (depth <= 0.1) continue;
-    cv::circle(image, q, 5, kKeyframe, cv::FILLED, cv::LINE_AA);
-    // The viewing direction, 0.25 m long.
+    cv::circle(*image, q, 5, kKeyframe, cv::FILLED, cv::LINE_AA);
     double d2 = 0.0;
-    const cv::Point2d tip = project(pose * Eigen::Vector3d(0, 0, 0.25), &d2);
-    if (d2 > 0.1) cv::line(image, q, tip, kKeyframe, 2, cv::LINE_AA);
+    const cv::Point2d tip = view.Project(pose * Eigen::Vector3d(0, 0, 0.25), &d2);
+    if (d2 > 0.1) cv::line(*image, q, tip, kKeyframe, 2, cv::LINE_AA);
   }
+}
+
+// A perspective view of the cloud from `azimuth_deg` around the up axis (0: along the floor's
+// x axis), `elevation_deg` above the floor, framing the cloud's central 98 %.
+cv::Mat CloudView(const RenderInput& input, const RenderOptions& options, double azimuth_deg,
+                  double elevation_deg, const std::string& name) {
+  cv::Mat image(options.height, options.width, CV_8UC3, kBackground);
+  const ViewCamera view = FrameCloud(input, options, azimuth_deg, elevation_deg);
+  // The floor grid first (points draw over it), the cameras on top.
+  if (input.grid) DrawFloorGrid(view, -input.grid->floor.offset, &image);
+  DrawPoints(view, input.cloud, &image);
+  DrawCameras(view, input, &image);
   Text(&image,
        fmt::format("{}colored cloud, {} points ({})", input.title.empty() ? "" : input.title + ": ",
                    input.cloud.size(), name),

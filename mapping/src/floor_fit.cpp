@@ -1,0 +1,175 @@
+// The floor under an occupancy map (FindFloor, occupancy_grid.h): given, fitted with PCL's RANSAC
+// to the occupied voxels, or, without a horizontal plane, a low percentile of their heights.
+#include <pcl/console/print.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <vector>
+
+#include "stillmap/mapping/occupancy_grid.h"
+
+namespace stillmap {
+namespace {
+
+constexpr double kDegree = M_PI / 180.0;
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+// One plane of the fit.
+struct FloorCandidate {
+  Eigen::Vector3d up;
+  double offset;
+  size_t inliers;
+  double mean_height;  // along the hint
+};
+
+// PCL's RANSAC prints a line for every degenerate sample ("Sample points too similar or
+// collinear!"), even under --quiet; the fit's outcome is reported instead (report.json grid).
+class QuietPcl {
+ public:
+  QuietPcl() : level_(pcl::console::getVerbosityLevel()) {
+    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
+  }
+  ~QuietPcl() { pcl::console::setVerbosityLevel(level_); }
+  QuietPcl(const QuietPcl&) = delete;
+  QuietPcl& operator=(const QuietPcl&) = delete;
+
+ private:
+  pcl::console::VERBOSITY_LEVEL level_;
+};
+
+pcl::shared_ptr<Cloud> OccupiedVoxels(const OccupancyMap& map) {
+  auto cloud = pcl::make_shared<Cloud>();
+  map.ForEachLeaf([&](const Eigen::Vector3d& centre, double, bool occupied) {
+    if (occupied)
+      cloud->push_back(pcl::PointXYZ(static_cast<float>(centre.x()), static_cast<float>(centre.y()),
+                                     static_cast<float>(centre.z())));
+  });
+  return cloud;
+}
+
+// Planes within max_floor_tilt_deg of `hint`, largest first, each fitted to the voxels the
+// earlier ones left, while they are large enough.
+std::vector<FloorCandidate> FitPlanes(const pcl::shared_ptr<Cloud>& cloud,
+                                      const Eigen::Vector3d& hint, double threshold,
+                                      const GridOptions& options) {
+  std::vector<FloorCandidate> candidates;
+  std::vector<int> remaining(cloud->size());
+  for (size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
+  const QuietPcl quiet;
+  const auto min_points = static_cast<size_t>(options.floor_min_points);
+  const size_t min_inliers = std::max(
+      min_points, cloud->size() * static_cast<size_t>(options.floor_min_inliers_per_mille) / 1000);
+  for (int round = 0; round < options.floor_ransac_rounds && remaining.size() >= min_points;
+       ++round) {
+    auto model = pcl::make_shared<pcl::SampleConsensusModelPerpendicularPlane<pcl::PointXYZ>>(
+        cloud, remaining);
+    model->setAxis(hint.cast<float>());
+    model->setEpsAngle(options.max_floor_tilt_deg * kDegree);
+    pcl::RandomSampleConsensus<pcl::PointXYZ> ransac(model, threshold);
+    ransac.setMaxIterations(options.floor_ransac_iterations);
+    if (!ransac.computeModel()) break;
+    std::vector<int> inliers;
+    ransac.getInliers(inliers);
+    Eigen::VectorXf coefficients;
+    ransac.getModelCoefficients(coefficients);
+    if (inliers.size() < min_inliers || coefficients.size() != 4) {
+      break;
+    }
+    Eigen::Vector3d up = coefficients.head<3>().cast<double>();
+    double offset = coefficients[3];
+    const double norm = up.norm();
+    up /= norm;
+    offset /= norm;
+    if (up.dot(hint) < 0.0) {
+      up = -up;
+      offset = -offset;
+    }
+    double sum = 0.0;
+    for (int index : inliers)
+      sum += hint.dot(cloud->points[static_cast<size_t>(index)].getVector3fMap().cast<double>());
+    candidates.push_back({up, offset, inliers.size(), sum / static_cast<double>(inliers.size())});
+    std::vector<int> rest;
+    std::sort(inliers.begin(), inliers.end());
+    std::set_difference(remaining.begin(), remaining.end(), inliers.begin(), inliers.end(),
+                        std::back_inserter(rest));
+    remaining.swap(rest);
+  }
+  return candidates;
+}
+
+// The lowest plane among those at least a quarter the size of the largest (a table top is
+// smaller than the floor, a wall is not horizontal); nullptr when there is none.
+const FloorCandidate* LowestLargePlane(const std::vector<FloorCandidate>& candidates) {
+  size_t largest = 0;
+  for (const FloorCandidate& c : candidates) largest = std::max(largest, c.inliers);
+  const FloorCandidate* best = nullptr;
+  for (const FloorCandidate& c : candidates) {
+    if (4 * c.inliers < largest) continue;
+    if (best == nullptr || c.mean_height < best->mean_height) best = &c;
+  }
+  return best;
+}
+
+// The plane normal to `hint` through the 2nd percentile of the voxels' heights along it.
+void PercentileFloor(const Cloud& cloud, const Eigen::Vector3d& hint, FloorPlane* floor) {
+  std::vector<double> heights;
+  heights.reserve(cloud.size());
+  for (const pcl::PointXYZ& p : cloud.points) {
+    heights.push_back(hint.dot(p.getVector3fMap().cast<double>()));
+  }
+  const auto nth = heights.begin() + static_cast<long>(heights.size() / 50);
+  std::nth_element(heights.begin(), nth, heights.end());
+  floor->up = hint;
+  floor->offset = -*nth;
+  floor->source =
+      "no horizontal plane found: the 2nd percentile of the map's heights along the cameras' up";
+}
+
+double TiltDeg(const FloorPlane& floor, const Eigen::Vector3d& hint) {
+  return std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
+}
+
+}  // namespace
+
+FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
+                     const GridOptions& options) {
+  FloorPlane floor;
+  const Eigen::Vector3d hint =
+      cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
+  if (options.floor) {
+    const double norm = options.floor->head<3>().norm();
+    floor.up = options.floor->head<3>() / norm;
+    floor.offset = (*options.floor)[3] / norm;
+    floor.source = "given (grid.floor)";
+    floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
+    return floor;
+  }
+  const pcl::shared_ptr<Cloud> cloud = OccupiedVoxels(map);
+  if (cloud->empty()) {
+    floor.up = hint;
+    floor.offset = 0.0;
+    floor.source =
+        "none found (empty map): the plane through the world origin, normal to the "
+        "cameras' mean up";
+    return floor;
+  }
+  const std::vector<FloorCandidate> candidates = FitPlanes(cloud, hint, map.resolution(), options);
+  if (const FloorCandidate* best = LowestLargePlane(candidates)) {
+    floor.up = best->up;
+    floor.offset = best->offset;
+    floor.inliers = best->inliers;
+    floor.source = "fitted";
+  } else {
+    PercentileFloor(*cloud, hint, &floor);
+  }
+  floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
+  return floor;
+}
+
+}  // namespace stillmap
