@@ -259,7 +259,7 @@ std::string ConfigToYaml(const BuildConfig& config) {
   std::string yaml =
       "# stillmap effective configuration; rerun with: stillmap build SEQ -o OUT --config "
       "config.yaml\n";
-  for (const auto& [section, lines] : sections) yaml += section + ":\n" + lines;
+  for (const auto& [section, lines] : sections) yaml += fmt::format("{}:\n{}", section, lines);
   return yaml;
 }
 

@@ -229,8 +229,8 @@ TEST(ConfigRegistryTest, KeysOfEarlierReleasesStillSetTheirFields) {
   for (const auto& [former, current] : renamed) {
     BuildConfig by_former, by_current;
     const std::string value = former == "keyframes.selection" ? "false" : "0.25";
-    ApplySetArgument(&by_former, former + "=" + value);
-    ApplySetArgument(&by_current, current + "=" + value);
+    SetConfigValue(&by_former, former, value, "test");
+    SetConfigValue(&by_current, current, value, "test");
     EXPECT_EQ(TextsOf(by_former), TextsOf(by_current)) << former;
     EXPECT_NE(TextsOf(by_current), TextsOf(BuildConfig{})) << current;
   }
