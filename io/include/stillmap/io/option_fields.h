@@ -24,19 +24,13 @@ class OptionVisitor {
   // The fields of `options` with their keys prefixed by `prefix` in the current section.
   template <typename Options>
   void Nested(const char* prefix, Options& options) {
-    const std::string saved = prefix_;
-    prefix_ += prefix;
-    Visit(options);
-    prefix_ = saved;
+    VisitUnder(prefix_ + prefix, options);
   }
 
   // The fields of `options` under "section." (plus `prefix`), wherever the visit is.
   template <typename Options>
   void Section(const char* section, Options& options, const char* prefix = "") {
-    const std::string saved = prefix_;
-    prefix_ = std::string(section) + "." + prefix;
-    Visit(options);
-    prefix_ = saved;
+    VisitUnder(std::string(section) + "." + prefix, options);
   }
 
  protected:
@@ -44,9 +38,12 @@ class OptionVisitor {
   std::string KeyOf(const char* name) const { return prefix_ + name; }
 
  private:
+  // Visits `options` with `prefix` as the key path, then restores the current one.
   template <typename Options>
-  void Visit(Options& options) {
+  void VisitUnder(std::string prefix, Options& options) {
+    prefix_.swap(prefix);
     std::remove_const_t<Options>::VisitFields(options, static_cast<Derived&>(*this));
+    prefix_.swap(prefix);
   }
 
   std::string prefix_;
