@@ -77,7 +77,7 @@ const std::string& BaseSequence() {
 struct Variant {
   std::string description;
   std::function<void(const std::string& sequence, const std::string& out)> mutate;
-  std::string arguments;  // with SEQ and OUT placeholders
+  std::string arguments;  // appended to "build SEQUENCE -o OUT --quiet ..."
 };
 
 std::vector<std::string> Lines(const std::string& text) {
