@@ -57,9 +57,10 @@ struct BuildCommand {
         ->check(CLI::IsMember({"groundtruth"}));
     command
         ->add_option("--detector", request.detector,
-                     "semantic prior for dynamic rejection: none (geometry only, the default), "
-                     "yolox (boxes), deeplab (per-pixel), both")
-        ->check(CLI::IsMember({"none", "yolox", "deeplab", "both"}));
+                     "semantic prior for dynamic rejection: auto (the default: yolox when the "
+                     "models are found, else none), none (geometry only), yolox (boxes), deeplab "
+                     "(per-pixel), both")
+        ->check(CLI::IsMember({"auto", "none", "yolox", "deeplab", "both"}));
     command->add_option("--models", request.models_dir,
                         "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: "
                         "$STILLMAP_MODELS, else ../shared/models when present)");

@@ -65,9 +65,17 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
   if (config.masking_enabled) {
     detector = MakeDetector(request.detector, request.models_dir, MotionLevels(config),
                             config.yolox, config.deeplab);
+    if (request.detector == "auto" && detector == nullptr && config.masking.semantics) {
+      result->warnings.push_back(
+          (request.models_dir.empty() ? std::string("no models folder")
+                                      : "no YOLOX-Nano model under '" + request.models_dir + "'") +
+          ": moving objects are found by geometry only, and people who stand still stay in the "
+          "map (pass --models DIR holding yolox_nano/, or --detector none to silence this)");
+    }
   }
+  const bool background = config.masking.detector_in_background && request.threads > 1;
   auto masks = std::make_unique<MaskStage>(camera, config.masking, config.masking_enabled,
-                                           std::move(detector), request.sequence_dir);
+                                           std::move(detector), background, request.sequence_dir);
   result->masking.enabled = masks->enabled();
   result->masking.detector = masks->detector_name();
   result->masking.semantics = masks->semantics();
@@ -117,7 +125,7 @@ BuildResult RunBuild(const BuildRequest& request) {
   if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
 
   MapperOptions mapper_options = request.config.mapping;
-  mapper_options.in_background = request.threads > 1;
+  mapper_options.in_background = mapper_options.in_background && request.threads > 1;
   Mapper mapper(inputs.camera, mapper_options);
   const PosedFrames posed = RunPoseLoop(inputs, request, *masks, mapper, &result);
   FinishedMap map = mapper.Finish();

@@ -301,10 +301,23 @@ std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
   return std::make_unique<YoloxDetector>(models_dir, levels, options);
 }
 
+std::string ResolveDetectorName(const std::string& name, const std::string& models_dir) {
+  if (name != "auto") return name;
+  if (models_dir.empty()) return "none";
+  std::error_code error;
+  const fs::path dir = fs::path(models_dir) / "yolox_nano";
+  const bool found = fs::is_regular_file(dir / "yolox_nano.onnx", error) &&
+                     fs::is_regular_file(dir / "coco.names", error);
+  return found ? "yolox" : "none";
+}
+
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
                                        const MotionLevelTable& levels, const YoloxOptions& yolox,
                                        const DeeplabOptions& deeplab) {
   if (name == "none" || name.empty()) return nullptr;
+  if (name == "auto") {
+    return MakeDetector(ResolveDetectorName(name, models_dir), models_dir, levels, yolox, deeplab);
+  }
   if (models_dir.empty()) {
     throw InputError("--detector " + name +
                      " needs the models: pass --models DIR (the folder holding yolox_nano/ and "
@@ -316,7 +329,7 @@ std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::strin
     return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, yolox),
                                 MakeDeeplabDetector(models_dir, levels, deeplab));
   }
-  throw InputError("--detector " + name + ": expected none, yolox, deeplab or both");
+  throw InputError("--detector " + name + ": expected auto, none, yolox, deeplab or both");
 }
 
 }  // namespace stillmap

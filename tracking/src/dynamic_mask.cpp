@@ -99,9 +99,9 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excl
 
 // Detections carried to a frame the detector skipped: each moved by the median flow of the
 // tracked points inside it (at least 3), its mask clipped to the image.
-void CarryDetections(const std::vector<cv::Point2f>& moved_from,
-                     const std::vector<cv::Point2f>& moved_to, const cv::Size& size,
-                     std::vector<Detection>* carried) {
+void CarryByPairs(const std::vector<cv::Point2f>& moved_from,
+                  const std::vector<cv::Point2f>& moved_to, const cv::Size& size,
+                  std::vector<Detection>* carried) {
   for (Detection& detection : *carried) {
     std::vector<float> dx, dy;
     for (size_t i = 0; i < moved_from.size(); ++i) {
@@ -209,6 +209,18 @@ void CloseAndAddMargin(int margin_px, cv::Mat* mask) {
 }
 
 }  // namespace
+
+void CarryDetections(const FlowStep& flow, const cv::Size& size,
+                     std::vector<Detection>* detections) {
+  if (flow.from.size() != flow.result.tracked.size()) return;
+  std::vector<cv::Point2f> moved_from, moved_to;
+  for (size_t i = 0; i < flow.from.size(); ++i) {
+    if (flow.result.tracked[i] == 0) continue;
+    moved_from.push_back(flow.from[i]);
+    moved_to.push_back(flow.result.current[i]);
+  }
+  CarryByPairs(moved_from, moved_to, size, detections);
+}
 
 cv::Mat NearestStaticDepth(const MaskReference& reference) {
   cv::Mat nearest = reference.depth_m.clone();
@@ -386,7 +398,7 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
     carried_ = *detections;
     result.detections_fresh = true;
   } else {
-    CarryDetections(moved_from, moved_to, size, &carried_);
+    CarryByPairs(moved_from, moved_to, size, &carried_);
   }
 
   cv::Mat mask = geometric.clone();

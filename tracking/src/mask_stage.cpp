@@ -1,16 +1,17 @@
 #include "stillmap/tracking/mask_stage.h"
 
-#include <chrono>
-
-#include "stillmap/io/timing.h"
-
 namespace stillmap {
 
 MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
-                     std::unique_ptr<Detector> detector, const std::string& sequence_dir)
+                     std::unique_ptr<Detector> detector, bool detector_in_background,
+                     const std::string& sequence_dir)
     : enabled_(enabled), options_(options), truth_(sequence_dir) {
   if (!enabled_) return;
-  detector_ = std::move(detector);
+  if (detector != nullptr && options_.semantics) {
+    detections_ = std::make_unique<DetectionSchedule>(
+        std::move(detector), options_.detector_interval, detector_in_background);
+    statistics_.detector_in_background = detector_in_background;
+  }
   masker_ = std::make_unique<DynamicMasker>(camera, options_);
 }
 
@@ -18,19 +19,19 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
                            const std::optional<Eigen::Isometry3d>& world_from_camera) {
   if (!enabled_) return cv::Mat();
   MaskingStatistics& s = statistics_;
-  std::vector<Detection> detections;
-  const bool detect = detector_ != nullptr && options_.semantics &&
-                      s.frames % static_cast<size_t>(options_.detector_interval) == 0;
-  if (detect) {
-    const auto start = std::chrono::steady_clock::now();
-    detections = detector_->Detect(frame.color);
-    s.detector_ms.push_back(MillisecondsSince(start));
-    for (const Detection& detection : detections) {
+  std::optional<DetectorRun> run;
+  if (detections_) {
+    run = detections_->Next(frame.color, flow);
+    s.detector_wait_ms = detections_->wait_ms();
+  }
+  if (run) {
+    s.detector_ms.push_back(run->ms);
+    for (const Detection& detection : run->detections) {
       ++s.detections_by_level[MotionLevelName(detection.level)];
     }
   }
   const DynamicMaskResult result = masker_->Compute(gray, frame.depth_m, world_from_camera,
-                                                    detect ? &detections : nullptr, flow);
+                                                    run ? &run->detections : nullptr, flow);
   ++s.frames;
   s.mask_ms.push_back(result.ms);
   s.share_sum += result.share;

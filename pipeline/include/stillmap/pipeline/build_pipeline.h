@@ -16,7 +16,7 @@ struct BuildRequest {
   std::string output_dir;
   BuildConfig config;
   PoseSource poses = PoseSource::kTracking;
-  std::string detector = "none";  // none, yolox, deeplab or both
+  std::string detector = "auto";  // auto (yolox when models_dir has it), none, yolox, deeplab, both
   std::string models_dir;         // holds yolox_nano/ and deeplabv3_mnv2_voc/
   int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
   bool show_progress = false;  // a progress line on stderr

@@ -95,9 +95,13 @@ std::unique_ptr<Detector> MakeDeeplabDetector(const std::string& models_dir,
 std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
                                                std::unique_ptr<Detector> second);
 
-// The detector named on the command line: "none" (or empty: nullptr), "yolox", "deeplab" or
-// "both", with its models from MODELS_DIR. Throws InputError for an unknown name, a missing
-// models folder or a missing model file.
+// "auto" (the default) is "yolox" when MODELS_DIR holds yolox_nano/yolox_nano.onnx and
+// coco.names, else "none"; other names are returned as they are.
+std::string ResolveDetectorName(const std::string& name, const std::string& models_dir);
+
+// The detector named on the command line: "auto" (see ResolveDetectorName), "none" (or empty:
+// nullptr), "yolox", "deeplab" or "both", with its models from MODELS_DIR. Throws InputError for
+// an unknown name, a missing models folder or a missing model file.
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
                                        const MotionLevelTable& levels, const YoloxOptions& yolox,
                                        const DeeplabOptions& deeplab);

@@ -84,6 +84,9 @@ struct DynamicMaskOptions {
   // The detector runs every n-th frame; boxes are carried between by the flow of their points
   // (walking_xyz, YOLOX: 1 and 2 give precision 0.942/0.943, recall 0.967/0.967; 11.7 -> 15.8 fps).
   int detector_interval = 2;
+  // The detector runs on its own thread, off the tracking path, its detections used
+  // detector_interval frames later, carried there by flow (issue 17; needs --threads >= 2).
+  bool detector_in_background = true;
   int margin_px = 1;  // safety margin around the mask (walking_xyz: 4 px gave precision 0.82, 1 px
                       // 0.94, same ghosts)
   int min_region_px = 150;  // geometric regions smaller than this are dropped
@@ -135,11 +138,18 @@ struct DynamicMaskOptions {
           "medium-level objects are masked when geometry marks this share of them");
     visit("detector_interval", self.detector_interval,
           "run the detector every n-th frame (boxes carried between by flow)");
+    visit("detector_in_background", self.detector_in_background,
+          "detector on its own thread, its detections used detector_interval frames later");
     visit("margin_px", self.margin_px, "safety margin around moving objects [px]");
     visit("min_region_px", self.min_region_px,
           "geometric regions smaller than this are dropped [px]");
   }
 };
+
+// Detections moved from the previous frame to this one by the median flow of the points `flow`
+// tracked inside each (at least 3; others stay), their masks clipped to the image of `size`.
+void CarryDetections(const FlowStep& flow, const cv::Size& size,
+                     std::vector<Detection>* detections);
 
 // A keyframe as a reference for the depth check.
 struct MaskReference {

@@ -1,5 +1,6 @@
-// The dynamic-rejection stage of a build: the detector (when one runs every n-th frame), the
-// masker, the score against ground-truth masks and the figures for the report.
+// The dynamic-rejection stage of a build: the detector (every n-th frame, on its own thread in the
+// background: detection_schedule.h), the masker, the score against ground-truth masks and the
+// figures for the report.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -12,6 +13,7 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/truth_files.h"
+#include "stillmap/tracking/detection_schedule.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/flow_check.h"
@@ -27,6 +29,8 @@ struct MaskingStatistics {
   size_t medium_moving = 0, medium_static = 0, geometric_only = 0;
   std::map<std::string, size_t> detections_by_level;  // motion level name -> detections
   std::vector<double> detector_ms, mask_ms;           // per detector run, per frame
+  bool detector_in_background = false;                // the detector ran on its own thread
+  double detector_wait_ms = 0.0;  // the frame loop waiting for background detector runs
   std::optional<MaskScore> score;                     // against masks.txt, when it has frames
 
   double MeanShare() const { return frames > 0 ? share_sum / static_cast<double>(frames) : 0.0; }
@@ -35,16 +39,21 @@ struct MaskingStatistics {
 class MaskStage {
  public:
   // `enabled` false: Compute returns empty masks and nothing runs. `detector` may be null
-  // (geometry only). Ground-truth masks are read from SEQUENCE/masks.txt when it exists.
+  // (geometry only); `detector_in_background`: it runs on its own thread, its detections used
+  // options.detector_interval frames later. Ground-truth masks are read from SEQUENCE/masks.txt
+  // when it exists.
   MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
-            std::unique_ptr<Detector> detector, const std::string& sequence_dir);
+            std::unique_ptr<Detector> detector, bool detector_in_background,
+            const std::string& sequence_dir);
 
   bool enabled() const { return enabled_; }
   const DynamicMaskOptions& options() const { return options_; }
   const DynamicMasker* masker() const { return masker_.get(); }
   // "none" when no detector runs.
-  std::string detector_name() const { return detector_ ? detector_->name() : "none"; }
-  bool semantics() const { return options_.semantics && detector_ != nullptr; }
+  std::string detector_name() const {
+    return detections_ ? detections_->detector().name() : "none";
+  }
+  bool semantics() const { return detections_ != nullptr; }
 
   // The moving pixels of a frame (CV_8UC1, 255 = moving; empty when masking is off), from its gray
   // image, the flow step from the previous frame (may be null) and its predicted pose (none:
@@ -63,7 +72,7 @@ class MaskStage {
   bool enabled_;
   DynamicMaskOptions options_;
   TruthMasks truth_;
-  std::unique_ptr<Detector> detector_;
+  std::unique_ptr<DetectionSchedule> detections_;  // null: no detector, or semantics off
   std::unique_ptr<DynamicMasker> masker_;
   MaskScore score_;
   MaskingStatistics statistics_;

@@ -1,0 +1,105 @@
+// The detector's schedule (issue 17): which frames are detected, when their detections are used,
+// and how they are carried to that frame, in place and in the background.
+#include "stillmap/tracking/detection_schedule.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+namespace stillmap {
+namespace {
+
+// Reports one box whose x is the image's first pixel value (the frame number), after a delay
+// that varies from run to run, so that a schedule relying on timing would show it.
+class FrameNumberDetector : public Detector {
+ public:
+  explicit FrameNumberDetector(std::atomic<int>* calls) : calls_(calls) {}
+  std::vector<Detection> Detect(const cv::Mat& bgr) override {
+    const int call = (*calls_)++;
+    std::this_thread::sleep_for(std::chrono::milliseconds(call % 2 == 0 ? 30 : 1));
+    Detection detection;
+    detection.box = cv::Rect2f(static_cast<float>(bgr.at<cv::Vec3b>(0, 0)[0]), 10.0f, 40.0f, 40.0f);
+    detection.name = "person";
+    detection.level = MotionLevel::kHigh;
+    return {detection};
+  }
+  std::string name() const override { return "frame-number"; }
+
+ private:
+  std::atomic<int>* calls_;
+};
+
+cv::Mat FrameImage(int frame) {
+  return cv::Mat(120, 160, CV_8UC3, cv::Scalar(frame, 0, 0));
+}
+
+// Points on a 5 px grid over the image, every one moved right by shift_px.
+FlowStep UniformStep(float shift_px) {
+  FlowStep step;
+  for (float y = 2.0f; y < 120.0f; y += 5.0f) {
+    for (float x = 2.0f; x < 160.0f; x += 5.0f) {
+      step.from.emplace_back(x, y);
+      step.result.current.emplace_back(x + shift_px, y);
+      step.result.tracked.push_back(1);
+    }
+  }
+  return step;
+}
+
+// Frame -> the x of the box returned there (or -1 when nothing was returned).
+std::vector<float> RunSchedule(int interval, bool background, int frames, float shift_px) {
+  std::atomic<int> calls{0};
+  DetectionSchedule schedule(std::make_unique<FrameNumberDetector>(&calls), interval, background);
+  std::vector<float> box_x;
+  for (int frame = 0; frame < frames; ++frame) {
+    const FlowStep step = UniformStep(shift_px);
+    const std::optional<DetectorRun> run = schedule.Next(FrameImage(frame), &step);
+    if (!run) {
+      box_x.push_back(-1.0f);
+      continue;
+    }
+    EXPECT_EQ(run->detections.size(), 1u);
+    box_x.push_back(run->detections.empty() ? -2.0f : run->detections[0].box.x);
+  }
+  return box_x;
+}
+
+TEST(DetectionScheduleTest, InPlaceDetectsEveryIntervalFrameAndReturnsItAtOnce) {
+  const std::vector<float> box_x = RunSchedule(3, false, 8, 2.0f);
+  const std::vector<float> expected = {0, -1, -1, 3, -1, -1, 6, -1};
+  EXPECT_EQ(box_x, expected);
+}
+
+TEST(DetectionScheduleTest, BackgroundUsesEachRunIntervalFramesLaterCarriedByFlow) {
+  // Frame 0 in place; frame 3's run is used at frame 6, its box carried by the flow of frames
+  // 4, 5 and 6 (2 px each); frame 6's at frame 9.
+  const std::vector<float> box_x = RunSchedule(3, true, 10, 2.0f);
+  const std::vector<float> expected = {0, -1, -1, -1, -1, -1, 3 + 6, -1, -1, 6 + 6};
+  EXPECT_EQ(box_x, expected);
+}
+
+TEST(DetectionScheduleTest, BackgroundRepeatsWhateverTheTiming) {
+  for (int run = 0; run < 3; ++run) {
+    EXPECT_EQ(RunSchedule(2, true, 12, 1.5f), RunSchedule(2, true, 12, 1.5f));
+  }
+}
+
+TEST(DetectionScheduleTest, WithoutFlowBackgroundDetectionsAreUsedUncarried) {
+  std::atomic<int> calls{0};
+  std::vector<float> box_x;
+  {
+    DetectionSchedule schedule(std::make_unique<FrameNumberDetector>(&calls), 2, true);
+    for (int frame = 0; frame < 5; ++frame) {
+      const std::optional<DetectorRun> run = schedule.Next(FrameImage(frame), nullptr);
+      box_x.push_back(run ? run->detections.at(0).box.x : -1.0f);
+    }
+  }  // waits for the run still in flight
+  const std::vector<float> expected = {0, -1, -1, -1, 2};
+  EXPECT_EQ(box_x, expected);
+  EXPECT_EQ(calls.load(), 3);  // frames 0, 2 and 4
+}
+
+}  // namespace
+}  // namespace stillmap

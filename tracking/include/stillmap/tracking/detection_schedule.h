@@ -1,0 +1,55 @@
+// When the detector runs and when its detections are used (issue 17). The detector runs on every
+// n-th frame. In the background it runs on its own thread, off the tracking path, and its
+// detections are used n frames later, carried there by the flow of the points inside them (as
+// NGD-SLAM runs its detector). The schedule is fixed by frame numbers, not by timing: a build
+// repeats whatever the machine's load. The first frame is always detected in place, so that the
+// people in view from the start are known before the first keyframe.
+#pragma once
+
+#include <future>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "stillmap/tracking/detector.h"
+#include "stillmap/tracking/flow_check.h"
+
+namespace stillmap {
+
+// A detector run: its detections (for the frame it ran on, carried since) and its time.
+struct DetectorRun {
+  std::vector<Detection> detections;
+  double ms = 0.0;
+};
+
+class DetectionSchedule {
+ public:
+  // `interval`: the detector runs on every interval-th frame (>= 1). `background`: on its own
+  // thread, its detections used `interval` frames later; otherwise in place.
+  DetectionSchedule(std::unique_ptr<Detector> detector, int interval, bool background);
+  DetectionSchedule(const DetectionSchedule&) = delete;
+  DetectionSchedule& operator=(const DetectionSchedule&) = delete;
+  ~DetectionSchedule();  // waits for a run in flight
+
+  // Frames in order, one call each: the colour image (CV_8UC3) and the flow step from the previous
+  // frame (null when flow is not tracked: background detections are then used uncarried). Returns
+  // the detections that hold for this frame when a run's result is due now, else nothing (the
+  // caller carries the last ones by flow).
+  std::optional<DetectorRun> Next(const cv::Mat& bgr, const FlowStep* flow);
+
+  const Detector& detector() const { return *detector_; }
+  // Time the caller spent waiting for background runs [ms].
+  double wait_ms() const { return wait_ms_; }
+
+ private:
+  std::unique_ptr<Detector> detector_;
+  int interval_;
+  bool background_;
+  size_t frame_ = 0;             // frames seen
+  std::future<DetectorRun> run_;  // the background run in flight, if any
+  size_t run_frame_ = 0;          // the frame it runs on
+  std::vector<FlowStep> steps_;   // flow steps since that frame, to carry its detections
+  double wait_ms_ = 0.0;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,59 @@
+#include "stillmap/tracking/detection_schedule.h"
+
+#include <chrono>
+
+#include "stillmap/io/timing.h"
+#include "stillmap/tracking/dynamic_mask.h"
+
+namespace stillmap {
+namespace {
+
+DetectorRun Run(Detector& detector, const cv::Mat& bgr) {
+  const auto start = std::chrono::steady_clock::now();
+  DetectorRun run;
+  run.detections = detector.Detect(bgr);
+  run.ms = MillisecondsSince(start);
+  return run;
+}
+
+}  // namespace
+
+DetectionSchedule::DetectionSchedule(std::unique_ptr<Detector> detector, int interval,
+                                     bool background)
+    : detector_(std::move(detector)), interval_(interval), background_(background) {
+  CV_Assert(detector_ != nullptr && interval_ >= 1);
+}
+
+DetectionSchedule::~DetectionSchedule() {
+  if (run_.valid()) run_.wait();
+}
+
+std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const FlowStep* flow) {
+  const size_t frame = frame_++;
+  const bool detect_here = frame % static_cast<size_t>(interval_) == 0;
+  if (!background_ || frame == 0) {
+    if (!detect_here) return std::nullopt;
+    return Run(*detector_, bgr);
+  }
+
+  std::optional<DetectorRun> due;
+  if (run_.valid()) {
+    if (flow != nullptr) steps_.push_back(*flow);
+    if (frame == run_frame_ + static_cast<size_t>(interval_)) {
+      const auto start = std::chrono::steady_clock::now();
+      due = run_.get();
+      wait_ms_ += MillisecondsSince(start);
+      for (const FlowStep& step : steps_) CarryDetections(step, bgr.size(), &due->detections);
+      steps_.clear();
+    }
+  }
+  if (detect_here) {
+    // The image is copied: the caller's frame goes on to the mapper while the detector reads it.
+    run_ = std::async(std::launch::async,
+                      [this, image = bgr.clone()] { return Run(*detector_, image); });
+    run_frame_ = frame;
+  }
+  return due;
+}
+
+}  // namespace stillmap
