@@ -1,7 +1,11 @@
 #include "stillmap/tracking/bundle_adjustment.h"
 
 #include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "pose_manifold.h"
@@ -18,22 +22,43 @@ double ChiSquareThreshold(const RgbdObservation& observation,
   return observation.depth_m > 0.0 ? options.chi2_with_depth : options.chi2_without_depth;
 }
 
-// One observation: parameters [pose (7)], [landmark (3)]. The landmark Jacobian is the residual's
+// The observation with its raw depth corrected by `coefficients` (null: taken as it is).
+RgbdObservation Corrected(const RgbdObservation& observation, const double* coefficients) {
+  if (coefficients == nullptr || !(observation.depth_m > 0.0)) return observation;
+  DepthCorrection correction;
+  std::copy(coefficients, coefficients + 5, correction.coefficients.begin());
+  RgbdObservation corrected = observation;
+  corrected.depth_m *= correction.Factor(observation.normalized.x(), observation.normalized.y());
+  return corrected;
+}
+
+// One observation: parameters [pose (7)], [landmark (3)] and, for the joint depth calibration,
+// [depth correction (5)] applied to the raw depth. The landmark Jacobian is the residual's
 // derivative with respect to the point in the camera frame (the translation columns of the pose
-// Jacobian) times the rotation.
-class BundleCost : public ceres::SizedCostFunction<3, 7, 3> {
+// Jacobian) times the rotation. With d = raw (1 + p . phi), the depth row r = w (1/Z - 1/d) has
+// dr/dp = w raw phi / d^2.
+class BundleCost : public ceres::CostFunction {
  public:
-  explicit BundleCost(const RgbdObservation& observation) : observation_(observation) {}
+  BundleCost(const RgbdObservation& observation, bool calibrating)
+      : observation_(observation), calibrating_(calibrating) {
+    set_num_residuals(3);
+    mutable_parameter_block_sizes()->assign(calibrating ? 3 : 2, 0);
+    (*mutable_parameter_block_sizes())[0] = 7;
+    (*mutable_parameter_block_sizes())[1] = 3;
+    if (calibrating) (*mutable_parameter_block_sizes())[2] = 5;
+  }
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
     const Eigen::Isometry3d camera_from_world = PoseFromParameters(parameters[0]);
     const Eigen::Map<const Eigen::Vector3d> point(parameters[1]);
-    const bool want_jacobian =
-        jacobians != nullptr && (jacobians[0] != nullptr || jacobians[1] != nullptr);
+    const RgbdObservation observation =
+        Corrected(observation_, calibrating_ ? parameters[2] : nullptr);
+    if (calibrating_ && observation_.depth_m > 0.0 && !(observation.depth_m > 0.0)) return false;
+    const bool want_jacobian = jacobians != nullptr;
     Eigen::Vector3d r;
     Eigen::Matrix<double, 3, 6> j;
-    if (!EvaluateRgbdResidual(camera_from_world, point, observation_, &r,
+    if (!EvaluateRgbdResidual(camera_from_world, point, observation, &r,
                               want_jacobian ? &j : nullptr)) {
       return false;
     }
@@ -48,12 +73,59 @@ class BundleCost : public ceres::SizedCostFunction<3, 7, 3> {
       Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> out(jacobians[1]);
       out = j.rightCols<3>() * camera_from_world.linear();
     }
+    if (want_jacobian && calibrating_ && jacobians[2] != nullptr) {
+      Eigen::Map<Eigen::Matrix<double, 3, 5, Eigen::RowMajor>> out(jacobians[2]);
+      out.setZero();
+      if (observation.depth_m > 0.0) {
+        const Eigen::Vector2d& n = observation_.normalized;
+        Eigen::Matrix<double, 1, 5> phi;
+        phi << n.x(), n.y(), n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
+        const double d = observation.depth_m;
+        out.row(2) = (observation_.depth_m / (observation.sigma_inverse_depth * d * d)) * phi;
+      }
+    }
     return true;
   }
 
  private:
-  RgbdObservation observation_;
+  RgbdObservation observation_;  // depth raw when calibrating
+  bool calibrating_;
 };
+
+// How well the observations pin the depth correction down: the information matrix of its
+// coefficients with each landmark's depth marginalized out (the part of the correction common to
+// all the views of a landmark moves the landmark instead). Pose coupling is left out.
+Eigen::Matrix<double, 5, 5> CorrectionInformation(const BundleAdjustmentProblem& problem,
+                                                  const std::vector<bool>& outlier,
+                                                  const double* coefficients) {
+  struct Sums {
+    double a = 0.0;
+    Eigen::Matrix<double, 5, 1> a_phi = Eigen::Matrix<double, 5, 1>::Zero();
+    Eigen::Matrix<double, 5, 5> a_phi_phi = Eigen::Matrix<double, 5, 5>::Zero();
+  };
+  std::vector<Sums> per_landmark(problem.landmarks.size());
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    const BundleAdjustmentObservation& observation = problem.observations[o];
+    const RgbdObservation& raw = observation.observation;
+    if (outlier[o] || !(raw.depth_m > 0.0)) continue;
+    const double d = Corrected(raw, coefficients).depth_m;
+    if (!(d > 0.0)) continue;
+    const Eigen::Vector2d& n = raw.normalized;
+    Eigen::Matrix<double, 5, 1> phi;
+    phi << n.x(), n.y(), n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
+    const double gain = raw.depth_m / (raw.sigma_inverse_depth * d * d);
+    Sums& sums = per_landmark[static_cast<size_t>(observation.landmark)];
+    sums.a += gain * gain;
+    sums.a_phi += gain * gain * phi;
+    sums.a_phi_phi += gain * gain * phi * phi.transpose();
+  }
+  Eigen::Matrix<double, 5, 5> information = Eigen::Matrix<double, 5, 5>::Zero();
+  for (const Sums& sums : per_landmark) {
+    if (sums.a <= 0.0) continue;
+    information += sums.a_phi_phi - sums.a_phi * sums.a_phi.transpose() / sums.a;
+  }
+  return information;
+}
 
 }  // namespace
 
@@ -71,6 +143,10 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   }
   BundleAdjustmentResult result;
   result.outlier.assign(problem.observations.size(), false);
+  std::array<double, 5> coefficients{};
+  const bool calibrating = problem.depth_correction.has_value();
+  if (calibrating) coefficients = problem.depth_correction->coefficients;
+  double* correction = calibrating ? coefficients.data() : nullptr;
 
   static PoseManifold manifold;
   for (int round = 0; round < 2; ++round) {
@@ -87,10 +163,21 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
       ceres::LossFunction* loss = round == 0 ? new ceres::HuberLoss(std::sqrt(ChiSquareThreshold(
                                                    observation.observation, options)))
                                              : nullptr;
-      ceres_problem.AddResidualBlock(new BundleCost(observation.observation), loss, pose, point);
+      auto* cost = new BundleCost(observation.observation, calibrating);
+      if (calibrating) {
+        ceres_problem.AddResidualBlock(cost, loss, pose, point, correction);
+      } else {
+        ceres_problem.AddResidualBlock(cost, loss, pose, point);
+      }
       ++residual_count;
     }
     if (residual_count == 0) break;
+    if (calibrating) {
+      const Eigen::Matrix<double, 5, 5> weight =
+          Eigen::Matrix<double, 5, 5>::Identity() / problem.depth_correction_sigma;
+      ceres_problem.AddResidualBlock(
+          new ceres::NormalPrior(weight, Eigen::Matrix<double, 5, 1>::Zero()), nullptr, correction);
+    }
     for (size_t k = 0; k < keyframe_count; ++k) {
       double* pose = &poses[7 * k];
       if (!ceres_problem.HasParameterBlock(pose)) continue;
@@ -117,15 +204,25 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
           PoseFromParameters(&poses[7 * static_cast<size_t>(observation.keyframe)]);
       const Eigen::Map<const Eigen::Vector3d> point(
           &points[3 * static_cast<size_t>(observation.landmark)]);
+      const RgbdObservation corrected = Corrected(observation.observation, correction);
       Eigen::Vector3d r;
-      result.outlier[o] =
-          !EvaluateRgbdResidual(camera_from_world, point, observation.observation, &r, nullptr) ||
-          r.squaredNorm() > ChiSquareThreshold(observation.observation, options);
+      result.outlier[o] = !EvaluateRgbdResidual(camera_from_world, point, corrected, &r, nullptr) ||
+                          r.squaredNorm() > ChiSquareThreshold(observation.observation, options);
     }
   }
   result.camera_from_world.reserve(keyframe_count);
   for (size_t k = 0; k < keyframe_count; ++k) {
     result.camera_from_world.push_back(PoseFromParameters(&poses[7 * k]));
+  }
+  if (calibrating) {
+    result.depth_correction = DepthCorrection{coefficients};
+    const Eigen::Matrix<double, 5, 5> information =
+        CorrectionInformation(problem, result.outlier, correction);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> eigen(information);
+    const double weakest = std::max(eigen.eigenvalues()(0), 1e-300);
+    result.depth_correction_weakest_sd = 1.0 / std::sqrt(weakest);
+    Eigen::Map<const Eigen::Matrix<double, 5, 1>> p(coefficients.data());
+    result.depth_correction_significance = p.dot(information * p);
   }
   result.landmarks.reserve(problem.landmarks.size());
   for (size_t i = 0; i < problem.landmarks.size(); ++i) {

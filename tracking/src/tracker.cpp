@@ -38,6 +38,11 @@ void TrackerOptions::Validate() const {
   require(fit.min_spread_reduction >= 0.0 && fit.min_spread_reduction_m >= 0.0,
           "tracking.depth_calibration_min_spread_reduction and "
           "tracking.depth_calibration_min_spread_reduction_m must not be negative");
+  require(fit.joint_min_keyframes >= 2 && fit.joint_min_significance >= 0.0 &&
+              fit.joint_max_weakest_sd > 0.0,
+          "tracking.depth_calibration_joint_min_keyframes must be at least 2, "
+          "tracking.depth_calibration_joint_min_significance not negative and "
+          "tracking.depth_calibration_joint_max_weakest_sd positive");
   require(far_depth > 0.0 && far_depth_power >= 0.0,
           "tracking.far_depth must be positive and tracking.far_depth_power not negative");
   require(min_landmark_depth > 0.0 && max_landmark_depth > min_landmark_depth,
@@ -135,10 +140,12 @@ double Tracker::Impl::OctaveScale(int octave) const {
       std::clamp(octave, 0, static_cast<int>(octave_scale.size()) - 1))];
 }
 
-RgbdObservation Tracker::Impl::Observation(const FrameFeatures& features, size_t i) const {
+RgbdObservation Tracker::Impl::Observation(const FrameFeatures& features, size_t i,
+                                           bool raw_depth) const {
   RgbdObservation observation;
   observation.normalized = features.normalized[i];
-  observation.depth_m = features.depth_m[i] * DepthFactor(features.normalized[i]);
+  observation.depth_m =
+      features.depth_m[i] * (raw_depth ? 1.0 : DepthFactor(features.normalized[i]));
   observation.sigma_normalized =
       options.sigma_px * OctaveScale(features.keypoints[i].octave) / camera.fx;
   observation.sigma_inverse_depth = options.sigma_inverse_depth;
@@ -273,8 +280,13 @@ void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double ti
     if (id >= 0) last_frame_landmarks.push_back(id);
   }
   const Keyframe& reference = keyframes.at(map_keyframes.back());
-  records.push_back(
-      {time, reference.id, camera_from_world * reference.camera_from_world.inverse()});
+  // A frame that became the keyframe is its own reference. An inline bundle adjustment may
+  // already have moved the keyframe: the frame moves with it.
+  const Eigen::Isometry3d camera_from_reference =
+      result->keyframe_id == reference.id
+          ? Eigen::Isometry3d::Identity()
+          : camera_from_world * reference.camera_from_world.inverse();
+  records.push_back({time, reference.id, camera_from_reference});
   ++stats.tracked;
   result->world_from_camera = camera_from_world.inverse();
 }

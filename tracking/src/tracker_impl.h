@@ -167,7 +167,9 @@ struct Tracker::Impl {
 
   // ---- Per frame: the pose, the bookkeeping of a tracked frame, observations (tracker.cpp)
   double OctaveScale(int octave) const;
-  RgbdObservation Observation(const FrameFeatures& features, size_t i) const;
+  // The i-th feature as an observation, its depth corrected (depth_correction.h) or raw.
+  RgbdObservation Observation(const FrameFeatures& features, size_t i,
+                              bool raw_depth = false) const;
   double DepthFactor(const Eigen::Vector2d& normalized) const;
   bool UsableDepth(float depth) const;
   TrackResult Track(size_t frame_index, double time, const cv::Mat& gray, const cv::Mat& depth_m,
@@ -231,6 +233,9 @@ struct Tracker::Impl {
   // Refits the depth correction from every pair of consecutive observations with depth of the
   // local map's landmarks (raw depths, current keyframe poses).
   void CalibrateDepth();
+  // Solves a local bundle adjustment problem; one that estimates the depth correction returns
+  // it only when the window pins it down (else it is solved again with the correction fixed).
+  BundleAdjustmentResult SolveWindow(BundleAdjustmentProblem problem) const;
 
   // ---- State
   Camera camera;

@@ -71,7 +71,8 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
   ++stats.keyframes;
   frames_since_keyframe = 0;
   CullRecentLandmarks(id);
-  if (options.depth_self_calibration && options.depth_calibration_interval > 0 &&
+  if (options.depth_self_calibration && !options.depth_calibration_in_bundle_adjustment &&
+      options.depth_calibration_interval > 0 &&
       map_keyframes.size() % static_cast<size_t>(options.depth_calibration_interval) == 0) {
     CalibrateDepth();
   }

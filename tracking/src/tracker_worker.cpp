@@ -1,3 +1,5 @@
+#include <cmath>
+
 #include "tracker_impl.h"
 
 namespace stillmap {
@@ -29,6 +31,13 @@ void Tracker::Impl::RunBundleAdjustment(std::unique_lock<std::mutex>& lock) {
                                   ? count - static_cast<size_t>(options.local_window)
                                   : 0;
   BundleAdjustmentProblem problem;
+  const bool calibrating =
+      options.depth_self_calibration && options.depth_calibration_in_bundle_adjustment &&
+      count >= static_cast<size_t>(options.depth_calibration.joint_min_keyframes);
+  if (calibrating) {
+    problem.depth_correction = stats.depth_correction;
+    problem.depth_correction_sigma = options.depth_calibration.coefficient_sigma;
+  }
   std::vector<int> keyframe_ids, landmark_ids;
   std::unordered_map<int, int> keyframe_index, landmark_index;
   struct ObservationRef {
@@ -62,18 +71,21 @@ void Tracker::Impl::RunBundleAdjustment(std::unique_lock<std::mutex>& lock) {
       const Keyframe& keyframe = keyframes.at(keyframe_id);
       problem.observations.push_back(
           {it->second, static_cast<int>(l),
-           Observation(keyframe.features, static_cast<size_t>(feature))});
+           Observation(keyframe.features, static_cast<size_t>(feature), calibrating)});
       refs.push_back({keyframe_id, feature, landmark_ids[l]});
     }
   }
   if (!any_fixed) problem.keyframes[0].fixed = true;  // the gauge
   running_window_first = map_keyframes[window_first];
+  std::vector<bool> fixed;
+  for (const BundleAdjustmentKeyframe& keyframe : problem.keyframes)
+    fixed.push_back(keyframe.fixed);
 
   lock.unlock();
   const Clock::time_point start = Clock::now();
   BundleAdjustmentResult result;
   try {
-    result = SolveBundleAdjustment(problem, options.bundle_adjustment);
+    result = SolveWindow(std::move(problem));
   } catch (...) {
     lock.lock();
     running_window_first = INT_MAX;
@@ -83,9 +95,15 @@ void Tracker::Impl::RunBundleAdjustment(std::unique_lock<std::mutex>& lock) {
   lock.lock();
   running_window_first = INT_MAX;
 
+  if (result.depth_correction) {
+    stats.depth_correction = *result.depth_correction;
+    ++stats.depth_calibrations;
+  } else if (calibrating) {
+    ++stats.depth_calibrations_refused;
+  }
   // Write back what still exists (tracking may have culled landmarks meanwhile).
   for (size_t k = 0; k < keyframe_ids.size(); ++k) {
-    if (problem.keyframes[k].fixed) continue;
+    if (fixed[k]) continue;
     const auto it = keyframes.find(keyframe_ids[k]);
     if (it != keyframes.end()) it->second.camera_from_world = result.camera_from_world[k];
   }
@@ -112,6 +130,29 @@ void Tracker::Impl::RunBundleAdjustment(std::unique_lock<std::mutex>& lock) {
   }
   ++stats.bundle_adjustments;
   stats.bundle_adjustment_ms += elapsed_ms;
+}
+
+BundleAdjustmentResult Tracker::Impl::SolveWindow(BundleAdjustmentProblem problem) const {
+  if (!problem.depth_correction) return SolveBundleAdjustment(problem, options.bundle_adjustment);
+  // Jointly with the depth correction; taken only when the window shows the sensor's error
+  // clearly (significant, every direction pinned down, within bounds). Otherwise the estimate
+  // would mostly be pose error and noise bent into the depth: solved again without it.
+  BundleAdjustmentResult joint = SolveBundleAdjustment(problem, options.bundle_adjustment);
+  const DepthCorrectionFitOptions& limits = options.depth_calibration;
+  bool accept = joint.depth_correction_significance >= limits.joint_min_significance &&
+                joint.depth_correction_weakest_sd <= limits.joint_max_weakest_sd;
+  for (const Eigen::Vector2d& corner : image_outline) {
+    accept = accept &&
+             std::abs(joint.depth_correction->Delta(corner.x(), corner.y())) <= limits.max_delta;
+  }
+  if (accept) return joint;
+  const DepthCorrection current = *problem.depth_correction;
+  for (BundleAdjustmentObservation& observation : problem.observations) {
+    const Eigen::Vector2d& n = observation.observation.normalized;
+    observation.observation.depth_m *= current.Factor(n.x(), n.y());
+  }
+  problem.depth_correction.reset();
+  return SolveBundleAdjustment(problem, options.bundle_adjustment);
 }
 
 void Tracker::Impl::RethrowWorkerError() {

@@ -5,8 +5,10 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <optional>
 #include <vector>
 
+#include "stillmap/tracking/depth_correction.h"
 #include "stillmap/tracking/rgbd_residual.h"
 
 namespace stillmap {
@@ -47,12 +49,24 @@ struct BundleAdjustmentProblem {
   std::vector<BundleAdjustmentKeyframe> keyframes;
   std::vector<Eigen::Vector3d> landmarks;  // world frame
   std::vector<BundleAdjustmentObservation> observations;
+  // Joint depth self-calibration (Teichman et al., RSS 2013): when set, the observations' depths
+  // are raw readings, and the depth correction (depth_correction.h) is estimated with the poses
+  // and points, starting from this one, under a zero-mean prior of depth_correction_sigma on each
+  // coefficient (keeps directions the window cannot see at zero).
+  std::optional<DepthCorrection> depth_correction;
+  double depth_correction_sigma = 0.1;
 };
 
 struct BundleAdjustmentResult {
   std::vector<Eigen::Isometry3d> camera_from_world;  // per keyframe (fixed ones unchanged)
   std::vector<Eigen::Vector3d> landmarks;
   std::vector<bool> outlier;  // per observation: failed the chi-square test at the end
+  std::optional<DepthCorrection> depth_correction;  // estimated, when the problem asked for it
+  // Its standard deviation along the direction the observations pin down least (landmark depths
+  // marginalized, poses not), and p' I p for the estimate p and information I (chi-square, 5 dof,
+  // when the sensor has no error).
+  double depth_correction_weakest_sd = 0.0;
+  double depth_correction_significance = 0.0;
   double initial_cost = 0.0;  // Ceres cost (robustified) before and after
   double final_cost = 0.0;
   int iterations = 0;

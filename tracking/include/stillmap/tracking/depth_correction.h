@@ -82,6 +82,20 @@ struct DepthCorrectionFitOptions {
   // rendered room: spread 0.6 -> 0.3 mm with a 5 % tilt "found", camera errors 0.2 -> 178 mm).
   // Bonn crowd's fits remove 9 mm.
   double min_spread_reduction_m = 0.002;
+  // Joint estimation in the local bundle adjustment (tracking.depth_calibration_in_bundle_
+  // adjustment). It starts once this many keyframes exist: with fewer, the baseline is short and
+  // the correction trades with the poses (bonn_crowd_a frames 150-449: 2 -> 593 mm largest error,
+  // 5 and 8 -> 37 and 53 mm, 12 and 20 -> 15.9, 29.1 mm RMSE).
+  int joint_min_keyframes = 8;
+  // Taken only when p' I p (its significance against "no error", chi-square with 5 dof without
+  // one) reaches this. Measured per window: sensors without error (synthetic rooms, ideal depth)
+  // 4-103; the Bonn Xtion from 426 on its first window; TUM teddy's Kinect 12-199 over its first
+  // 17 keyframes, then 400-2700.
+  double joint_min_significance = 200.0;
+  // ... and when its standard deviation along the least-seen direction is at most this: a camera
+  // that barely moves sees every point from one place, where a depth error looks like a moved
+  // point (synthetic walking_static: 0.2-0.36; moving cameras 0.006-0.046).
+  double joint_max_weakest_sd = 0.05;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -98,6 +112,12 @@ struct DepthCorrectionFitOptions {
           "a fit must shrink the pairs' robust spread by this share at least");
     visit("min_spread_reduction_m", self.min_spread_reduction_m,
           "... and by this much at least [m]");
+    visit("joint_min_keyframes", self.joint_min_keyframes,
+          "joint estimation in the bundle adjustment starts with this many keyframes");
+    visit("joint_min_significance", self.joint_min_significance,
+          "a joint estimate is taken when p' I p reaches this (chi-square, 5 dof)");
+    visit("joint_max_weakest_sd", self.joint_max_weakest_sd,
+          "... and its standard deviation in the least-seen direction is at most this");
   }
 };
 
