@@ -321,6 +321,11 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   report["masking"] = MaskingJson(result.masking, config.masking);
   if (result.masking.statistics.score) {
     report["mask_quality"] = MaskQualityJson(*result.masking.statistics.score);
+    if (result.masking.statistics.score_while_still) {
+      json still = MaskQualityJson(*result.masking.statistics.score_while_still);
+      still["truth"] = "masks.txt, frames in which objects.txt has an object standing still";
+      report["mask_quality"]["while_still"] = still;
+    }
   }
   report["map"] = MapJson(result.map, config);
   report["mesh"] = MeshJson(result.mesh, config.mesh);

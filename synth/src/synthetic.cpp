@@ -36,7 +36,9 @@ std::string FrameName(size_t index) {
   return name;
 }
 
-// Kinect/Xtion-like depth: no reading nearer than 0.4 m or farther than 5 m, at grazing angles
+// Kinect/Xtion-like depth: no reading nearer than 0.4 m or farther than 5 m, fewer and fewer
+// nearer than 0.8 m (the projected pattern saturates: none at 0.4 m, all at 0.8 m), none at grazing
+// angles
 // (beyond 80 deg) and, half of the time, on the far side of depth discontinuities (the
 // projector's shadow); axial noise sigma(z) = 1.2 mm + 1.9 mm (z - 0.4)^2 (Nguyen et al., 3DIMPVT
 // 2012); quantized to the depth factor.
@@ -49,6 +51,7 @@ cv::Mat DepthModel(const RasterBuffers& buffers, const Camera& camera, bool nois
       if (z == 0.0f) continue;
       if (noisy) {
         if (z < 0.4f || z > 5.0f || buffers.cos_incidence.at<float>(v, u) < 0.17f) continue;
+        if (z < 0.8f && rng.uniform(0.0, 1.0) > (z - 0.4f) / 0.4f) continue;
         bool edge = false;
         for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
           const int nu = u + du, nv = v + dv;
@@ -187,7 +190,7 @@ void SynthOptions::Validate() const {
 
 std::vector<std::string> SynthScenarioNames() {
   return {"static",  "walking_static", "walking_xyz", "walking_rpy", "walking_halfsphere",
-          "sitting", "carried_object"};
+          "sitting", "carried_object", "crowd_start", "lens_pass",   "stop_and_go"};
 }
 
 Camera SynthCamera() {

@@ -1,5 +1,6 @@
 #include "synthetic_scene.h"
 
+#include <array>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
@@ -322,6 +323,45 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
     second.speed = 0.9f;
     second.phase_offset = 1.0f;
     scene.movers.push_back(second);
+  } else if (scenario == "crowd_start") {
+    // Three people in view from the first frame, crossing it early.
+    const std::array<std::array<float, 6>, 3> paths = {{
+        {-1.9f, 1.0f, 1.0f, 1.0f, 1.0f, 1.2f},    // from x, y, to x, y, speed, phase [s]
+        {-1.3f, 2.1f, -0.4f, 1.3f, 0.8f, 0.4f},   // towards the camera
+        {1.0f, 1.45f, -1.6f, 1.45f, 0.9f, 0.9f},  // the other way, behind the first
+    }};
+    for (const auto& path : paths) {
+      MovingObject person = MakePerson(
+          &scene, rng, "person_" + std::to_string(dynamic_id - kFirstDynamicId), dynamic_id);
+      ++dynamic_id;
+      person.from = {path[0], path[1]};
+      person.to = {path[2], path[3]};
+      person.speed = path[4];
+      person.phase_offset = path[5];
+      scene.movers.push_back(person);
+    }
+  } else if (scenario == "lens_pass") {
+    // One person walking in the room, and one crossing 0.4-0.7 m in front of the lens once
+    // (at about 3.75 s), filling most of the image; the room's walls hide them outside it.
+    MovingObject walker = MakePerson(&scene, rng, "person_0", dynamic_id++);
+    walker.from = {-2.1f, 1.2f};
+    walker.to = {1.0f, 1.2f};
+    walker.speed = 0.9f;
+    scene.movers.push_back(walker);
+    MovingObject passer = MakePerson(&scene, rng, "person_1", dynamic_id++);
+    passer.from = {-4.5f, -0.35f};
+    passer.to = {4.5f, -0.35f};
+    passer.speed = 1.2f;
+    scene.movers.push_back(passer);
+  } else if (scenario == "stop_and_go") {
+    // A person walks in from the left (out of view at first), stands 4 s, and walks out.
+    MovingObject person = MakePerson(&scene, rng, "person_0", dynamic_id++);
+    person.motion = Motion::kStopAndGo;
+    person.from = {-3.2f, 1.3f};
+    person.to = {-0.2f, 1.3f};
+    person.speed = 1.0f;
+    person.stand_s = 4.0f;
+    scene.movers.push_back(person);
   } else if (scenario == "sitting") {
     MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
     first.motion = Motion::kSit;
@@ -354,12 +394,28 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
 
 namespace {
 
-// Position along a back-and-forth path and the direction of travel.
+// Standing (kStopAndGo): at `to` for stand_s, or back at `from` after the walk back.
+bool Standing(const MovingObject& object, double time) {
+  if (object.motion != Motion::kStopAndGo) return false;
+  const float walk_s = (object.to - object.from).norm() / object.speed;
+  const float t = static_cast<float>(time + object.phase_offset);
+  return (t >= walk_s && t < walk_s + object.stand_s) || t >= 2.0f * walk_s + object.stand_s;
+}
+
+// Position along a back-and-forth path and the direction of travel. kStopAndGo walks out and
+// back once, the time it stands not counting as travel.
 void WalkState(const MovingObject& object, double time, Eigen::Vector2f* position,
                Eigen::Vector2f* direction, float* distance) {
   const Eigen::Vector2f span = object.to - object.from;
   const float length = span.norm();
-  const float travelled = object.speed * static_cast<float>(time + object.phase_offset);
+  float travelled = object.speed * static_cast<float>(time + object.phase_offset);
+  if (object.motion == Motion::kStopAndGo) {
+    const float stand_m = object.speed * object.stand_s;
+    travelled = travelled < length ? travelled
+                : travelled < length + stand_m
+                    ? length - 1e-4f  // facing on
+                    : std::min(travelled - stand_m, 2.0f * length - 1e-4f);
+  }
   const float cycle = std::fmod(travelled, 2.0f * length);
   const bool outward = cycle < length;
   const float along = outward ? cycle : 2.0f * length - cycle;
@@ -383,7 +439,8 @@ Eigen::Isometry3f BodyPose(const Scene& scene, const MovingObject& object, doubl
   Eigen::Vector2f position, direction;
   float distance = 0.0f;
   WalkState(object, time, &position, &direction, &distance);
-  const float yaw = std::atan2(-direction.x(), direction.y());
+  // Standing, a person turns to face the room's open side (-y, where the cameras are).
+  const float yaw = Standing(object, time) ? kPi : std::atan2(-direction.x(), direction.y());
   return Translation(position.x(), position.y(), 0.0f) * RotationZ(yaw);
 }
 
@@ -400,6 +457,10 @@ std::vector<Eigen::Isometry3f> PartPoses(const MovingObject& object, double time
     head_yaw = 0.35f * std::sin(0.45f * t);
     arm_left = 0.3f + 0.25f * std::sin(1.3f * t);
     arm_right = 0.5f;
+  } else if (Standing(object, time)) {
+    // Standing: arms slightly forward, the head turning slowly.
+    head_yaw = 0.3f * std::sin(0.6f * t);
+    arm_left = arm_right = 0.15f;
   } else {
     // Gait: 1.4 m per stride cycle; knees bend on the forward swing.
     const float phase = 2.0f * kPi * object.speed * t / 1.4f;
@@ -442,8 +503,9 @@ Eigen::Isometry3f CameraPose(const std::string& scenario, double time) {
     position += Eigen::Vector3f(0.004f * std::sin(1.7f * t), 0.003f * std::sin(2.3f * t),
                                 0.004f * std::sin(1.3f * t));
     target += Eigen::Vector3f(0.02f * std::sin(0.9f * t), 0.0f, 0.015f * std::sin(1.1f * t));
-  } else if (scenario == "walking_xyz" || scenario == "sitting") {
-    const float a = scenario == "sitting" ? 0.5f : 1.0f;
+  } else if (scenario == "walking_xyz" || scenario == "sitting" || scenario == "crowd_start" ||
+             scenario == "lens_pass" || scenario == "stop_and_go") {
+    const float a = scenario == "sitting" || scenario == "lens_pass" ? 0.5f : 1.0f;
     position += a * Eigen::Vector3f(0.35f * std::sin(1.05f * t), 0.25f * std::sin(0.7f * t),
                                     0.15f * std::sin(1.3f * t));
     target += a * Eigen::Vector3f(0.35f * std::sin(1.05f * t), 0.0f, 0.15f * std::sin(1.3f * t));

@@ -29,7 +29,8 @@ struct MovingPart {
   std::uint16_t material = 0;
 };
 
-enum class Motion { kWalk, kSit, kCarry, kCarried };
+// kStopAndGo: walks from `from` to `to`, stands there stand_s, walks back and stays at `from`.
+enum class Motion { kWalk, kSit, kCarry, kCarried, kStopAndGo };
 
 // A person (or a carried object) and how it moves.
 struct MovingObject {
@@ -44,6 +45,7 @@ struct MovingObject {
   Eigen::Vector3f seat{0, 0, 0};  // sitting: hip position [m]
   float seat_yaw = 0.0f;          // sitting: facing direction [rad]
   int carrier = -1;               // kCarried: index of the person carrying it
+  float stand_s = 0.0f;           // kStopAndGo: how long it stands at `to` [s]
 };
 
 struct Scene {

@@ -133,6 +133,49 @@ void CarryByPairs(const std::vector<cv::Point2f>& moved_from,
   }
 }
 
+// The median depth of the middle third of `box` [m] (0: fewer than 10 readings).
+float CentreDepth(const cv::Mat& depth_m, const cv::Rect2f& box) {
+  const cv::Rect inside = Clip(cv::Rect(box), depth_m.size());
+  const cv::Rect centre(inside.x + inside.width / 3, inside.y + inside.height / 4,
+                        std::max(1, inside.width / 3), std::max(1, inside.height / 2));
+  std::vector<float> depths;
+  for (int v = centre.y; v < centre.y + centre.height && v < depth_m.rows; ++v) {
+    for (int u = centre.x; u < centre.x + centre.width && u < depth_m.cols; ++u) {
+      const float z = depth_m.at<float>(v, u);
+      if (z > 0.0f) depths.push_back(z);
+    }
+  }
+  if (depths.size() < 10) return 0.0f;
+  const auto middle = depths.begin() + static_cast<long>(depths.size() / 2);
+  std::nth_element(depths.begin(), middle, depths.end());
+  return *middle;
+}
+
+// A detector run's detections plus the people of the last ones it missed (no detection of the
+// same class overlapping them by IoU 0.3), each at most `memory_runs` runs and only while the
+// middle of their box still holds something at the depth they were seen at (one who walked away
+// leaves the background there).
+std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
+                                      const std::vector<Detection>& last, const cv::Mat& depth_m,
+                                      int memory_runs) {
+  std::vector<Detection> out = fresh;
+  for (Detection& detection : out) detection.centre_depth_m = CentreDepth(depth_m, detection.box);
+  for (const Detection& old : last) {
+    if (old.level != MotionLevel::kHigh || old.missed_runs >= memory_runs) continue;
+    const float then = old.centre_depth_m, now = CentreDepth(depth_m, old.box);
+    if (!(then > 0.0f && now > 0.0f && std::abs(now - then) < 0.1f + 0.05f * then)) continue;
+    const bool seen = std::any_of(fresh.begin(), fresh.end(), [&old](const Detection& other) {
+      const float overlap = (other.box & old.box).area();
+      return other.class_id == old.class_id &&
+             overlap > 0.3f * (other.box.area() + old.box.area() - overlap);
+    });
+    if (seen) continue;
+    out.push_back(old);
+    ++out.back().missed_runs;
+  }
+  return out;
+}
+
 // The detections' outlines into `mask` (high-level objects always, medium-level ones when
 // geometry sees enough of them moving) and into `claimed` (every outline); counts in `result`.
 void MaskDetections(const std::vector<Detection>& detections, const cv::Mat& gray,
@@ -280,6 +323,8 @@ void DynamicMaskOptions::Validate() const {
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
         "medium_min_moving_share must be in (0, 1]");
   check(detector_interval >= 1, "detector_interval must be >= 1");
+  check(detection_memory_runs >= 0 && detection_memory_runs <= 100,
+        "detection_memory_runs must lie in 0..100");
   check(margin_px >= 0 && margin_px <= 50, "margin_px must be 0..50");
   check(min_region_px >= 0, "min_region_px must be >= 0");
 }
@@ -395,7 +440,7 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
 
   // Detections: this frame's, or the last ones moved by the median flow of the points in them.
   if (detections != nullptr) {
-    carried_ = *detections;
+    carried_ = WithRemembered(*detections, carried_, depth_m, options_.detection_memory_runs);
     result.detections_fresh = true;
   } else {
     CarryByPairs(moved_from, moved_to, size, &carried_);

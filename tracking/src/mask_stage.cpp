@@ -1,12 +1,45 @@
 #include "stillmap/tracking/mask_stage.h"
 
+#include <cmath>
+#include <filesystem>
+#include <map>
+
 namespace stillmap {
+namespace {
+
+long long Microseconds(double time) { return std::llround(time * 1e6); }
+
+// Times of the frames in which some object of SEQUENCE/objects.txt (when it exists) is where it
+// was in the previous frame, within 1 mm and 0.1 degrees.
+std::set<long long> StillFrames(const std::string& sequence_dir) {
+  std::set<long long> still;
+  const std::string path = (std::filesystem::path(sequence_dir) / "objects.txt").string();
+  std::error_code error;
+  if (sequence_dir.empty() || !std::filesystem::is_regular_file(path, error)) return still;
+  std::map<std::string, const ObjectPose*> previous;
+  const std::vector<ObjectPose> poses = ReadObjectPoses(path);
+  for (const ObjectPose& pose : poses) {
+    const ObjectPose*& last = previous[pose.id];
+    if (last != nullptr && pose.time > last->time) {
+      const Eigen::Isometry3d step = last->world_from_object.inverse() * pose.world_from_object;
+      if (step.translation().norm() < 0.001 &&
+          Eigen::AngleAxisd(step.linear()).angle() < 0.1 * M_PI / 180.0) {
+        still.insert(Microseconds(pose.time));
+      }
+    }
+    last = &pose;
+  }
+  return still;
+}
+
+}  // namespace
 
 MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
                      std::unique_ptr<Detector> detector, bool detector_in_background,
                      const std::string& sequence_dir)
     : enabled_(enabled), options_(options), truth_(sequence_dir) {
   if (!enabled_) return;
+  if (truth_.available()) still_frames_us_ = StillFrames(sequence_dir);
   if (detector != nullptr && options_.semantics) {
     detections_ = std::make_unique<DetectionSchedule>(
         std::move(detector), options_.detector_interval, detector_in_background);
@@ -45,7 +78,12 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   s.frames_with_mask += result.share > 0.0 ? 1 : 0;
   if (truth_.available()) {
     const cv::Mat truth = truth_.Get(frame.time);
-    if (!truth.empty() && truth.size() == result.mask.size()) score_.Add(result.mask, truth);
+    if (!truth.empty() && truth.size() == result.mask.size()) {
+      score_.Add(result.mask, truth);
+      if (still_frames_us_.count(Microseconds(frame.time)) > 0 && cv::countNonZero(truth) > 0) {
+        still_score_.Add(result.mask, truth);
+      }
+    }
   }
   return result.mask;
 }
@@ -61,6 +99,7 @@ MaskingStatistics MaskStage::statistics() const {
   if (score_.frames > 0 || score_.true_positive + score_.false_positive > 0) {
     statistics.score = score_;
   }
+  if (still_score_.frames > 0) statistics.score_while_still = still_score_;
   return statistics;
 }
 

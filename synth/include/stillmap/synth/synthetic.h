@@ -26,7 +26,9 @@ struct SynthOptions {
   void Validate() const;
 };
 
-// static, walking_static, walking_xyz, walking_rpy, walking_halfsphere, sitting, carried_object.
+// static, walking_static, walking_xyz, walking_rpy, walking_halfsphere, sitting, carried_object,
+// crowd_start (three people in view from the first frame), lens_pass (a person crossing 0.4-0.7 m
+// before the lens), stop_and_go (a person walks in, stands 4 s, walks out).
 std::vector<std::string> SynthScenarioNames();
 
 // The camera of every synthetic sequence: 640x480, fx = fy = 525, cx = 319.5, cy = 239.5, no

@@ -45,7 +45,7 @@ class DetectionSchedule {
   std::unique_ptr<Detector> detector_;
   int interval_;
   bool background_;
-  size_t frame_ = 0;             // frames seen
+  size_t frame_ = 0;              // frames seen
   std::future<DetectorRun> run_;  // the background run in flight, if any
   size_t run_frame_ = 0;          // the frame it runs on
   std::vector<FlowStep> steps_;   // flow steps since that frame, to carry its detections

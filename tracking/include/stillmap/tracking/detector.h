@@ -38,6 +38,10 @@ struct Detection {
   // Per-pixel backends (DeepLab): the object's pixels inside the box, CV_8UC1 of the box's
   // integer size (255 = the object). Empty for box detectors.
   cv::Mat mask;
+  // Detector runs since this object was last detected (kept by masking.detection_memory_runs),
+  // and the median depth of its box's centre then [m] (0: not known).
+  int missed_runs = 0;
+  float centre_depth_m = 0.0f;
 };
 
 class Detector {

@@ -7,6 +7,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -30,8 +31,12 @@ struct MaskingStatistics {
   std::map<std::string, size_t> detections_by_level;  // motion level name -> detections
   std::vector<double> detector_ms, mask_ms;           // per detector run, per frame
   bool detector_in_background = false;                // the detector ran on its own thread
-  double detector_wait_ms = 0.0;  // the frame loop waiting for background detector runs
-  std::optional<MaskScore> score;                     // against masks.txt, when it has frames
+  double detector_wait_ms = 0.0;   // the frame loop waiting for background detector runs
+  std::optional<MaskScore> score;  // against masks.txt, when it has frames
+  // The same over the frames in which a moving object stands still (objects.txt: its pose
+  // unchanged since the previous frame) and masks.txt has moving pixels: only semantics can
+  // find a person who stands.
+  std::optional<MaskScore> score_while_still;
 
   double MeanShare() const { return frames > 0 ? share_sum / static_cast<double>(frames) : 0.0; }
 };
@@ -72,9 +77,11 @@ class MaskStage {
   bool enabled_;
   DynamicMaskOptions options_;
   TruthMasks truth_;
+  std::set<long long> still_frames_us_;            // times of frames with a still object [us]
   std::unique_ptr<DetectionSchedule> detections_;  // null: no detector, or semantics off
   std::unique_ptr<DynamicMasker> masker_;
   MaskScore score_;
+  MaskScore still_score_;
   MaskingStatistics statistics_;
 };
 
