@@ -7,7 +7,12 @@ background bundle adjustment races tracking), so every clip is built --runs time
 run counts. Per clip: ATE RMSE and max [mm], frames lost / relocalized, new local maps, mean masked
 share, frames per second; then the worst clip and the median over clips.
 
-  scripts/robustness_suite.py [--sequence DIR]... [--runs 3] [-- extra build arguments]
+Then the synthetic scenarios of `stillmap synth` (crowd_start, lens_pass, stop_and_go; 300
+frames, seed 1, rendered once into --synth-dir): ATE, ghost share and the mask recall over the
+frames in which a person stands still, worst run of --runs.
+
+  scripts/robustness_suite.py [--sequence DIR]... [--runs 3] [--no-synthetic]
+                              [--synth-dir DIR] [-- extra build arguments]
 
 Without --sequence: ../shared/data/bonn_crowd_a (or $STILLMAP_DATA/bonn_crowd_a).
 """
@@ -39,7 +44,11 @@ def build(stillmap, sequence, first, frames, extra, out):
     if ate is None:
         raise RuntimeError(f"{sequence}: no ATE in report.json (is there a groundtruth.txt?)")
     tracking = report["tracking"]
+    quality = report.get("map_quality", {})
+    still = report.get("mask_quality", {}).get("while_still", {})
     return {
+        "ghost_share": quality.get("ghost_share"),
+        "still_recall": still.get("recall"),
         "ate_rmse_mm": 1000.0 * ate["rmse"],
         "ate_max_mm": 1000.0 * ate["max"],
         "lost": tracking["lost"],
@@ -68,6 +77,9 @@ def main():
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--clip-frames", type=int, default=300)
     parser.add_argument("--clip-step", type=int, default=50)
+    parser.add_argument("--no-synthetic", action="store_true", help="skip the synthetic scenarios")
+    parser.add_argument("--synth-dir", default=os.path.join(tempfile.gettempdir(), "stillmap_suite_synth"),
+                        help="where the synthetic scenarios are rendered (once)")
     parser.add_argument("extra", nargs="*", help="further build arguments, after --")
     args = parser.parse_args()
     sequences = args.sequence or [os.path.join(data, "bonn_crowd_a")]
@@ -93,12 +105,31 @@ def main():
                       f"{100 * worst['masked_share']:>7.1f}%{worst['fps']:>7.1f}", flush=True)
                 if label != "whole":
                     worst_clips.append((worst["ate_rmse_mm"], worst["ate_max_mm"], name, label))
+        if not args.no_synthetic:
+            synthetic(args, scratch)
     if worst_clips:
         rmse, peak, name, label = max(worst_clips)
         print(f"worst clip: {name} {label}: {rmse:.1f} mm RMSE ({peak:.1f} mm max); "
               f"median over {len(worst_clips)} clips: "
               f"{statistics.median(c[0] for c in worst_clips):.1f} mm; "
               f"largest error in any clip: {max(c[1] for c in worst_clips):.1f} mm")
+
+
+def synthetic(args, scratch):
+    print(f"{'scenario':<22}{'ATE mm':>9}{'max mm':>9}{'ghosts':>9}{'still recall':>14}"
+          f"   (worst of {args.runs} runs)")
+    for scenario in ("crowd_start", "lens_pass", "stop_and_go"):
+        sequence = os.path.join(args.synth_dir, scenario)
+        if not os.path.isfile(os.path.join(sequence, "synth.json")):
+            subprocess.run([args.stillmap, "synth", sequence, "--scenario", scenario, "--frames",
+                            "300", "--seed", "1"], check=True, capture_output=True)
+        runs = [build(args.stillmap, sequence, 0, 0, args.extra, os.path.join(scratch, f"s{i}"))
+                for i in range(args.runs)]
+        worst = lambda key, pick: pick(run[key] for run in runs if run[key] is not None)
+        still = worst("still_recall", min) if scenario == "stop_and_go" else None
+        print(f"{scenario:<22}{worst('ate_rmse_mm', max):>9.1f}{worst('ate_max_mm', max):>9.1f}"
+              f"{100 * worst('ghost_share', max):>8.2f}%"
+              f"{'' if still is None else f'{still:.3f}':>14}", flush=True)
 
 
 if __name__ == "__main__":
