@@ -256,8 +256,18 @@ TEST_F(ReliabilityTest, EvalPlotNamesAndFarCoordinates) {
 
 TEST_F(ReliabilityTest, QuietMeansQuiet) {
   std::string output;
-  ASSERT_EQ(Build("", &output), 0) << output;
+  ASSERT_EQ(Build("--detector none", &output), 0) << output;
   EXPECT_EQ(output, "");
+}
+
+// The default detector (auto) without its model: the build runs on geometry alone and says so,
+// once, even under --quiet.
+TEST_F(ReliabilityTest, WithoutTheModelTheDefaultDetectorWarns) {
+  fs::create_directories(dir_ / "no_models");
+  std::string output;
+  ASSERT_EQ(Build("--models " + (dir_ / "no_models"), &output), 0) << output;
+  EXPECT_NE(output.find("warning: no YOLOX-Nano model under"), std::string::npos) << output;
+  EXPECT_EQ(output.find("warning", output.find("warning") + 1), std::string::npos) << output;
 }
 
 }  // namespace
