@@ -178,6 +178,15 @@ json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& opti
             {"spread_after_m", last.spread_after_m}}}};
 }
 
+// The smallest, 5th-percentile and median share over the frames.
+json ShareJson(std::vector<double> shares) {
+  if (shares.empty()) return nullptr;
+  std::sort(shares.begin(), shares.end());
+  return {{"min", shares.front()},
+          {"p5", shares[shares.size() / 20]},
+          {"median", shares[shares.size() / 2]}};
+}
+
 json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options) {
   const TrackerStatistics& t = tracking.statistics;
   const double median_track_ms = Median(tracking.total_ms);
@@ -188,6 +197,11 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
           {"new_maps", t.new_maps},
           {"status_counts", tracking.status_counts},
           {"lost_frame_times", tracking.lost_times},
+          {"occluded", t.occluded},
+          {"predicted", t.predicted},
+          {"flagged_frame_times", tracking.flagged_times},
+          {"relocalizations_refused", t.relocalizations_refused},
+          {"static_depth_share", ShareJson(tracking.static_depth_share)},
           {"keyframes", t.keyframes},
           {"landmarks_alive", t.landmarks},
           {"landmarks_created", t.landmarks_created},

@@ -12,6 +12,10 @@ void Record(const TrackResult& result, double time, TrackingFigures* figures) {
   figures->total_ms.push_back(result.timings.total_ms);
   ++figures->status_counts[TrackStatusName(result.status)];
   if (!result.tracked()) figures->lost_times.push_back(time);
+  if (result.status == TrackStatus::kOccluded || result.status == TrackStatus::kPredicted) {
+    figures->flagged_times.push_back(time);
+  }
+  figures->static_depth_share.push_back(result.static_depth_share);
 }
 
 }  // namespace

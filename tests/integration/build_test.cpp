@@ -380,12 +380,32 @@ std::vector<double> RenderWithCoveredLens(const std::string& dir, int frames, si
 
 // A covered lens: frames whose images are black and depth empty get no pose (the trajectory skips
 // them and the report names them), tracking resumes after them, and the run succeeds.
-TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
+// A covered lens (no image, no depth) with the defaults: the motion model poses those frames and
+// the report flags them.
+TEST(BuildTest, TrackingRidesThroughACoveredLensAndFlagsIt) {
   testing::TempDir dir;
   const std::vector<double> covered = RenderWithCoveredLens(dir.path(), 30, 12, 15);
   std::string output;
   ASSERT_EQ(
       testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" + " --quiet", &output), 0)
+      << output;
+  EXPECT_EQ(Trajectory::ReadTum(dir / "out/trajectory.txt").size(), 30u);
+  const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "out/report.json"));
+  EXPECT_EQ(report["tracking"]["lost"], 0);
+  EXPECT_EQ(report["tracking"]["predicted"], 3);
+  EXPECT_EQ(report["tracking"]["flagged_frame_times"].get<std::vector<double>>(), covered);
+  EXPECT_EQ(report["tracking"]["static_depth_share"]["min"], 0.0);
+}
+
+// Without the motion model's ride-through, those frames get no pose.
+TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
+  testing::TempDir dir;
+  const std::vector<double> covered = RenderWithCoveredLens(dir.path(), 30, 12, 15);
+  std::string output;
+  ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + dir / "out" +
+                                     " --quiet --set tracking.max_predicted_frames=0",
+                                 &output),
+            0)
       << output;
   const Trajectory trajectory = Trajectory::ReadTum(dir / "out/trajectory.txt");
   EXPECT_EQ(trajectory.size(), 27u);

@@ -144,8 +144,12 @@ TEST_F(TrackerTest, EveryKeyframeBecomesFinalOnceInOrder) {
   }
 }
 
+// A covered lens (no image, no depth) for three frames, with the motion model's ride-through
+// off: no pose, then relocalization.
 TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
-  Tracker tracker(sequence_->camera(), Deterministic());
+  TrackerOptions options = Deterministic();
+  options.max_predicted_frames = 0;
+  Tracker tracker(sequence_->camera(), options);
   const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
   const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
   std::vector<TrackStatus> statuses;
@@ -174,6 +178,63 @@ TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
   EXPECT_EQ(stats.lost, 3u);
   EXPECT_EQ(stats.relocalized, 1u);
   EXPECT_EQ(stats.new_maps, 0u);
+}
+
+// The same covered lens with the defaults: the frames are posed by the constant-velocity model and
+// flagged "predicted", make no keyframe, and tracking goes on without relocalizing.
+TEST_F(TrackerTest, AnOccludedLensIsRiddenThroughByTheMotionModel) {
+  Tracker tracker(sequence_->camera(), Deterministic());
+  const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
+  const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
+  std::vector<TrackResult> results;
+  for (size_t i = 0; i < 20; ++i) {
+    const bool blank = i >= 10 && i < 13;
+    results.push_back(tracker.Track(i, frames_[i].time, blank ? black : grays_[i],
+                                    blank ? no_depth : frames_[i].depth_m));
+  }
+  for (size_t i = 10; i < 13; ++i) {
+    EXPECT_EQ(results[i].status, TrackStatus::kPredicted) << i;
+    EXPECT_EQ(results[i].keyframe_id, -1) << i;
+    EXPECT_EQ(results[i].static_depth_share, 0.0) << i;
+  }
+  EXPECT_EQ(results[13].status, TrackStatus::kTracked);
+  tracker.Finish();
+  const Trajectory trajectory = tracker.TrackedTrajectory();
+  ASSERT_EQ(trajectory.size(), 20u);
+  for (size_t i = 10; i < 14; ++i) {  // the camera moves slowly and evenly: the model holds
+    const Eigen::Isometry3d truth = Truth(0).inverse() * Truth(i);
+    EXPECT_LT((trajectory.poses()[i].world_from_camera.translation() - truth.translation()).norm(),
+              0.003)
+        << i;
+  }
+  const TrackerStatistics stats = tracker.statistics();
+  EXPECT_EQ(stats.predicted, 3u);
+  EXPECT_EQ(stats.lost, 0u);
+  EXPECT_EQ(stats.relocalized, 0u);
+}
+
+// A relocalization farther from the last good pose than the options allow is refused: with a
+// bound of 0.01 mm and no speed allowance, the camera's few millimetres of motion during the
+// covered frames are too much.
+TEST_F(TrackerTest, ARelocalizationFarFromTheLastGoodPoseIsRefused) {
+  TrackerOptions options = Deterministic();
+  options.max_predicted_frames = 0;
+  options.relocalization_max_distance_m = 1e-5;
+  options.relocalization_max_speed_mps = 0.0;
+  Tracker tracker(sequence_->camera(), options);
+  const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
+  const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
+  std::vector<TrackStatus> statuses;
+  for (size_t i = 0; i < 16; ++i) {
+    const bool blank = i >= 10 && i < 13;
+    statuses.push_back(tracker
+                           .Track(i, frames_[i].time, blank ? black : grays_[i],
+                                  blank ? no_depth : frames_[i].depth_m)
+                           .status);
+  }
+  EXPECT_EQ(statuses[13], TrackStatus::kLost);
+  EXPECT_GE(tracker.statistics().relocalizations_refused, 1u);
+  EXPECT_EQ(tracker.statistics().relocalized, 0u);
 }
 
 TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {

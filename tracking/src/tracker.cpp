@@ -91,6 +91,13 @@ void TrackerOptions::Validate() const {
   require(relocalization_keyframes >= 1, "tracking.relocalization_keyframes must be at least 1");
   require(new_map_after_lost >= 1, "tracking.new_map_after_lost must be at least 1");
   require(min_initial_points >= 20, "tracking.min_initial_points must be at least 20");
+  require(
+      min_static_depth_share >= 0.0 && min_static_depth_share <= 1.0 && max_predicted_frames >= 0,
+      "tracking.min_static_depth_share must lie in [0, 1] and tracking.max_predicted_frames "
+      "not be negative");
+  require(relocalization_max_distance_m > 0.0 && relocalization_max_speed_mps >= 0.0,
+          "tracking.relocalization_max_distance_m must be positive and "
+          "tracking.relocalization_max_speed_mps not negative");
 }
 
 const char* TrackStatusName(TrackStatus status) {
@@ -103,6 +110,10 @@ const char* TrackStatusName(TrackStatus status) {
       return "relocalized";
     case TrackStatus::kNewMap:
       return "new_map";
+    case TrackStatus::kOccluded:
+      return "occluded";
+    case TrackStatus::kPredicted:
+      return "predicted";
     case TrackStatus::kLost:
       return "lost";
   }
@@ -170,6 +181,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   TrackResult result;
   FrameData frame(ExtractFeatures(gray, depth_m, camera, ignore_mask, options.features), camera);
   result.features = static_cast<int>(frame.size());
+  result.static_depth_share = StaticDepthShare(depth_m, ignore_mask);
   result.timings.extract_ms = MillisecondsSince(start);
 
   std::unique_lock<std::mutex> lock(mutex);
@@ -212,26 +224,46 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
     estimate = EstimatePose(predicted, true, local, frame, &association);
   }
   const bool was_lost = consecutive_lost > 0;
+  bool relocalizing = was_lost;
   if (!estimate.ok) {
     ClearMatches(association);
     estimate = Relocalize(frame, &association);
+    relocalizing = true;
   }
+  // A pose found after losing track (or against keyframes instead of the motion model) must be
+  // near where the camera was last seen.
+  if (estimate.ok && relocalizing && !NearLastGoodPose(estimate.camera_from_world, time)) {
+    ++stats.relocalizations_refused;
+    ClearMatches(association);
+    estimate = {};
+  }
+  const bool occluded = result.static_depth_share < options.min_static_depth_share;
   result.timings.pose_ms = MillisecondsSince(stage);
   result.matches = estimate.matches;
 
   stage = Clock::now();
   if (estimate.ok) {
-    result.status = was_lost ? TrackStatus::kRelocalized : TrackStatus::kTracked;
+    result.status = occluded   ? TrackStatus::kOccluded
+                    : was_lost ? TrackStatus::kRelocalized
+                               : TrackStatus::kTracked;
     if (was_lost) ++stats.relocalized;
+    if (occluded) ++stats.occluded;
     result.inliers = estimate.inliers;
     result.reprojection_rmse_px = estimate.rmse_px;
     CountVisibility(estimate.camera_from_world, local, association);
     ++frames_since_keyframe;
-    if (NeedKeyframe(frame, association, estimate.inliers)) {
+    consecutive_predicted = 0;
+    if (!occluded && NeedKeyframe(frame, association, estimate.inliers)) {
       result.keyframe_id =
           InsertKeyframe(estimate.camera_from_world, frame, association, frame_index, time, lock);
     }
     Accept(estimate.camera_from_world, time, association.landmark, &result);
+  } else if (occluded && have_last && consecutive_predicted < options.max_predicted_frames) {
+    // Nothing to track behind the occluder: the motion model carries the pose through.
+    ++consecutive_predicted;
+    ++stats.predicted;
+    result.status = TrackStatus::kPredicted;
+    Accept(predicted, time, {}, &result);
   } else {
     ++consecutive_lost;
     ++stats.lost;
@@ -266,6 +298,24 @@ void Tracker::Impl::CountVisibility(const Eigen::Isometry3d& camera_from_world,
   }
 }
 
+double StaticDepthShare(const cv::Mat& depth_m, const cv::Mat& ignore_mask) {
+  if (depth_m.empty()) return 0.0;
+  cv::Mat with_depth = depth_m > 0.0f;
+  if (!ignore_mask.empty()) with_depth.setTo(0, ignore_mask);
+  return cv::countNonZero(with_depth) / static_cast<double>(depth_m.total());
+}
+
+bool Tracker::Impl::NearLastGoodPose(const Eigen::Isometry3d& camera_from_world,
+                                     double time) const {
+  if (!have_good) return true;
+  const double distance = (camera_from_world.inverse().translation() -
+                           last_good_camera_from_world.inverse().translation())
+                              .norm();
+  const double elapsed_s = std::max(0.0, time - last_good_time);
+  return distance <=
+         options.relocalization_max_distance_m + options.relocalization_max_speed_mps * elapsed_s;
+}
+
 void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double time,
                            const std::vector<int>& matched, TrackResult* result) {
   if (have_last) velocity = camera_from_world * last_camera_from_world.inverse();
@@ -274,6 +324,7 @@ void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double ti
   last_camera_from_world = camera_from_world;
   have_good = true;
   last_good_camera_from_world = camera_from_world;
+  last_good_time = time;
   consecutive_lost = 0;
   last_frame_landmarks.clear();
   for (int id : matched) {

@@ -27,6 +27,9 @@
 
 namespace stillmap {
 
+// The share of pixels with a depth reading outside `ignore_mask` (may be empty).
+double StaticDepthShare(const cv::Mat& depth_m, const cv::Mat& ignore_mask);
+
 using Clock = std::chrono::steady_clock;
 
 // A 256-bit ORB descriptor as four words, so that the Hamming distance is four popcounts.
@@ -168,6 +171,8 @@ struct Tracker::Impl {
   // ---- Per frame: the pose, the bookkeeping of a tracked frame, observations (tracker.cpp)
   double OctaveScale(int octave) const;
   // The i-th feature as an observation, its depth corrected (depth_correction.h) or raw.
+  // A relocalized pose is plausible: near the last good pose, given the time since (options).
+  bool NearLastGoodPose(const Eigen::Isometry3d& camera_from_world, double time) const;
   RgbdObservation Observation(const FrameFeatures& features, size_t i,
                               bool raw_depth = false) const;
   double DepthFactor(const Eigen::Vector2d& normalized) const;
@@ -262,6 +267,8 @@ struct Tracker::Impl {
   bool have_good = false;
   Eigen::Isometry3d last_good_camera_from_world = Eigen::Isometry3d::Identity();
   int consecutive_lost = 0;
+  int consecutive_predicted = 0;  // frames posed by the motion model in a row
+  double last_good_time = 0.0;
   int frames_since_keyframe = 0;
   std::vector<int> last_frame_landmarks;
   std::vector<FrameRecord> records;

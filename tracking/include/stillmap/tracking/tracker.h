@@ -109,7 +109,18 @@ struct TrackerOptions {
   int min_tracked = 20;      // inliers for a frame to count as tracked
   int min_relocalized = 30;  // inliers for a relocalization to be accepted
   int relocalization_keyframes = 5;
-  int new_map_after_lost = 15;   // consecutive lost frames before a new local map is started
+  int new_map_after_lost = 15;  // consecutive lost frames before a new local map is started
+  // Occlusion (issue 17: a person passing the lens): a frame whose share of pixels with a depth
+  // reading outside the moving mask is below this makes no keyframe and no landmarks; it is
+  // posed from what remains ("occluded") or, when that fails, by the constant-velocity model
+  // ("predicted", for at most max_predicted_frames in a row).
+  double min_static_depth_share = 0.1;
+  int max_predicted_frames = 15;
+  // A relocalized pose is taken only within this distance of where the camera was last seen
+  // [m], plus relocalization_max_speed_mps for each second since then: a match on a look-alike
+  // view elsewhere would put a jump in the trajectory.
+  double relocalization_max_distance_m = 0.3;
+  double relocalization_max_speed_mps = 1.5;
   int min_initial_points = 100;  // features with depth needed to start a map
 
   // Throws InputError naming the first impossible value.
@@ -184,6 +195,14 @@ struct TrackerOptions {
           "keyframes a relocalization tries");
     visit("new_map_after_lost", self.new_map_after_lost,
           "consecutive lost frames before a new local map starts at the last good pose");
+    visit("min_static_depth_share", self.min_static_depth_share,
+          "frames with less depth outside the moving mask make no keyframe (occluded)");
+    visit("max_predicted_frames", self.max_predicted_frames,
+          "occluded frames posed by the motion model at most this many in a row");
+    visit("relocalization_max_distance_m", self.relocalization_max_distance_m,
+          "relocalized poses farther than this from the last good one are refused [m]");
+    visit("relocalization_max_speed_mps", self.relocalization_max_speed_mps,
+          "... plus this much per second since it [m/s]");
     visit("min_initial_points", self.min_initial_points,
           "features with depth needed to start a map");
   }
@@ -194,6 +213,8 @@ enum class TrackStatus {
   kTracked,
   kRelocalized,  // tracked again after being lost, against a recent keyframe
   kNewMap,       // a new local map chained to the last good pose
+  kOccluded,     // too little static depth: posed from what remains, no keyframe
+  kPredicted,    // too little static depth and nothing to track: the motion model's pose
   kLost,         // no pose: nothing is written for this frame
 };
 const char* TrackStatusName(TrackStatus status);
@@ -213,7 +234,8 @@ struct TrackResult {
   int matches = 0;
   int inliers = 0;
   double reprojection_rmse_px = 0.0;
-  int keyframe_id = -1;  // >= 0 when this frame became a keyframe
+  int keyframe_id = -1;             // >= 0 when this frame became a keyframe
+  double static_depth_share = 0.0;  // pixels with depth outside the ignore mask
   TrackTimings timings;
   bool tracked() const { return status != TrackStatus::kLost; }
 };
@@ -232,7 +254,9 @@ struct TrackerStatistics {
   size_t tracked = 0;
   size_t lost = 0;
   size_t relocalized = 0;
-  size_t new_maps = 0;  // local maps started after the first
+  size_t new_maps = 0;                 // local maps started after the first
+  size_t occluded = 0, predicted = 0;  // frames with too little static depth (TrackStatus)
+  size_t relocalizations_refused = 0;  // too far from the last good pose
   size_t keyframes = 0;
   size_t landmarks = 0;  // alive now
   size_t landmarks_created = 0;
