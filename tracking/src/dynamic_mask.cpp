@@ -152,23 +152,35 @@ float CentreDepth(const cv::Mat& depth_m, const cv::Rect2f& box) {
 }
 
 // A detector run's detections plus the people of the last ones it missed (no detection of the
-// same class overlapping them by IoU 0.3), each at most `memory_runs` runs and only while the
+// same class overlapping them by IoU 0.3) that it had found twice in a row, each at most
+// `memory_runs` runs and only while the
 // middle of their box still holds something at the depth they were seen at (one who walked away
 // leaves the background there).
 std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
                                       const std::vector<Detection>& last, const cv::Mat& depth_m,
                                       int memory_runs) {
+  auto same = [](const Detection& a, const Detection& b) {
+    const float overlap = (a.box & b.box).area();
+    return a.class_id == b.class_id && overlap > 0.3f * (a.box.area() + b.box.area() - overlap);
+  };
   std::vector<Detection> out = fresh;
-  for (Detection& detection : out) detection.centre_depth_m = CentreDepth(depth_m, detection.box);
+  for (Detection& detection : out) {
+    detection.centre_depth_m = CentreDepth(depth_m, detection.box);
+    for (const Detection& old : last) {
+      if (old.missed_runs == 0 && same(detection, old)) detection.hits = old.hits + 1;
+    }
+  }
   for (const Detection& old : last) {
-    if (old.level != MotionLevel::kHigh || old.missed_runs >= memory_runs) continue;
+    // Only people found in two runs in a row: a single false detection on a still object would
+    // otherwise be kept too.
+    if (old.level != MotionLevel::kHigh || old.hits < 2 || old.missed_runs >= memory_runs) {
+      continue;
+    }
     const float then = old.centre_depth_m, now = CentreDepth(depth_m, old.box);
     if (!(then > 0.0f && now > 0.0f && std::abs(now - then) < 0.1f + 0.05f * then)) continue;
-    const bool seen = std::any_of(fresh.begin(), fresh.end(), [&old](const Detection& other) {
-      const float overlap = (other.box & old.box).area();
-      return other.class_id == old.class_id &&
-             overlap > 0.3f * (other.box.area() + old.box.area() - overlap);
-    });
+    const bool seen =
+        std::any_of(fresh.begin(), fresh.end(),
+                    [&old, &same](const Detection& other) { return same(other, old); });
     if (seen) continue;
     out.push_back(old);
     ++out.back().missed_runs;

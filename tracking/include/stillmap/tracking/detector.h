@@ -42,6 +42,7 @@ struct Detection {
   // and the median depth of its box's centre then [m] (0: not known).
   int missed_runs = 0;
   float centre_depth_m = 0.0f;
+  int hits = 1;  // detector runs in a row that found it
 };
 
 class Detector {
