@@ -27,14 +27,15 @@ Scene MakeScene(double motion, const DepthCorrection& error, unsigned seed) {
   for (int k = 0; k < 8; ++k) {
     Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
     const double a = motion * (k - 3.5) / 3.5;
-    camera_from_world.linear() = (Eigen::AngleAxisd(0.25 * a, Eigen::Vector3d::UnitY()) *
-                                  Eigen::AngleAxisd(0.15 * a * (k % 2 ? 1 : -1),
-                                                    Eigen::Vector3d::UnitX()))
-                                     .matrix();
+    camera_from_world.linear() =
+        (Eigen::AngleAxisd(0.25 * a, Eigen::Vector3d::UnitY()) *
+         Eigen::AngleAxisd(0.15 * a * (k % 2 ? 1 : -1), Eigen::Vector3d::UnitX()))
+            .matrix();
     camera_from_world.translation() = Eigen::Vector3d(0.4 * a, 0.1 * a, 0.2 * a * (k % 3 - 1));
     scene.true_poses.push_back(camera_from_world);
     Eigen::Isometry3d start = camera_from_world;
-    if (k > 0) start.translation() += 0.005 * Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+    if (k > 0)
+      start.translation() += 0.005 * Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
     problem.keyframes.push_back({start, k == 0});
   }
   for (int i = 0; i < 600; ++i) {

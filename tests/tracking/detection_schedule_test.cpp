@@ -31,9 +31,7 @@ class FrameNumberDetector : public Detector {
   std::atomic<int>* calls_;
 };
 
-cv::Mat FrameImage(int frame) {
-  return cv::Mat(120, 160, CV_8UC3, cv::Scalar(frame, 0, 0));
-}
+cv::Mat FrameImage(int frame) { return cv::Mat(120, 160, CV_8UC3, cv::Scalar(frame, 0, 0)); }
 
 // Points on a 5 px grid over the image, every one moved right by shift_px.
 FlowStep UniformStep(float shift_px) {

@@ -56,6 +56,23 @@ class TrackerTest : public ::testing::Test {
     options.depth_self_calibration = false;
     return options;
   }
+  // The first `count` frames, the lens covered (black image, no depth) in frames 10-12.
+  static std::vector<TrackResult> TrackWithCoveredLens(Tracker* tracker, size_t count) {
+    const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
+    const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
+    std::vector<TrackResult> results;
+    for (size_t i = 0; i < count; ++i) {
+      const bool covered = i >= 10 && i < 13;
+      results.push_back(tracker->Track(i, frames_[i].time, covered ? black : grays_[i],
+                                       covered ? no_depth : frames_[i].depth_m));
+    }
+    return results;
+  }
+  static std::vector<TrackStatus> Statuses(const std::vector<TrackResult>& results) {
+    std::vector<TrackStatus> statuses;
+    for (const TrackResult& result : results) statuses.push_back(result.status);
+    return statuses;
+  }
   static const Eigen::Isometry3d& Truth(size_t i) {
     return sequence_->groundtruth()->poses()[i].world_from_camera;
   }
@@ -150,16 +167,7 @@ TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
   TrackerOptions options = Deterministic();
   options.max_predicted_frames = 0;
   Tracker tracker(sequence_->camera(), options);
-  const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
-  const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
-  std::vector<TrackStatus> statuses;
-  for (size_t i = 0; i < 20; ++i) {
-    const bool blank = i >= 10 && i < 13;  // a covered lens for three frames
-    statuses.push_back(tracker
-                           .Track(i, frames_[i].time, blank ? black : grays_[i],
-                                  blank ? no_depth : frames_[i].depth_m)
-                           .status);
-  }
+  const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 20));
   EXPECT_EQ(statuses[10], TrackStatus::kLost);
   EXPECT_EQ(statuses[12], TrackStatus::kLost);
   EXPECT_EQ(statuses[13], TrackStatus::kRelocalized);
@@ -184,14 +192,7 @@ TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
 // flagged "predicted", make no keyframe, and tracking goes on without relocalizing.
 TEST_F(TrackerTest, AnOccludedLensIsRiddenThroughByTheMotionModel) {
   Tracker tracker(sequence_->camera(), Deterministic());
-  const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
-  const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
-  std::vector<TrackResult> results;
-  for (size_t i = 0; i < 20; ++i) {
-    const bool blank = i >= 10 && i < 13;
-    results.push_back(tracker.Track(i, frames_[i].time, blank ? black : grays_[i],
-                                    blank ? no_depth : frames_[i].depth_m));
-  }
+  const std::vector<TrackResult> results = TrackWithCoveredLens(&tracker, 20);
   for (size_t i = 10; i < 13; ++i) {
     EXPECT_EQ(results[i].status, TrackStatus::kPredicted) << i;
     EXPECT_EQ(results[i].keyframe_id, -1) << i;
@@ -222,16 +223,7 @@ TEST_F(TrackerTest, ARelocalizationFarFromTheLastGoodPoseIsRefused) {
   options.relocalization_max_distance_m = 1e-5;
   options.relocalization_max_speed_mps = 0.0;
   Tracker tracker(sequence_->camera(), options);
-  const cv::Mat black(grays_[0].size(), CV_8UC1, cv::Scalar(0));
-  const cv::Mat no_depth(grays_[0].size(), CV_32FC1, cv::Scalar(0));
-  std::vector<TrackStatus> statuses;
-  for (size_t i = 0; i < 16; ++i) {
-    const bool blank = i >= 10 && i < 13;
-    statuses.push_back(tracker
-                           .Track(i, frames_[i].time, blank ? black : grays_[i],
-                                  blank ? no_depth : frames_[i].depth_m)
-                           .status);
-  }
+  const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 16));
   EXPECT_EQ(statuses[13], TrackStatus::kLost);
   EXPECT_GE(tracker.statistics().relocalizations_refused, 1u);
   EXPECT_EQ(tracker.statistics().relocalized, 0u);

@@ -42,10 +42,8 @@ class BundleCost : public ceres::CostFunction {
   BundleCost(const RgbdObservation& observation, bool calibrating)
       : observation_(observation), calibrating_(calibrating) {
     set_num_residuals(3);
-    mutable_parameter_block_sizes()->assign(calibrating ? 3 : 2, 0);
-    (*mutable_parameter_block_sizes())[0] = 7;
-    (*mutable_parameter_block_sizes())[1] = 3;
-    if (calibrating) (*mutable_parameter_block_sizes())[2] = 5;
+    *mutable_parameter_block_sizes() = {7, 3};
+    if (calibrating) mutable_parameter_block_sizes()->push_back(5);
   }
 
   bool Evaluate(double const* const* parameters, double* residuals,
@@ -78,10 +76,9 @@ class BundleCost : public ceres::CostFunction {
       out.setZero();
       if (observation.depth_m > 0.0) {
         const Eigen::Vector2d& n = observation_.normalized;
-        Eigen::Matrix<double, 1, 5> phi;
-        phi << n.x(), n.y(), n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
         const double d = observation.depth_m;
-        out.row(2) = (observation_.depth_m / (observation.sigma_inverse_depth * d * d)) * phi;
+        out.row(2) = (observation_.depth_m / (observation.sigma_inverse_depth * d * d)) *
+                     DepthCorrection::Basis(n.x(), n.y()).transpose();
       }
     }
     return true;
@@ -110,9 +107,8 @@ Eigen::Matrix<double, 5, 5> CorrectionInformation(const BundleAdjustmentProblem&
     if (outlier[o] || !(raw.depth_m > 0.0)) continue;
     const double d = Corrected(raw, coefficients).depth_m;
     if (!(d > 0.0)) continue;
-    const Eigen::Vector2d& n = raw.normalized;
-    Eigen::Matrix<double, 5, 1> phi;
-    phi << n.x(), n.y(), n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
+    const Eigen::Matrix<double, 5, 1> phi =
+        DepthCorrection::Basis(raw.normalized.x(), raw.normalized.y());
     const double gain = raw.depth_m / (raw.sigma_inverse_depth * d * d);
     Sums& sums = per_landmark[static_cast<size_t>(observation.landmark)];
     sums.a += gain * gain;

@@ -10,11 +10,7 @@ namespace {
 
 using Row = Eigen::Matrix<double, 5, 1>;
 
-Row Basis(const Eigen::Vector2d& n) {
-  Row phi;
-  phi << n.x(), n.y(), n.x() * n.x(), n.y() * n.y(), n.x() * n.y();
-  return phi;
-}
+Row Basis(const Eigen::Vector2d& n) { return DepthCorrection::Basis(n.x(), n.y()); }
 
 double Median(std::vector<double> values) {
   const auto middle = values.begin() + static_cast<long>(values.size() / 2);
@@ -117,9 +113,7 @@ DepthCorrectionFit FitDepthCorrection(const std::vector<DepthPair>& pairs,
   }
   DepthCorrection correction;
   for (int i = 0; i < 5; ++i) correction.coefficients[static_cast<size_t>(i)] = p[i];
-  for (const Eigen::Vector2d& corner : image_corners) {
-    if (!(std::abs(correction.Delta(corner.x(), corner.y())) <= options.max_delta)) return fit;
-  }
+  if (!correction.WithinBounds(image_corners, options.max_delta)) return fit;
   fit.correction = correction;
   fit.ok = true;
   return fit;

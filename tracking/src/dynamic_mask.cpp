@@ -19,6 +19,13 @@ using mask_growth::Clip;
 using mask_growth::Continuous;
 using mask_growth::Grow;
 
+// The middle of a detection's box, which people fill: the middle third across, the middle half
+// down.
+cv::Rect Middle(const cv::Rect& box) {
+  return {box.x + box.width / 3, box.y + box.height / 4, std::max(1, box.width / 3),
+          std::max(1, box.height / 2)};
+}
+
 // The object in `box` cut to its outline. kDepth: the depth-continuous foreground grown from the
 // box's centre (people fill the middle of their boxes), not into `excluded` readings; kEdges: the
 // region around the centre bounded by Canny edges (paper 000, section II.C); kBox: the whole box.
@@ -31,8 +38,7 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excl
     region.setTo(255);
     return region;
   }
-  const cv::Rect centre(box.width / 3, box.height / 4, std::max(1, box.width / 3),
-                        std::max(1, box.height / 2));
+  const cv::Rect centre = Middle(cv::Rect(cv::Point(), box.size()));
   const cv::Mat depth = depth_m(box);
   std::vector<int> queue;
   if (mode == OutlineMode::kEdges) {
@@ -133,11 +139,9 @@ void CarryByPairs(const std::vector<cv::Point2f>& moved_from,
   }
 }
 
-// The median depth of the middle third of `box` [m] (0: fewer than 10 readings).
+// The median depth of the middle of `box` [m] (0: fewer than 10 readings).
 float CentreDepth(const cv::Mat& depth_m, const cv::Rect2f& box) {
-  const cv::Rect inside = Clip(cv::Rect(box), depth_m.size());
-  const cv::Rect centre(inside.x + inside.width / 3, inside.y + inside.height / 4,
-                        std::max(1, inside.width / 3), std::max(1, inside.height / 2));
+  const cv::Rect centre = Middle(Clip(cv::Rect(box), depth_m.size()));
   std::vector<float> depths;
   for (int v = centre.y; v < centre.y + centre.height && v < depth_m.rows; ++v) {
     for (int u = centre.x; u < centre.x + centre.width && u < depth_m.cols; ++u) {

@@ -1,6 +1,7 @@
 #include "stillmap/tracking/tracker.h"
 
 #include <cmath>
+#include <cstdint>
 
 #include "stillmap/io/error.h"
 #include "tracker_impl.h"
@@ -300,9 +301,15 @@ void Tracker::Impl::CountVisibility(const Eigen::Isometry3d& camera_from_world,
 
 double StaticDepthShare(const cv::Mat& depth_m, const cv::Mat& ignore_mask) {
   if (depth_m.empty()) return 0.0;
-  cv::Mat with_depth = depth_m > 0.0f;
-  if (!ignore_mask.empty()) with_depth.setTo(0, ignore_mask);
-  return cv::countNonZero(with_depth) / static_cast<double>(depth_m.total());
+  size_t count = 0;  // one pass, no temporary images: this runs on every frame
+  for (int v = 0; v < depth_m.rows; ++v) {
+    const float* z = depth_m.ptr<float>(v);
+    const std::uint8_t* ignored = ignore_mask.empty() ? nullptr : ignore_mask.ptr<std::uint8_t>(v);
+    for (int u = 0; u < depth_m.cols; ++u) {
+      count += z[u] > 0.0f && (ignored == nullptr || ignored[u] == 0) ? 1 : 0;
+    }
+  }
+  return static_cast<double>(count) / static_cast<double>(depth_m.total());
 }
 
 bool Tracker::Impl::NearLastGoodPose(const Eigen::Isometry3d& camera_from_world,

@@ -1,5 +1,3 @@
-#include <cmath>
-
 #include "tracker_impl.h"
 
 namespace stillmap {
@@ -139,13 +137,11 @@ BundleAdjustmentResult Tracker::Impl::SolveWindow(BundleAdjustmentProblem proble
   // would mostly be pose error and noise bent into the depth: solved again without it.
   BundleAdjustmentResult joint = SolveBundleAdjustment(problem, options.bundle_adjustment);
   const DepthCorrectionFitOptions& limits = options.depth_calibration;
-  bool accept = joint.depth_correction_significance >= limits.joint_min_significance &&
-                joint.depth_correction_weakest_sd <= limits.joint_max_weakest_sd;
-  for (const Eigen::Vector2d& corner : image_outline) {
-    accept = accept &&
-             std::abs(joint.depth_correction->Delta(corner.x(), corner.y())) <= limits.max_delta;
+  if (joint.depth_correction_significance >= limits.joint_min_significance &&
+      joint.depth_correction_weakest_sd <= limits.joint_max_weakest_sd &&
+      joint.depth_correction->WithinBounds(image_outline, limits.max_delta)) {
+    return joint;
   }
-  if (accept) return joint;
   const DepthCorrection current = *problem.depth_correction;
   for (BundleAdjustmentObservation& observation : problem.observations) {
     const Eigen::Vector2d& n = observation.observation.normalized;

@@ -19,6 +19,7 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -31,9 +32,22 @@ struct DepthCorrection {
   std::array<double, 5>
       coefficients{};  // p1 .. p5 of delta = p1 x + p2 y + p3 x^2 + p4 y^2 + p5 xy
 
+  // The model's basis at normalized (x, y): delta = p . Basis(x, y).
+  static Eigen::Matrix<double, 5, 1> Basis(double x, double y) {
+    Eigen::Matrix<double, 5, 1> phi;
+    phi << x, y, x * x, y * y, x * y;
+    return phi;
+  }
   double Delta(double x, double y) const {
     const auto& p = coefficients;
     return p[0] * x + p[1] * y + p[2] * x * x + p[3] * y * y + p[4] * x * y;
+  }
+  // No more than max_delta in magnitude at any of `points` (normalized; the image's outline).
+  bool WithinBounds(const std::vector<Eigen::Vector2d>& points, double max_delta) const {
+    for (const Eigen::Vector2d& point : points) {
+      if (!(std::abs(Delta(point.x(), point.y())) <= max_delta)) return false;
+    }
+    return true;
   }
   // The factor a raw depth at normalized (x, y) is multiplied by.
   double Factor(double x, double y) const { return 1.0 + Delta(x, y); }
