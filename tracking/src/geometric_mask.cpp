@@ -29,75 +29,106 @@ struct VerdictContext {
   float seed_difference, grow_difference, grow_sigmas, seed_factor, cos_limit, sin_limit;
 };
 
-// One reference's verdicts on the current readings, raised into `s` (the strongest wins). Each
-// reading is placed in 3-D and looked up in the reference's nearest static depth `near`: where
-// the reference saw farther than the point along the same ray, the point was not there then (the
-// depth difference above tau_d, evaluated for every current pixel so that visibility is
-// explicit); points outside the reference, where it had no reading or its own mask, or hidden
-// behind a nearer surface there, get no verdict from it.
-void AddVerdicts(const VerdictContext& c, const float* near,
-                 const Eigen::Isometry3f& reference_from_current, std::uint8_t* s) {
-  const Eigen::Matrix3f rotation = reference_from_current.linear();
-  const Eigen::Vector3f centre = reference_from_current.translation();  // current centre
-  const float baseline_squared = centre.squaredNorm();
-  const float* z = c.z;
-  const int width = c.width, height = c.height;
-  // The verdict of this reference on current pixel i.
-  auto judge = [&](int i) -> std::uint8_t {
-    const float depth = z[i];
-    const Eigen::Vector2f& ray = c.rays[static_cast<size_t>(i)];
+// One reference's verdict on current readings. Each reading is placed in 3-D and looked up in the
+// reference's nearest static depth `near`: where the reference saw farther than the point along
+// the same ray, the point was not there then (the depth difference above tau_d, evaluated for
+// every current pixel so that visibility is explicit); points outside the reference, where it had
+// no reading or its own mask, or hidden behind a nearer surface there, get no verdict from it.
+// Everything is held by value so that the per-pixel loop keeps it in registers (stores to the
+// byte verdict image may alias anything reached through a reference).
+class Judge {
+ public:
+  Judge(const VerdictContext& c, const float* near, const Eigen::Isometry3f& reference_from_current)
+      : rotation_(reference_from_current.linear()),
+        centre_(reference_from_current.translation()),
+        baseline_squared_(centre_.squaredNorm()),
+        rays_(c.rays.data()),
+        project_(c.project),
+        near_(near),
+        width_(c.width),
+        height_(c.height),
+        seed_difference_(c.seed_difference),
+        grow_difference_(c.grow_difference),
+        grow_sigmas_(c.grow_sigmas),
+        seed_factor_(c.seed_factor),
+        cos_limit_(c.cos_limit),
+        sin_limit_squared_(c.sin_limit * c.sin_limit) {}
+
+  // The verdict on current pixel i, whose reading is `depth` [m].
+  std::uint8_t operator()(int i, float depth) const {
+    const Eigen::Vector2f& ray = rays_[i];
     const Eigen::Vector3f q =
-        rotation * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre;
+        rotation_ * Eigen::Vector3f(depth * ray.x(), depth * ray.y(), depth) + centre_;
     if (q.z() < 0.1f) return kNoVerdict;
-    const Eigen::Vector2f pixel = c.project(q.x() / q.z(), q.y() / q.z());
+    const Eigen::Vector2f pixel = project_(q.x() / q.z(), q.y() / q.z());
     const float pu = pixel.x() + 0.5f, pv = pixel.y() + 0.5f;
-    if (!(pu >= 0.0f && pv >= 0.0f && pu < static_cast<float>(width) &&
-          pv < static_cast<float>(height))) {
+    if (!(pu >= 0.0f && pv >= 0.0f && pu < static_cast<float>(width_) &&
+          pv < static_cast<float>(height_))) {
       return kNoVerdict;
     }
-    const float seen = near[static_cast<int>(pv) * width + static_cast<int>(pu)];
+    const float seen = near_[static_cast<int>(pv) * width_ + static_cast<int>(pu)];
     if (!(seen > 0.0f)) return kNoVerdict;
     // Parallax: the angle at the point between the rays to the two camera centres. Its sine is
     // at most baseline / distance, so the exact test is needed only for near points.
-    const float distance_squared = q.squaredNorm();
-    if (baseline_squared > c.sin_limit * c.sin_limit * distance_squared) {
-      const Eigen::Vector3f to_current = centre - q;
+    if (baseline_squared_ > sin_limit_squared_ * q.squaredNorm()) {
+      const Eigen::Vector3f to_current = centre_ - q;
       const float cos_angle = (-q).dot(to_current) / (q.norm() * to_current.norm() + 1e-12f);
-      if (cos_angle < c.cos_limit) return kNoVerdict;
+      if (cos_angle < cos_limit_) return kNoVerdict;
     }
     const float difference = seen - q.z();
-    const float noise = c.grow_difference + c.grow_sigmas * KinectDepthSigma(q.z());
+    const float noise = grow_difference_ + grow_sigmas_ * KinectDepthSigma(q.z());
     // Far seeds must stand clear of the sensor noise too (options: seed_noise_factor).
-    if (difference > std::max(c.seed_difference, c.seed_factor * noise)) return kSeed;
+    if (difference > std::max(seed_difference_, seed_factor_ * noise)) return kSeed;
     if (difference > noise) return kCandidate;
     if (difference > -noise) return kConsistent;
     return kNoVerdict;  // hidden behind a nearer surface in the reference
-  };
-  // One verdict per stride x stride block, from its centre, for the readings continuous with the
-  // centre's; the others (object edges) are judged on their own. Rows of blocks are independent
-  // and run in parallel (6.8 ms per frame against three references on one core,
-  // stillmap_masking_benchmark; the growth stays sequential).
-  const int stride = c.options.depth_check_stride;
-  const double block_continuity = c.options.block_continuity;
+  }
+
+ private:
+  Eigen::Matrix3f rotation_;
+  Eigen::Vector3f centre_;  // the current camera's centre in the reference
+  float baseline_squared_;
+  const Eigen::Vector2f* rays_;
+  PixelProjection project_;
+  const float* near_;
+  int width_, height_;
+  float seed_difference_, grow_difference_, grow_sigmas_, seed_factor_, cos_limit_,
+      sin_limit_squared_;
+};
+
+// One reference's verdicts on the current readings, raised into `s` (the strongest wins). One
+// verdict per stride x stride block, from its centre, for the readings continuous with the
+// centre's; the others (object edges) are judged on their own. Rows of blocks are independent and
+// run in parallel (the growth stays sequential; timings: stillmap_masking_benchmark).
+void AddVerdicts(const VerdictContext& c, const float* near,
+                 const Eigen::Isometry3f& reference_from_current, std::uint8_t* s) {
+  const Judge shared_judge(c, near, reference_from_current);
+  const float* z = c.z;
+  const int width = c.width, height = c.height, stride = c.options.depth_check_stride;
+  const auto block_continuity = static_cast<float>(c.options.block_continuity);
   const int block_rows = (height + stride - 1) / stride;
   cv::parallel_for_(cv::Range(0, block_rows), [&](const cv::Range& rows) {
+    const Judge judge = shared_judge;  // a copy of its own, in registers
     for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
+      const int v_end = std::min(bv + stride, height);
+      const int centre_row = std::min(bv + stride / 2, v_end - 1);
       for (int bu = 0; bu < width; bu += stride) {
-        const int v_end = std::min(bv + stride, height), u_end = std::min(bu + stride, width);
-        const int centre_index =
-            std::min(bv + stride / 2, v_end - 1) * width + std::min(bu + stride / 2, u_end - 1);
+        const int u_end = std::min(bu + stride, width);
+        const int centre_index = centre_row * width + std::min(bu + stride / 2, u_end - 1);
         const float centre_depth = z[centre_index];
+        const bool centre_valid = centre_depth > 0.0f;
         const std::uint8_t centre_verdict =
-            centre_depth > 0.0f ? judge(centre_index) : std::uint8_t{kNoVerdict};
+            centre_valid ? judge(centre_index, centre_depth) : std::uint8_t{kNoVerdict};
+        // mask_growth::Continuous with the centre, its tolerance computed once per block.
+        const float tolerance = 0.01f + block_continuity * centre_depth;
         for (int v = bv; v < v_end; ++v) {
-          for (int u = bu; u < u_end; ++u) {
-            const int i = v * width + u;
-            if (!(z[i] > 0.0f) || s[i] == kSeed) continue;
+          for (int i = v * width + bu, end = v * width + u_end; i < end; ++i) {
+            const float depth = z[i];
+            if (!(depth > 0.0f) || s[i] == kSeed) continue;
             const std::uint8_t verdict =
-                centre_depth > 0.0f &&
-                        (i == centre_index || Continuous(centre_depth, z[i], block_continuity))
+                centre_valid && (i == centre_index || std::abs(centre_depth - depth) <= tolerance)
                     ? centre_verdict
-                    : judge(i);
+                    : judge(i, depth);
             s[i] = std::max(s[i], verdict);
           }
         }

@@ -50,8 +50,11 @@ struct DynamicMaskOptions {
   int reference_keyframes = 3;       // the last keyframe and older ones, spread in time
   double reference_spacing_s = 0.7;  // older references at least this far apart
   // Current pixels are judged in blocks of stride x stride: one verdict for the readings
-  // continuous with the block's centre, the others (object edges) each on their own.
-  int depth_check_stride = 2;
+  // continuous with the block's centre, the others (object edges) each on their own. Measured,
+  // YOLOX, 300 frames, 2 -> 4, precision / recall: walking_xyz 0.942/0.977 -> 0.941/0.977,
+  // walking_static 0.937/0.980 -> 0.938/0.980, crowd_start 0.930/0.950 -> 0.931/0.950, same
+  // ghosts and ATE; 70 k -> 27 k verdicts per reference on bonn_crowd_a.
+  int depth_check_stride = 4;
   double grow_depth_difference_m = 0.1;  // hysteresis: grown pixels nearer than the static
                                          // depth by this plus 6 sigma of Kinect noise
   double continuity = 0.03;              // neighbours within 1 cm + 3 % of depth are one surface
