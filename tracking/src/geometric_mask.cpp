@@ -34,8 +34,6 @@ struct VerdictContext {
 // the same ray, the point was not there then (the depth difference above tau_d, evaluated for
 // every current pixel so that visibility is explicit); points outside the reference, where it had
 // no reading or its own mask, or hidden behind a nearer surface there, get no verdict from it.
-// Everything is held by value so that the per-pixel loop keeps it in registers (stores to the
-// byte verdict image may alias anything reached through a reference).
 class Judge {
  public:
   Judge(const VerdictContext& c, const float* near, const Eigen::Isometry3f& reference_from_current)
@@ -102,13 +100,12 @@ class Judge {
 // run in parallel (the growth stays sequential; timings: stillmap_masking_benchmark).
 void AddVerdicts(const VerdictContext& c, const float* near,
                  const Eigen::Isometry3f& reference_from_current, std::uint8_t* s) {
-  const Judge shared_judge(c, near, reference_from_current);
+  const Judge judge(c, near, reference_from_current);
   const float* z = c.z;
   const int width = c.width, height = c.height, stride = c.options.depth_check_stride;
   const auto block_continuity = static_cast<float>(c.options.block_continuity);
   const int block_rows = (height + stride - 1) / stride;
   cv::parallel_for_(cv::Range(0, block_rows), [&](const cv::Range& rows) {
-    const Judge judge = shared_judge;  // a copy of its own, in registers
     for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
       const int v_end = std::min(bv + stride, height);
       const int centre_row = std::min(bv + stride / 2, v_end - 1);
