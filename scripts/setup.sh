@@ -8,6 +8,8 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 packages=(
   build-essential cmake pkg-config ccache
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev liboctomap-dev octomap-tools
+  # tests: the cloud files are converted by pcl-tools, as users do
+  pcl-tools
   libceres-dev libflann-dev libassimp-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev libjpeg-dev
   libgtest-dev libgmock-dev libbenchmark-dev

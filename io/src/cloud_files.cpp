@@ -37,7 +37,7 @@ class CloudFileWriter {
       pcd_.open(pcd_path, std::ios::binary);
       if (!pcd_) throw std::runtime_error(pcd_path + ": cannot write the PCD cloud");
       pcd_ << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\n"
-              "SIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH "
+              "SIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH "
            << count << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << count << "\nDATA binary\n";
     }
   }
@@ -49,6 +49,8 @@ class CloudFileWriter {
       ply_buffer_.insert(ply_buffer_.end(), p.rgb.begin(), p.rgb.end());
     }
     if (pcd_.is_open()) {
+      // PCL's packed colour: 0x00RRGGBB in the bits of a float field (TYPE F, as PCL writes it;
+      // TYPE U makes pcl_pcd2ply write one number where its header promises three).
       const std::uint32_t rgb = (std::uint32_t{p.rgb[0]} << 16) | (std::uint32_t{p.rgb[1]} << 8) |
                                 std::uint32_t{p.rgb[2]};
       const char* packed = reinterpret_cast<const char*>(&rgb);

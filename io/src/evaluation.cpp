@@ -80,6 +80,9 @@ RpeResult ComputeRpe(const Trajectory& groundtruth, const Trajectory& estimate,
   std::vector<double> rotation_errors_deg;
   for (size_t i = 0; i < est_times.size(); ++i) {
     const size_t j = FindClosestIndex(est_times, est_times[i] + options.delta);
+    // evaluate_rpe.py's pair rule: a pair ending on the last estimate pose is dropped (near the
+    // end every t_i + delta falls on it, and those pairs are shorter than delta).
+    if (j == est_times.size() - 1) continue;
     const size_t gi = FindClosestIndex(gt_times, est_times[i]);
     const size_t gj = FindClosestIndex(gt_times, est_times[j]);
     if (std::abs(gt_times[gi] - est_times[i]) > max_gt_difference ||
@@ -98,6 +101,13 @@ RpeResult ComputeRpe(const Trajectory& groundtruth, const Trajectory& estimate,
     rotation_errors_deg.push_back(std::acos(cos_angle) * 180.0 / M_PI);
   }
   if (translation_errors.empty()) {
+    const double span = est_times.back() - est_times.front();
+    if (span <= options.delta) {
+      throw InputError(fmt::format(
+          "RPE: the estimate spans {:.3f} s, not more than the pair delta of {} s, so every pair "
+          "would end on its last pose (evaluate_rpe.py drops those); lower the delta",
+          span, options.delta));
+    }
     throw InputError("RPE: no estimate pose has a ground-truth pose close enough in time");
   }
   RpeResult result;

@@ -109,6 +109,13 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
   return mesh;
 }
 
+Eigen::Vector3f LinearFromSrgb(const Eigen::Vector3f& srgb) {
+  auto channel = [](float c) {  // IEC 61966-2-1
+    return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+  };
+  return {channel(srgb.x()), channel(srgb.y()), channel(srgb.z())};
+}
+
 void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format) {
   // Refused, not exported: with no vertices, assimp's scene copy (SceneCombiner::Copy, which the
   // exporter always makes) copies only the colour sets it thinks present (HasVertexColors() needs
@@ -135,9 +142,11 @@ void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const st
   out->mNumVertices = static_cast<unsigned>(mesh.vertices.size());
   out->mVertices = new aiVector3D[out->mNumVertices];
   out->mColors[0] = new aiColor4D[out->mNumVertices];
+  // glTF's COLOR_0 is linear (glTF 2.0, "Meshes"); OBJ and PLY viewers show colours as stored.
+  const bool linear = format == "glb";
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     const Eigen::Vector3f& p = mesh.vertices[i];
-    const Eigen::Vector3f& c = mesh.colors[i];
+    const Eigen::Vector3f c = linear ? LinearFromSrgb(mesh.colors[i]) : mesh.colors[i];
     out->mVertices[i] = aiVector3D(p.x(), p.y(), p.z());
     out->mColors[0][i] = aiColor4D(c.x(), c.y(), c.z(), 1.0f);
   }

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "stillmap/io/camera.h"
 #include "stillmap/io/cloud_files.h"
@@ -65,7 +66,14 @@ std::string RunEval(const EvalRequest& request) {
   }
 
   const AteResult ate = ComputeAte(groundtruth, estimate, request.ate);
-  const RpeResult rpe = ComputeRpe(groundtruth, estimate, request.rpe);
+  // A trajectory too short for the delta still has its ATE: RPE is then left out, with why.
+  std::optional<RpeResult> rpe;
+  std::string rpe_note;
+  try {
+    rpe = ComputeRpe(groundtruth, estimate, request.rpe);
+  } catch (const InputError& e) {
+    rpe_note = std::string("not evaluated: ") + e.what();
+  }
   if (!request.plot_path.empty()) WriteTrajectoryPlot(request.plot_path, ate);
 
   if (request.json) {
@@ -73,12 +81,15 @@ std::string RunEval(const EvalRequest& request) {
                            {"estimate", request.estimate_path},
                            {"groundtruth_conversion", conversion},
                            {"ate_m", StatisticsJson(ate.translation)},
-                           {"rpe_translation_m_per_delta", StatisticsJson(rpe.translation)},
-                           {"rpe_rotation_deg_per_delta", StatisticsJson(rpe.rotation)},
+                           {"rpe_translation_m_per_delta",
+                            rpe ? StatisticsJson(rpe->translation) : nlohmann::json(nullptr)},
+                           {"rpe_rotation_deg_per_delta",
+                            rpe ? StatisticsJson(rpe->rotation) : nlohmann::json(nullptr)},
                            {"rpe_delta_s", request.rpe.delta},
                            {"max_time_difference_s", request.ate.max_time_difference},
                            {"estimate_poses", estimate.size()},
                            {"groundtruth_poses", groundtruth.size()}};
+    if (!rpe) json["rpe_note"] = rpe_note;
     return json.dump(2) + "\n";
   }
   std::string text;
@@ -88,9 +99,14 @@ std::string RunEval(const EvalRequest& request) {
       fmt::format("estimate:     {} ({} poses, {} associated within {} s)\n", request.estimate_path,
                   estimate.size(), ate.translation.count, request.ate.max_time_difference);
   text += StatisticsLine("ATE", ate.translation, 1.0, "m");
-  text +=
-      StatisticsLine(fmt::format("RPE trans/{}s", request.rpe.delta), rpe.translation, 1.0, "m");
-  text += StatisticsLine(fmt::format("RPE rot/{}s", request.rpe.delta), rpe.rotation, 1.0, "deg");
+  if (rpe) {
+    text +=
+        StatisticsLine(fmt::format("RPE trans/{}s", request.rpe.delta), rpe->translation, 1.0, "m");
+    text +=
+        StatisticsLine(fmt::format("RPE rot/{}s", request.rpe.delta), rpe->rotation, 1.0, "deg");
+  } else {
+    text += "RPE: " + rpe_note + "\n";
+  }
   if (!request.plot_path.empty()) text += "plot: " + request.plot_path + "\n";
   return text;
 }

@@ -131,10 +131,8 @@ void WriteSmallPlaneSequence(const std::string& dir) {
   WritePlaneSequence(dir, SmallCamera(), {}, poses);
 }
 
-int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix) {
-  const std::string command =
-      (prefix.empty() ? "" : prefix + " ") + STILLMAP_BINARY + " " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
+int RunCommand(const std::string& command, std::string* output) {
+  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
   if (pipe == nullptr) return -1;
   std::array<char, 4096> buffer{};
   output->clear();
@@ -143,6 +141,11 @@ int RunStillmap(const std::string& arguments, std::string* output, const std::st
     output->append(buffer.data(), read);
   const int status = pclose(pipe);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+int RunStillmap(const std::string& arguments, std::string* output, const std::string& prefix) {
+  return RunCommand((prefix.empty() ? "" : prefix + " ") + STILLMAP_BINARY + " " + arguments,
+                    output);
 }
 
 std::string ErrorOf(const std::function<void()>& call) {

@@ -61,6 +61,9 @@ Camera SmallCamera(int width = 64, int height = 48);
 void WriteText(const std::string& path, const std::string& text);
 std::string ReadText(const std::string& path);
 
+// Runs a shell command; returns its exit status and puts its stderr and stdout in `output`.
+int RunCommand(const std::string& command, std::string* output);
+
 // Runs the stillmap binary with `arguments` (shell-quoted here); returns its exit status and puts
 // stderr (and stdout) in `output`.
 // `prefix` runs it under another command (xvfb-run -a).

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <random>
 
+#include "test_util.h"
+
 namespace stillmap {
 namespace {
 
@@ -90,7 +92,9 @@ TEST(EvaluationTest, AssociationDropsPosesOutsideTheWindow) {
 
 TEST(EvaluationTest, RpeOfKnownSpeedAndTurnRateErrors) {
   // Ground truth moves at 1 m/s along x, or turns at 10 deg/s in place; the estimate at 1.1 m/s,
-  // or 11 deg/s. Every pair a full 1 s apart then has 0.1 m (or 1 deg) of error, the others less.
+  // or 11 deg/s, 301 poses over 10 s. evaluate_rpe.py's pairs: i with j = i + 30 for i < 270;
+  // from i = 270 on, j is the last pose and the pair is dropped. Every pair is then a full 1 s
+  // apart, with 0.1 m (or 1 deg) of error.
   auto make = [](double speed, double turn_deg) {
     std::vector<StampedPose> poses;
     for (int i = 0; i <= 300; ++i) {
@@ -104,13 +108,25 @@ TEST(EvaluationTest, RpeOfKnownSpeedAndTurnRateErrors) {
     return Trajectory(poses);
   };
   const RpeResult speed = ComputeRpe(make(1.0, 0.0), make(1.1, 0.0));
-  EXPECT_EQ(speed.translation.count, 301u);
-  EXPECT_NEAR(speed.translation.median, 0.1, 1e-9);
+  EXPECT_EQ(speed.translation.count, 270u);
+  EXPECT_NEAR(speed.translation.min, 0.1, 1e-9);
   EXPECT_NEAR(speed.translation.max, 0.1, 1e-9);
   EXPECT_NEAR(speed.rotation.max, 0.0, 1e-6);
   const RpeResult turn = ComputeRpe(make(0.0, 10.0), make(0.0, 11.0));
-  EXPECT_NEAR(turn.rotation.median, 1.0, 1e-6);
+  EXPECT_EQ(turn.rotation.count, 270u);
+  EXPECT_NEAR(turn.rotation.min, 1.0, 1e-6);
+  EXPECT_NEAR(turn.rotation.max, 1.0, 1e-6);
   EXPECT_NEAR(turn.translation.max, 0.0, 1e-9);
+}
+
+// Shorter than the delta, every pair would end on the last pose: no RPE, and the message says why.
+TEST(EvaluationTest, RpeOfATrajectoryShorterThanTheDeltaSaysSo) {
+  const Trajectory short_one(LoopTrajectory(10, 30.0));  // 0.3 s
+  const std::string message = testing::ErrorOf([&] { ComputeRpe(short_one, short_one); });
+  EXPECT_NE(message.find("lower the delta"), std::string::npos) << message;
+  RpeOptions options;
+  options.delta = 0.1;
+  EXPECT_EQ(ComputeRpe(short_one, short_one, options).translation.count, 6u);  // i = 0..5
 }
 
 }  // namespace

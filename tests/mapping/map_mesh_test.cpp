@@ -2,8 +2,11 @@
 // through assimp in each format.
 #include "stillmap/mapping/map_mesh.h"
 
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
 #include <gtest/gtest.h>
 
+#include <assimp/Importer.hpp>
 #include <filesystem>
 
 #include "stillmap/io/error.h"
@@ -82,6 +85,37 @@ TEST(MapMeshTest, EachFormatReadsBackThroughAssimp) {
   }
   options.format = "stl";
   EXPECT_THROW(options.Validate(), InputError);
+}
+
+// The first vertex colour of the file's first mesh, read by assimp.
+Eigen::Vector3f FirstColor(const std::string& path) {
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate);
+  if (scene == nullptr || scene->mNumMeshes == 0 || !scene->mMeshes[0]->HasVertexColors(0)) {
+    ADD_FAILURE() << path << ": no vertex colours read back";
+    return Eigen::Vector3f::Constant(-1.0f);
+  }
+  const aiColor4D& c = scene->mMeshes[0]->mColors[0][0];
+  return {c.r, c.g, c.b};
+}
+
+// glTF vertex colours are linear: the map's sRGB (200, 100, 50) is stored as IEC 61966-2-1's
+// linear values (0.5776, 0.1274, 0.0319); PLY keeps the colours as the camera gave them.
+TEST(MapMeshTest, GltfColoursAreLinearPlyColoursAsCaptured) {
+  MapMeshOptions options;
+  options.voxel = 0.1;
+  const ColoredMesh mesh = VoxelSurfaceMesh(Block(1, 1, 1, 0.1f), options);
+  testing::TempDir dir;
+  WriteColoredMesh(dir / "mesh.glb", mesh, "glb");
+  EXPECT_TRUE(
+      FirstColor(dir / "mesh.glb").isApprox(Eigen::Vector3f(0.5776f, 0.1274f, 0.0319f), 1e-3f))
+      << FirstColor(dir / "mesh.glb").transpose();
+  WriteColoredMesh(dir / "mesh.ply", mesh, "ply");
+  EXPECT_TRUE(FirstColor(dir / "mesh.ply").isApprox(Eigen::Vector3f(200, 100, 50) / 255.0f, 1e-3f))
+      << FirstColor(dir / "mesh.ply").transpose();
+  // The conversion's ends and its linear segment.
+  EXPECT_TRUE(LinearFromSrgb(Eigen::Vector3f(0, 1, 0.04f))
+                  .isApprox(Eigen::Vector3f(0, 1, 0.04f / 12.92f), 1e-6f));
 }
 
 // assimp cannot export a mesh without faces (its exporter frees the scene's copy twice): the

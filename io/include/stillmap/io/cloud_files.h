@@ -19,9 +19,10 @@ struct VoxelPoint {
 
 // Writes a voxel cloud's points (VoxelCloud::Points), in one streaming pass, as a binary
 // little-endian PLY (float x, y, z; uchar red, green, blue per vertex) and a binary PCD (fields
-// x y z rgb, PCL's packed PointXYZRGB). Written here rather than with PCL's writers, which need
-// the whole cloud copied into a pcl::PointCloud first: on Bonn (6.1 M voxels) that copy and ours
-// cost 340 MB of peak memory. PCL reads both files back in the tests.
+// x y z rgb, PCL's packed PointXYZRGB: rgb a float field holding 0x00RRGGBB). Written here rather
+// than with PCL's writers, which need the whole cloud copied into a pcl::PointCloud first: on Bonn
+// (6.1 M voxels) that copy and ours cost 340 MB of peak memory. PCL reads both files back in the
+// tests.
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
                      const std::vector<VoxelPoint>& points, double leaf_size);
 

@@ -65,8 +65,9 @@ struct RpeOptions {
 
 // Relative pose error over pairs of estimate poses `delta` seconds apart, as evaluate_rpe.py
 // with --fixed_delta and delta unit 's': for every estimate pose i, j is the estimate nearest to
-// t_i + delta; ground-truth poses are the nearest to t_i and t_j and must lie within twice the
-// median ground-truth sampling interval. Error = (E_j^-1 E_i)^-1 (G_j^-1 G_i). Unlike the script,
+// t_i + delta, and pairs whose j is the last estimate pose are dropped (the script's rule);
+// ground-truth poses are the nearest to t_i and t_j and must lie within twice the median
+// ground-truth sampling interval. Error = (E_j^-1 E_i)^-1 (G_j^-1 G_i). Unlike the script,
 // all pairs are used (no random subsampling beyond 10000 pairs), so the figure is deterministic.
 struct RpeResult {
   ErrorStatistics translation;  // per pair [m], i.e. [m/s] for delta = 1 s
