@@ -118,6 +118,11 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
   if (!fs::is_directory(sequence_dir, error)) {
     throw InputError(sequence_dir + ": sequence folder not found");
   }
+  if (camera_preset.empty() && !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {
+    // ResolveCamera's advice names build's --set, which info does not take.
+    throw InputError(sequence_dir + ": no camera.yaml; name the camera with --camera-preset " +
+                     "tum1|tum2|tum3|bonn|ros_default");
+  }
   const Camera camera = ResolveCamera(sequence_dir, overrides);
   const Sequence sequence = Sequence::Open(sequence_dir, camera);
   const auto& frames = sequence.frames();

@@ -254,6 +254,18 @@ TEST_F(ReliabilityTest, EvalPlotNamesAndFarCoordinates) {
   EXPECT_TRUE(fs::exists(dir_ / "far.png"));
 }
 
+// info's advice for a folder without a camera is one info accepts, and following it works.
+TEST_F(ReliabilityTest, InfoAdvisesAnOptionItTakes) {
+  fs::remove(sequence_ + "/camera.yaml");
+  std::string output;
+  EXPECT_EQ(RunStillmap("info " + sequence_, &output), 2);
+  EXPECT_NE(output.find("--camera-preset"), std::string::npos) << output;
+  EXPECT_EQ(output.find("--set"), std::string::npos) << output;
+  EXPECT_EQ(RunStillmap("info " + sequence_ + " --camera-preset ros_default", &output), 0)
+      << output;
+  EXPECT_NE(output.find("fx 525 fy 525"), std::string::npos) << output;  // the preset's
+}
+
 TEST_F(ReliabilityTest, QuietMeansQuiet) {
   std::string output;
   ASSERT_EQ(Build("--detector none", &output), 0) << output;
