@@ -30,16 +30,6 @@ double PeakMemoryMib() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
-// Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
-// that no file of an earlier run stays beside the new set (a grid when the OctoMap is now off).
-const std::vector<std::string>& BuildOutputNames() {
-  static const std::vector<std::string> kNames = {
-      "map.ply",  "map.pcd",     "map.bt",      "map.ot",     "trajectory.txt", "keyframes.txt",
-      "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",   "mesh.mtl",       "mesh.ply",
-      "renders/", "config.yaml", "report.json", "report.html"};
-  return kNames;
-}
-
 void CheckRequest(const BuildRequest& request) {
   request.config.Validate();
   if (request.threads < 1) throw InputError("--threads must be at least 1");
@@ -108,6 +98,16 @@ void WriteText(const std::string& path, const std::string& text, const char* nam
 }
 
 }  // namespace
+
+// Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
+// that no file of an earlier run stays beside the new set (a grid when the OctoMap is now off).
+const std::vector<std::string>& BuildOutputNames() {
+  static const std::vector<std::string> kNames = {
+      "map.ply",  "map.pcd",     "map.bt",      "map.ot",     "trajectory.txt", "keyframes.txt",
+      "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",   "mesh.mtl",       "mesh.ply",
+      "renders/", "config.yaml", "report.json", "report.html"};
+  return kNames;
+}
 
 BuildResult RunBuild(const BuildRequest& request) {
   const Clock::time_point start = Clock::now();

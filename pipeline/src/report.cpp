@@ -1,8 +1,12 @@
 #include "stillmap/pipeline/report.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
+#include <filesystem>
+
+#include "stillmap/pipeline/build_pipeline.h"
 
 namespace stillmap {
 namespace {
@@ -368,6 +372,27 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   return report;
 }
 
+namespace {
+
+// What the build wrote, by name (a folder with its file count), from the output folder itself.
+std::string WrittenLine(const std::string& output_dir) {
+  std::vector<std::string> written;
+  std::error_code error;
+  for (const std::string& name : BuildOutputNames()) {
+    const std::filesystem::path path = std::filesystem::path(output_dir) / name;
+    if (name.back() == '/' && std::filesystem::is_directory(path, error)) {
+      const auto files = std::distance(std::filesystem::directory_iterator(path, error),
+                                       std::filesystem::directory_iterator());
+      written.push_back(fmt::format("{} ({} files)", name, files));
+    } else if (std::filesystem::is_regular_file(path, error)) {
+      written.push_back(name);
+    }
+  }
+  return fmt::format("wrote {}", fmt::join(written, ", "));
+}
+
+}  // namespace
+
 std::vector<std::string> SummaryLines(const BuildResult& result, const std::string& output_dir) {
   std::vector<std::string> lines;
   lines.push_back(fmt::format(
@@ -395,6 +420,14 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
         quality->accuracy_median * 1e3, quality->accuracy_mean * 1e3, 100.0 * quality->completeness,
         100.0 * quality->ghost_share));
   }
+  lines.push_back(WrittenLine(output_dir));
+  if (!result.warnings.empty()) {
+    lines.push_back(
+        fmt::format("{} warning(s) below (also in report.json)", result.warnings.size()));
+  }
+  lines.push_back(
+      fmt::format("the run at a glance: {}",
+                  (std::filesystem::path(output_dir) / "report.html").lexically_normal().string()));
   return lines;
 }
 

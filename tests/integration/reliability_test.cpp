@@ -266,6 +266,22 @@ TEST_F(ReliabilityTest, InfoAdvisesAnOptionItTakes) {
   EXPECT_NE(output.find("fx 525 fy 525"), std::string::npos) << output;  // the preset's
 }
 
+// The summary names what was written (read from the folder), the warnings, and report.html.
+TEST_F(ReliabilityTest, TheSummaryListsTheFilesWarningsAndReport) {
+  std::string output;
+  ASSERT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ +
+                            " --poses groundtruth --detector none --set octomap.enabled=false",
+                        &output),
+            0)
+      << output;
+  EXPECT_NE(output.find("wrote map.ply, map.pcd, trajectory.txt"), std::string::npos) << output;
+  EXPECT_EQ(output.find("map.bt"), std::string::npos) << output;  // the OctoMap was off
+  EXPECT_NE(output.find("renders/ ("), std::string::npos) << output;
+  EXPECT_NE(output.find(output_ + "/report.html"), std::string::npos) << output;
+  const std::string::size_type warnings = output.find(" warning(s) below");
+  EXPECT_EQ(warnings == std::string::npos, output.find("warning:") == std::string::npos) << output;
+}
+
 TEST_F(ReliabilityTest, QuietMeansQuiet) {
   std::string output;
   ASSERT_EQ(Build("--detector none", &output), 0) << output;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "stillmap/pipeline/build_result.h"
 #include "stillmap/pipeline/config.h"
@@ -21,6 +22,10 @@ struct BuildRequest {
   int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
   bool show_progress = false;  // a progress line on stderr
 };
+
+// Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
+// that no file of an earlier run stays beside the new set.
+const std::vector<std::string>& BuildOutputNames();
 
 // Runs the whole build. Throws InputError for bad input or options (before anything is written),
 // std::runtime_error when the run fails (an empty map among others). The outputs are staged aside

@@ -14,7 +14,8 @@ namespace stillmap {
 // report.json: every figure of `result`, with the options of `config` that explain them.
 nlohmann::json ReportJson(const BuildResult& result, const BuildConfig& config);
 
-// The end-of-run summary, one line each (frames, speed, ATE, keyframes, masks, map quality).
+// The end-of-run summary, one line each (frames, speed, ATE, keyframes, masks, map quality, the
+// files in output_dir, how many warnings follow, and the path of report.html).
 std::vector<std::string> SummaryLines(const BuildResult& result, const std::string& output_dir);
 
 }  // namespace stillmap
