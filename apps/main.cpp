@@ -46,7 +46,9 @@ struct BuildCommand {
         "trajectory.txt, keyframes.txt, report.json, config.yaml).");
     command->add_option("SEQUENCE_DIR", request.sequence_dir, "TUM-layout sequence folder")
         ->required();
-    command->add_option("-o,--output", request.output_dir, "output folder (created if needed)")
+    command
+        ->add_option("-o,--output", request.output_dir,
+                     "output folder (created if needed; not the sequence folder or inside it)")
         ->required();
     command->add_option("--config", config_file, "YAML configuration file");
     command->add_option("--set", set_arguments, "key=value; overrides --config (repeatable)");

@@ -2,7 +2,9 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
 #include <thread>
@@ -22,6 +24,8 @@
 namespace stillmap {
 namespace {
 
+namespace fs = std::filesystem;
+
 using Clock = std::chrono::steady_clock;
 
 double PeakMemoryMib() {
@@ -30,9 +34,31 @@ double PeakMemoryMib() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
+// The output folder may not be the sequence folder or lie inside it: a rerun replaces the whole
+// output set, and the next build would read the outputs as part of the sequence.
+void CheckOutputOutsideSequence(const BuildRequest& request) {
+  std::error_code error;
+  auto resolved = [&error](const std::string& path) {  // absolute, no '.', '..' or trailing '/'
+    fs::path p = fs::weakly_canonical(path, error).lexically_normal();
+    return p.has_filename() ? p : p.parent_path();
+  };
+  const fs::path sequence = resolved(request.sequence_dir);
+  const fs::path output = resolved(request.output_dir);
+  if (error || sequence.empty()) return;  // the inputs' own checks name the problem
+  const auto [at_sequence_end, at_output] =
+      std::mismatch(sequence.begin(), sequence.end(), output.begin(), output.end());
+  if (at_sequence_end == sequence.end()) {
+    throw InputError(
+        "-o " + request.output_dir + ": the output folder is " +
+        (at_output == output.end() ? "the sequence folder" : "inside the sequence folder") + " " +
+        request.sequence_dir + "; write the outputs elsewhere");
+  }
+}
+
 void CheckRequest(const BuildRequest& request) {
   request.config.Validate();
   if (request.threads < 1) throw InputError("--threads must be at least 1");
+  CheckOutputOutsideSequence(request);
   // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads, at
   // most one per core: TBB, OpenCV's backend, warns on stderr about more, even under --quiet.
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));

@@ -109,6 +109,34 @@ TEST_F(ReliabilityTest, AFailedRerunLeavesTheEarlierSetWhole) {
   EXPECT_EQ(ReadText(output_ + "/map.ply"), cloud);
 }
 
+// Outputs in the sequence folder would be replaced wholesale by the next run and read as part of
+// the sequence: the folder itself and any folder inside it are refused, with nothing written.
+TEST_F(ReliabilityTest, AnOutputFolderInsideTheSequenceIsRefused) {
+  for (const std::string& inside : {sequence_, sequence_ + "/", sequence_ + "/out",
+                                    sequence_ + "/rgb/../maps/run1", dir_ / "seq/./x"}) {
+    std::string output;
+    EXPECT_EQ(RunStillmap("build " + sequence_ + " -o " + inside + " --poses groundtruth --quiet",
+                          &output),
+              2)
+        << inside;
+    EXPECT_NE(output.find("sequence folder"), std::string::npos) << inside << ": " << output;
+  }
+  std::string output;
+  EXPECT_EQ(
+      RunStillmap("build " + sequence_ + "/ -o " + sequence_ + "/out --poses groundtruth", &output),
+      2)
+      << "a sequence named with a trailing '/': " << output;
+  EXPECT_FALSE(fs::exists(sequence_ + "/out"));
+  EXPECT_FALSE(fs::exists(sequence_ + "/maps"));
+  EXPECT_FALSE(fs::exists(sequence_ + "/report.json"));
+  // A sibling whose name starts like the sequence's is fine.
+  EXPECT_EQ(
+      RunStillmap("build " + sequence_ + " -o " + sequence_ + "_out --poses groundtruth --quiet",
+                  &output),
+      0)
+      << output;
+}
+
 TEST_F(ReliabilityTest, AFolderInTheWayOfAnOutputIsRefusedBeforeAnyWork) {
   fs::create_directories(output_ + "/report.json");
   std::string output;
