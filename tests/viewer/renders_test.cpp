@@ -87,5 +87,36 @@ TEST(RendersTest, DeterministicViewsShowTheGridAndTheCloud) {
   }
 }
 
+int CountColor(const cv::Mat& image, const cv::Vec3b& color) {
+  int n = 0;
+  for (int v = 0; v < image.rows; ++v) {
+    for (int u = 0; u < image.cols; ++u) n += image.at<cv::Vec3b>(v, u) == color ? 1 : 0;
+  }
+  return n;
+}
+
+// The trajectory is drawn over the keyframes: its full-colour pixels are the same with the
+// keyframe markers as without them, in every view. The grid view shows the grid frame's axes
+// (x red, y green, as long as the scale bar) from its origin.
+TEST(RendersTest, TheTrajectoryLiesOverTheKeyframesAndTheGridShowsItsAxes) {
+  RenderInput with = MakeInput();
+  // Shift the grid frame so that its origin lies inside the drawn cells.
+  with.grid->origin = Eigen::Vector2d(-1.0, -1.0);
+  RenderInput without = with;
+  without.keyframes.clear();
+  const auto a = RenderViews(with);
+  const auto b = RenderViews(without);
+  const cv::Vec3b trajectory(200, 90, 20);
+  for (size_t k = 0; k < a.size(); ++k) {
+    EXPECT_GT(CountColor(b[k].second, trajectory), 100) << a[k].first;
+    EXPECT_EQ(CountColor(a[k].second, trajectory), CountColor(b[k].second, trajectory))
+        << a[k].first;
+  }
+  // The axes: 3 px wide and at least a fifth of the cells' width long (legend swatches add some).
+  const cv::Mat& top = a[0].second;
+  EXPECT_GT(CountColor(top, cv::Vec3b(0, 0, 220)), 3 * 100) << "x axis";
+  EXPECT_GT(CountColor(top, cv::Vec3b(0, 160, 0)), 3 * 100) << "y axis";
+}
+
 }  // namespace
 }  // namespace stillmap

@@ -18,6 +18,7 @@ struct Bgr {
 };
 constexpr Bgr kWhite{255, 255, 255}, kBlack{0, 0, 0}, kText{40, 40, 40};
 constexpr Bgr kTrajectory{200, 90, 20}, kKeyframe{0, 120, 255}, kFloorGrid{200, 200, 200};
+constexpr Bgr kAxisX{0, 0, 220}, kAxisY{0, 160, 0};  // the grid frame's axes
 constexpr Bgr kUnknownCell{205, 205, 205}, kBackground{246, 246, 246};
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 
@@ -108,17 +109,24 @@ cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
         offset.x + static_cast<int>((g.x() - grid.origin.x()) / grid.resolution * scale),
         offset.y + draw_h - static_cast<int>((g.y() - grid.origin.y()) / grid.resolution * scale));
   };
-  std::vector<cv::Point> path;
-  for (const Eigen::Isometry3d& pose : input.trajectory)
-    path.push_back(to_pixel(pose.translation()));
-  if (path.size() >= 2) cv::polylines(image, path, false, kTrajectory, 2, cv::LINE_AA);
-  for (const Eigen::Isometry3d& pose : input.keyframes) {
-    cv::circle(image, to_pixel(pose.translation()), 4, kKeyframe, cv::FILLED, cv::LINE_AA);
-  }
   // Scale bar: a 1-2-5 length near a fifth of the drawn width.
   const double metres_per_pixel = grid.resolution / scale;
   const double bar_m = NiceStep(draw_w * metres_per_pixel / 5.0, 1);
   const int bar_px = static_cast<int>(bar_m / metres_per_pixel);
+  // The grid frame's origin and axes (grid.yaml's frame), as long as the scale bar.
+  const cv::Point origin = to_pixel(grid.world_from_grid.translation());
+  cv::arrowedLine(image, origin, origin + cv::Point(bar_px, 0), kAxisX, 3, cv::LINE_AA, 0, 0.08);
+  cv::arrowedLine(image, origin, origin - cv::Point(0, bar_px), kAxisY, 3, cv::LINE_AA, 0, 0.08);
+  Text(&image, "x", origin + cv::Point(bar_px + 6, 6));
+  Text(&image, "y", origin - cv::Point(4, bar_px + 8));
+  // The keyframes under the trajectory, so that the path stays whole.
+  for (const Eigen::Isometry3d& pose : input.keyframes) {
+    cv::circle(image, to_pixel(pose.translation()), 4, kKeyframe, cv::FILLED, cv::LINE_AA);
+  }
+  std::vector<cv::Point> path;
+  for (const Eigen::Isometry3d& pose : input.trajectory)
+    path.push_back(to_pixel(pose.translation()));
+  if (path.size() >= 2) cv::polylines(image, path, false, kTrajectory, 2, cv::LINE_AA);
   const cv::Point bar(margin + 10, options.height - margin - 10);
   cv::rectangle(image, bar - cv::Point(6, 26), bar + cv::Point(bar_px + 70, 8), kWhite, cv::FILLED);
   cv::line(image, bar, bar + cv::Point(bar_px, 0), kBlack, 3);
@@ -135,7 +143,9 @@ cv::Mat GridTopView(const RenderInput& input, const RenderOptions& options) {
           {kWhite, "free"},
           {kUnknownCell, "unknown"},
           {kTrajectory, "camera trajectory"},
-          {kKeyframe, "keyframes fused", true}});
+          {kKeyframe, "keyframes fused", true},
+          {kAxisX, "grid frame x (origin)"},
+          {kAxisY, "grid frame y"}});
   return image;
 }
 
@@ -243,15 +253,8 @@ void DrawPoints(const ViewCamera& view, const std::vector<VoxelPoint>& cloud, cv
   }
 }
 
-// The trajectory and the keyframes with their viewing directions (0.25 m long).
+// The keyframes with their viewing directions (0.25 m long), and the trajectory over them.
 void DrawCameras(const ViewCamera& view, const RenderInput& input, cv::Mat* image) {
-  std::vector<cv::Point> path;
-  for (const Eigen::Isometry3d& pose : input.trajectory) {
-    double depth = 0.0;
-    const cv::Point2d q = view.Project(pose.translation(), &depth);
-    if (depth > 0.1) path.emplace_back(q);
-  }
-  if (path.size() >= 2) cv::polylines(*image, path, false, kTrajectory, 2, cv::LINE_AA);
   for (const Eigen::Isometry3d& pose : input.keyframes) {
     double depth = 0.0;
     const cv::Point2d q = view.Project(pose.translation(), &depth);
@@ -261,6 +264,14 @@ void DrawCameras(const ViewCamera& view, const RenderInput& input, cv::Mat* imag
     const cv::Point2d tip = view.Project(pose * Eigen::Vector3d(0, 0, 0.25), &d2);
     if (d2 > 0.1) cv::line(*image, q, tip, kKeyframe, 2, cv::LINE_AA);
   }
+  // The trajectory last, over the keyframes.
+  std::vector<cv::Point> path;
+  for (const Eigen::Isometry3d& pose : input.trajectory) {
+    double depth = 0.0;
+    const cv::Point2d q = view.Project(pose.translation(), &depth);
+    if (depth > 0.1) path.emplace_back(q);
+  }
+  if (path.size() >= 2) cv::polylines(*image, path, false, kTrajectory, 2, cv::LINE_AA);
 }
 
 // A perspective view of the cloud from `azimuth_deg` around the up axis (0: along the floor's
