@@ -55,8 +55,9 @@ struct BuildCommand {
     command
         ->add_option(
             "--poses", poses,
-            "'groundtruth': map from the sequence's ground-truth poses instead of tracking")
-        ->check(CLI::IsMember({"groundtruth"}));
+            "'groundtruth': map from the sequence's ground-truth poses instead of tracking "
+            "('tracking', the default)")
+        ->check(CLI::IsMember({"groundtruth", "tracking"}));
     command
         ->add_option("--detector", request.detector,
                      "semantic prior for dynamic rejection: auto (the default: yolox when the "
@@ -79,8 +80,17 @@ struct BuildCommand {
     for (const std::string& argument : set_arguments) {
       stillmap::ApplySetArgument(&request.config, argument);
     }
-    request.poses = poses == "groundtruth" ? stillmap::PoseSource::kGroundTruth
-                                           : stillmap::PoseSource::kTracking;
+    // run.* (from --config or --set) decides unless the option itself was given.
+    stillmap::RunSettings& run = request.config.run;
+    if (command->count("--poses") > 0) run.poses = poses;
+    if (command->count("--detector") > 0) run.detector = request.detector;
+    if (command->count("--models") > 0) run.models = request.models_dir;
+    if (command->count("--threads") > 0) run.threads = request.threads;
+    request.poses = run.poses == "groundtruth" ? stillmap::PoseSource::kGroundTruth
+                                               : stillmap::PoseSource::kTracking;
+    request.detector = run.detector;
+    request.models_dir = run.models;
+    request.threads = run.threads;
     std::error_code models_error;
     if (request.models_dir.empty() && request.detector != "none") {
       const char* from_environment = std::getenv("STILLMAP_MODELS");

@@ -127,6 +127,15 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
 }  // namespace
 
 void BuildConfig::Validate() const {
+  if (run.poses != "tracking" && run.poses != "groundtruth") {
+    throw InputError("run.poses must be tracking or groundtruth, not '" + run.poses + "'");
+  }
+  const std::vector<std::string> detectors = {"auto", "none", "yolox", "deeplab", "both"};
+  if (std::find(detectors.begin(), detectors.end(), run.detector) == detectors.end()) {
+    throw InputError("run.detector must be auto, none, yolox, deeplab or both, not '" +
+                     run.detector + "'");
+  }
+  if (run.threads < 1 || run.threads > 64) throw InputError("run.threads must be 1..64");
   // Association looks at every pair within the window: beyond a second it pairs wrong frames and
   // its candidates grow with the square of the frame rate.
   if (!(sequence.max_pair_time_difference > 0.0 && sequence.max_pair_time_difference <= 1.0)) {

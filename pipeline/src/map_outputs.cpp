@@ -82,7 +82,14 @@ void WriteTrajectoryFiles(const PosedFrames& posed, bool tracking, OutputSet& ou
                          : "stillmap keyframes fused into the map (every frame with a pose)");
 }
 
-void WriteConfig(const BuildConfig& config, OutputSet& outputs) {
+// The effective configuration with the run's own settings as the request had them, so that
+// `--config OUT/config.yaml` repeats the run.
+void WriteConfig(const BuildRequest& request, OutputSet& outputs) {
+  BuildConfig config = request.config;
+  config.run.poses = request.poses == PoseSource::kGroundTruth ? "groundtruth" : "tracking";
+  config.run.detector = request.detector;
+  config.run.models = request.models_dir;
+  config.run.threads = request.threads;
   std::ofstream out(outputs.TemporaryPath("config.yaml"));
   out << ConfigToYaml(config);
   if (!out.flush()) throw std::runtime_error("could not write config.yaml");
@@ -158,7 +165,7 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, const PosedFrames& pose
   WriteCloudFiles(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"), cloud,
                   config.mapping.voxel.leaf_size);
   WriteTrajectoryFiles(posed, result->tracked(), outputs);
-  WriteConfig(config, outputs);
+  WriteConfig(request, outputs);
   if (mesh_job.valid()) mesh_job.get();
   timings.write_ms = MillisecondsSince(write_start);
   result->frames.fused = result->map.statistics.frames;

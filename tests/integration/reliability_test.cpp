@@ -310,6 +310,39 @@ TEST_F(ReliabilityTest, TheSummaryListsTheFilesWarningsAndReport) {
   EXPECT_EQ(warnings == std::string::npos, output.find("warning:") == std::string::npos) << output;
 }
 
+// config.yaml holds what the command line decided (poses, detector, models, threads), and
+// --config with it alone repeats the run: the same files, single-threaded so that they can be.
+TEST_F(ReliabilityTest, ConfigYamlRepeatsTheRun) {
+  std::string output;
+  ASSERT_EQ(RunStillmap("build " + sequence_ + " -o " + output_ +
+                            " --poses groundtruth --detector none --threads 1 --quiet "
+                            "--set mapping.voxel_leaf_size=0.02",
+                        &output),
+            0)
+      << output;
+  const std::string config = ReadText(output_ + "/config.yaml");
+  for (const std::string line : {"  poses: \"groundtruth\"", "  detector: \"none\"", "  threads: 1",
+                                 "  voxel_leaf_size: 0.02"}) {
+    EXPECT_NE(config.find(line), std::string::npos) << line << "\n" << config;
+  }
+  const std::string again = dir_ / "again";
+  ASSERT_EQ(RunStillmap("build " + sequence_ + " -o " + again + " --config " + output_ +
+                            "/config.yaml --quiet",
+                        &output),
+            0)
+      << output;
+  for (const std::string name : {"config.yaml", "trajectory.txt", "keyframes.txt", "map.ply"}) {
+    EXPECT_EQ(ReadText(again + "/" + name), ReadText(output_ + "/" + name)) << name;
+  }
+  // The options themselves still win over the file.
+  ASSERT_EQ(RunStillmap("build " + sequence_ + " -o " + again + " --config " + output_ +
+                            "/config.yaml --threads 2 --quiet",
+                        &output),
+            0)
+      << output;
+  EXPECT_NE(ReadText(again + "/config.yaml").find("  threads: 2"), std::string::npos);
+}
+
 TEST_F(ReliabilityTest, QuietMeansQuiet) {
   std::string output;
   ASSERT_EQ(Build("--detector none", &output), 0) << output;

@@ -19,7 +19,27 @@
 
 namespace stillmap {
 
+// What the command line decides about a run, kept with the other keys so that config.yaml repeats
+// the run (`--config OUT/config.yaml`); --poses, --detector, --models and --threads override it.
+struct RunSettings {
+  std::string poses = "tracking";  // tracking | groundtruth
+  std::string detector = "auto";   // auto | none | yolox | deeplab | both
+  std::string models;              // "" = $STILLMAP_MODELS, else ../shared/models when present
+  int threads = 2;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("poses", self.poses,
+          "tracking, or groundtruth: map from the ground-truth poses (--poses)");
+    visit("detector", self.detector, "auto, none, yolox, deeplab or both (--detector)");
+    visit("models", self.models, "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (--models)");
+    visit("threads", self.threads, "threads, 1..64 (--threads)");
+  }
+};
+
 struct BuildConfig {
+  RunSettings run;
   CameraOverrides camera;
   SequenceOptions sequence;
   size_t first_frame = 0;  // index of the first color/depth pair to use
@@ -52,6 +72,7 @@ struct BuildConfig {
   // (io/option_fields.h).
   template <typename Self, typename Visitor>
   static void VisitFields(Self& self, Visitor& visit) {
+    visit.Section("run", self.run);
     visit.Section("camera", self.camera);
     visit.Section("sequence", self.sequence);
     visit("sequence.first_frame", self.first_frame, "index of the first color/depth pair used");
