@@ -209,7 +209,7 @@ struct InfoCommand {
         app.add_subcommand("info", "Describe a sequence: pairs, duration, camera, ground truth.");
     command->add_option("SEQUENCE_DIR", sequence_dir, "TUM-layout sequence folder")->required();
     command->add_option("--camera-preset", camera_preset,
-                        "tum1|tum2|tum3|bonn|ros_default when the folder has no camera.yaml");
+                        stillmap::CameraPresetChoices() + " when the folder has no camera.yaml");
   }
 
   void Run() const { std::cout << stillmap::DescribeSequence(sequence_dir, camera_preset); }

@@ -154,6 +154,14 @@ std::vector<std::string> CameraPresetNames() {
   return {"tum1", "tum2", "tum3", "bonn", "ros_default"};
 }
 
+std::string CameraPresetChoices() {
+  std::string choices;
+  for (const std::string& preset : CameraPresetNames()) {
+    choices += (choices.empty() ? "" : "|") + preset;
+  }
+  return choices;
+}
+
 Camera CameraPreset(const std::string& name) {
   Camera camera;
   if (name == "tum1") {

@@ -25,7 +25,8 @@ Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& ove
     source = "camera keys";
   } else {
     throw InputError(sequence_dir + ": no camera.yaml; name the camera with --set camera.preset=" +
-                     "tum1|tum2|tum3|bonn|ros_default, or give camera.fx, camera.fy, camera.cx "
+                     CameraPresetChoices() +
+                     ", or give camera.fx, camera.fy, camera.cx "
                      "and camera.cy");
   }
   if (overrides.width) camera.width = *overrides.width;

@@ -121,7 +121,7 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
   if (camera_preset.empty() && !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {
     // ResolveCamera's advice names build's --set, which info does not take.
     throw InputError(sequence_dir + ": no camera.yaml; name the camera with --camera-preset " +
-                     "tum1|tum2|tum3|bonn|ros_default");
+                     CameraPresetChoices());
   }
   const Camera camera = ResolveCamera(sequence_dir, overrides);
   const Sequence sequence = Sequence::Open(sequence_dir, camera);

@@ -67,6 +67,8 @@ class PixelProjection {
 
 // Names of the built-in presets: tum1, tum2, tum3, bonn, ros_default.
 std::vector<std::string> CameraPresetNames();
+// The same names joined with '|', for messages and help texts.
+std::string CameraPresetChoices();
 
 // The calibration of a built-in preset (TUM freiburg1/2/3 from the benchmark's published
 // calibration, the Bonn Xtion, and the undistorted ROS default fx=fy=525). Throws InputError for
