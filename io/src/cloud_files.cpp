@@ -20,23 +20,27 @@ namespace {
 // in blocks (the x86-64 / ARM byte order is the little-endian order both formats use here).
 class CloudFileWriter {
  public:
+  // `comments`: lines for the headers' comments.
   CloudFileWriter(const std::string& ply_path, const std::string& pcd_path, size_t count,
-                  const std::string& comment)
+                  const std::vector<std::string>& comments)
       : ply_path_(ply_path), pcd_path_(pcd_path) {
     static_assert(sizeof(float) == 4, "PLY and PCD floats are 4 bytes");
     static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "records are copied as little-endian");
     if (!ply_path.empty()) {
       ply_.open(ply_path, std::ios::binary);
       if (!ply_) throw std::runtime_error(ply_path + ": cannot write the PLY cloud");
-      ply_ << "ply\nformat binary_little_endian 1.0\ncomment " << comment << "\nelement vertex "
-           << count
+      ply_ << "ply\nformat binary_little_endian 1.0\n";
+      for (const std::string& line : comments) ply_ << "comment " << line << "\n";
+      ply_ << "element vertex " << count
            << "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n"
               "property uchar green\nproperty uchar blue\nend_header\n";
     }
     if (!pcd_path.empty()) {
       pcd_.open(pcd_path, std::ios::binary);
       if (!pcd_) throw std::runtime_error(pcd_path + ": cannot write the PCD cloud");
-      pcd_ << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z rgb\n"
+      pcd_ << "# .PCD v0.7 - Point Cloud Data file format\n";
+      for (const std::string& line : comments) pcd_ << "# " << line << "\n";
+      pcd_ << "VERSION 0.7\nFIELDS x y z rgb\n"
               "SIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH "
            << count << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << count << "\nDATA binary\n";
     }
@@ -83,24 +87,25 @@ class CloudFileWriter {
   std::vector<char> ply_buffer_, pcd_buffer_;
 };
 
-// The header comment of the voxel cloud's files.
-std::string CloudComment(double leaf_size) {
+// The header comments of the voxel cloud's files.
+std::vector<std::string> CloudComments(double leaf_size, const std::string& frame) {
   std::ostringstream comment;
   comment << "stillmap voxel cloud, leaf " << leaf_size << " m";
-  return comment.str();
+  return {comment.str(), "frame: " + frame};
 }
 
 }  // namespace
 
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
-                     const std::vector<VoxelPoint>& points, double leaf_size) {
-  CloudFileWriter writer(ply_path, pcd_path, points.size(), CloudComment(leaf_size));
+                     const std::vector<VoxelPoint>& points, double leaf_size,
+                     const std::string& frame) {
+  CloudFileWriter writer(ply_path, pcd_path, points.size(), CloudComments(leaf_size, frame));
   for (const VoxelPoint& p : points) writer.Add(p);
   writer.Finish();
 }
 
 void WritePly(const std::string& path, const std::vector<VoxelPoint>& points) {
-  CloudFileWriter writer(path, "", points.size(), "stillmap point cloud");
+  CloudFileWriter writer(path, "", points.size(), {"stillmap point cloud"});
   for (const VoxelPoint& p : points) writer.Add(p);
   writer.Finish();
 }

@@ -6,9 +6,13 @@
 #include <pcl/sample_consensus/ransac.h>
 #include <pcl/sample_consensus/sac_model_perpendicular_plane.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <iterator>
+#include <optional>
+#include <unordered_set>
 #include <vector>
 
 #include "stillmap/mapping/occupancy_grid.h"
@@ -42,6 +46,23 @@ class QuietPcl {
  private:
   pcl::console::VERBOSITY_LEVEL level_;
 };
+
+// One point of the cloud per `cell` voxel (the first in it).
+pcl::shared_ptr<Cloud> ThinnedCloud(const std::vector<VoxelPoint>& points, double cell) {
+  auto cloud = pcl::make_shared<Cloud>();
+  std::unordered_set<std::uint64_t> taken;
+  taken.reserve(points.size() / 8);
+  for (const VoxelPoint& p : points) {
+    std::uint64_t key = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const auto index = static_cast<std::int64_t>(std::floor(p.position[axis] / cell));
+      key = (key << 21) | (static_cast<std::uint64_t>(index) & 0x1FFFFF);
+    }
+    if (taken.insert(key).second) cloud->push_back(pcl::PointXYZ(p.position.x(), p.position.y(),
+                                                                  p.position.z()));
+  }
+  return cloud;
+}
 
 pcl::shared_ptr<Cloud> OccupiedVoxels(const OccupancyMap& map) {
   auto cloud = pcl::make_shared<Cloud>();
@@ -135,22 +156,11 @@ double TiltDeg(const FloorPlane& floor, const Eigen::Vector3d& hint) {
   return std::acos(std::clamp(floor.up.dot(hint), -1.0, 1.0)) / kDegree;
 }
 
-}  // namespace
-
-FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
-                     const GridOptions& options) {
+// The floor fitted to `cloud` (voxel centres or thinned points), `threshold` the plane's
+// inlier distance [m].
+FloorPlane FitFloor(const pcl::shared_ptr<Cloud>& cloud, double threshold,
+                    const Eigen::Vector3d& hint, const GridOptions& options) {
   FloorPlane floor;
-  const Eigen::Vector3d hint =
-      cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
-  if (options.floor) {
-    const double norm = options.floor->head<3>().norm();
-    floor.up = options.floor->head<3>() / norm;
-    floor.offset = (*options.floor)[3] / norm;
-    floor.source = "given (grid.floor)";
-    floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
-    return floor;
-  }
-  const pcl::shared_ptr<Cloud> cloud = OccupiedVoxels(map);
   if (cloud->empty()) {
     floor.up = hint;
     floor.offset = 0.0;
@@ -159,7 +169,7 @@ FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
         "cameras' mean up";
     return floor;
   }
-  const std::vector<FloorCandidate> candidates = FitPlanes(cloud, hint, map.resolution(), options);
+  const std::vector<FloorCandidate> candidates = FitPlanes(cloud, hint, threshold, options);
   if (const FloorCandidate* best = LowestLargePlane(candidates)) {
     floor.up = best->up;
     floor.offset = best->offset;
@@ -170,6 +180,69 @@ FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
   }
   floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
   return floor;
+}
+
+Eigen::Vector3d Hint(const Eigen::Vector3d& cameras_up) {
+  return cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
+}
+
+// The floor given as grid.floor, if it is.
+std::optional<FloorPlane> GivenFloor(const Eigen::Vector3d& hint, const GridOptions& options) {
+  if (!options.floor) return std::nullopt;
+  FloorPlane floor;
+  const double norm = options.floor->head<3>().norm();
+  floor.up = options.floor->head<3>() / norm;
+  floor.offset = (*options.floor)[3] / norm;
+  floor.source = "given (grid.floor)";
+  floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
+  return floor;
+}
+
+}  // namespace
+
+FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
+                     const GridOptions& options) {
+  const Eigen::Vector3d hint = Hint(cameras_up);
+  if (std::optional<FloorPlane> given = GivenFloor(hint, options)) return *given;
+  return FitFloor(OccupiedVoxels(map), map.resolution(), hint, options);
+}
+
+FloorPlane FindFloor(const std::vector<VoxelPoint>& cloud, double cell,
+                     const Eigen::Vector3d& cameras_up, const GridOptions& options) {
+  const Eigen::Vector3d hint = Hint(cameras_up);
+  if (std::optional<FloorPlane> given = GivenFloor(hint, options)) return *given;
+  return FitFloor(ThinnedCloud(cloud, cell), cell, hint, options);
+}
+
+FloorPlane RefineFloor(const FloorPlane& floor, const std::vector<VoxelPoint>& cloud, double band) {
+  if (floor.source != "fitted") return floor;
+  FloorPlane refined = floor;
+  for (const double width : {band, band / 2.0}) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
+    std::vector<double> heights;
+    for (const VoxelPoint& p : cloud) {
+      const Eigen::Vector3d point = p.position.cast<double>();
+      const double height = refined.Height(point);
+      if (std::abs(height) > width) continue;
+      sum += point;
+      products += point * point.transpose();
+      heights.push_back(height);
+    }
+    if (heights.size() < 3) return refined;
+    const double n = static_cast<double>(heights.size());
+    const Eigen::Vector3d centroid = sum / n;
+    const Eigen::Matrix3d covariance = products / n - centroid * centroid.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+    Eigen::Vector3d normal = solver.eigenvectors().col(0);  // of the smallest eigenvalue
+    if (normal.dot(floor.up) < 0.0) normal = -normal;
+    const auto middle = heights.begin() + static_cast<long>(heights.size() / 2);
+    std::nth_element(heights.begin(), middle, heights.end());
+    const Eigen::Vector3d on_floor = centroid - (refined.Height(centroid) - *middle) * refined.up;
+    if (normal.dot(floor.up) > std::cos(5.0 * kDegree)) refined.up = normal.normalized();
+    refined.offset = -refined.up.dot(on_floor);
+  }
+  return refined;
 }
 
 }  // namespace stillmap

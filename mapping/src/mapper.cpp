@@ -114,7 +114,7 @@ MapCleaningResult FinishedMap::CleanCloud(const MapCleaningOptions& options, con
 }
 
 void FinishedMap::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {
-  WriteCloudFiles(ply_path, pcd_path, cloud.Points(), cloud.leaf_size());
+  WriteCloudFiles(ply_path, pcd_path, cloud.Points(), cloud.leaf_size(), "the poses' frame");
 }
 
 void FinishedMap::WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const {

@@ -29,6 +29,21 @@ Eigen::Matrix3d FloorAxes(const Eigen::Vector3d& up) {
   return rows;
 }
 
+Eigen::Isometry3d FloorFrame(const FloorPlane& floor, const Eigen::Vector3d& above,
+                             const Eigen::Vector3d& forward) {
+  const Eigen::Vector3d& up = floor.up;
+  Eigen::Vector3d x = forward - up.dot(forward) * up;
+  if (!(x.norm() > std::sin(25.0 * M_PI / 180.0) * forward.norm())) {
+    x = FloorAxes(up).row(0).transpose();
+  }
+  Eigen::Isometry3d world_from_floor = Eigen::Isometry3d::Identity();
+  world_from_floor.linear().col(0) = x.normalized();
+  world_from_floor.linear().col(1) = up.cross(x.normalized());
+  world_from_floor.linear().col(2) = up;
+  world_from_floor.translation() = above - floor.Height(above) * up;
+  return world_from_floor;
+}
+
 Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_cameras) {
   Eigen::Vector3d up = Eigen::Vector3d::Zero();
   for (const Eigen::Isometry3d& pose : world_from_cameras) up -= pose.linear().col(1);
@@ -40,6 +55,10 @@ void GridOptions::Validate() const {
   if (!(min_height >= 0.0 && max_height > min_height && max_height <= 100.0)) {
     throw InputError("grid.min_height must be >= 0 and grid.max_height above it, at most 100 m");
   }
+  if (!(resolution >= 0.005 && resolution <= 5.0)) {
+    throw InputError("grid.resolution must be between 0.005 and 5 m");
+  }
+  if (min_cloud_points < 0) throw InputError("grid.min_cloud_points must be >= 0");
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError("grid.occupied_probability must be in [0.5, 1)");
   }
@@ -90,66 +109,93 @@ bool FitExtent(const OccupancyMap& map, const Eigen::Isometry3d& grid_from_world
     high = high.cwiseMax(g.head<2>() + Eigen::Vector2d::Constant(reach));
   });
   if (!(low.x() <= high.x())) return false;
-  const int i_min = static_cast<int>(std::floor(low.x() / resolution));
-  const int j_min = static_cast<int>(std::floor(low.y() / resolution));
-  grid->width = static_cast<int>(std::floor(high.x() / resolution)) - i_min + 1;
-  grid->height = static_cast<int>(std::floor(high.y() / resolution)) - j_min + 1;
-  grid->origin = Eigen::Vector2d(i_min * resolution, j_min * resolution);
+  // Cells are centred on multiples of the resolution, so that the grid frame's origin (under the
+  // first camera) is a cell's centre, not a corner shared by four.
+  auto index = [resolution](double v) { return static_cast<int>(std::floor(v / resolution + 0.5)); };
+  const int i_min = index(low.x()), j_min = index(low.y());
+  grid->width = index(high.x()) - i_min + 1;
+  grid->height = index(high.y()) - j_min + 1;
+  grid->origin = Eigen::Vector2d((i_min - 0.5) * resolution, (j_min - 0.5) * resolution);
   grid->cells.assign(static_cast<size_t>(grid->width) * static_cast<size_t>(grid->height),
                      kGridUnknown);
   return true;
 }
 
-// Each cell's column is looked up in the OctoMap at its centre, every half voxel in height: the
-// grid gets exactly what lies over each cell, whatever its angle to the OctoMap's axes (splatting
-// voxels instead either leaves gaps or grows obstacles by up to a cell). Returns the strongest
-// occupancy probability in each cell's band.
+// Each cell's column is looked up in the OctoMap at voxel spacing across the cell, every half
+// voxel in height: the grid gets exactly what lies over each cell, whatever its angle to the
+// OctoMap's axes and its size (splatting voxels instead either leaves gaps or grows obstacles by
+// up to a cell). Returns the strongest occupancy probability in each cell's band.
 std::vector<float> ClassifyCells(const OccupancyMap& map, const GridOptions& options,
                                  double floor_low, OccupancyGrid* grid_out) {
   OccupancyGrid& grid = *grid_out;
   const double resolution = grid.resolution;
-  const double step = resolution / 2.0;
-  std::vector<double> band, floor_band;
+  const double voxel = map.resolution();
+  const double step = voxel / 2.0;
+  const int samples = std::max(1, static_cast<int>(std::ceil(resolution / voxel - 1e-6)));
+  std::vector<double> band, floor_band, offsets;
   for (double h = options.min_height; h <= options.max_height + 1e-9; h += step) band.push_back(h);
   for (double h = floor_low; h < options.min_height; h += step) floor_band.push_back(h);
+  for (int k = 0; k < samples; ++k) offsets.push_back((k + 0.5) * resolution / samples);
   std::vector<float> support(grid.cells.size(), -1.0f);
   cv::parallel_for_(cv::Range(0, grid.height), [&](const cv::Range& rows) {
     for (int j = rows.start; j < rows.end; ++j) {
       for (int i = 0; i < grid.width; ++i) {
-        const double x = grid.origin.x() + (i + 0.5) * resolution;
-        const double y = grid.origin.y() + (j + 0.5) * resolution;
-        auto at = [&](double h) {
-          return map.Occupancy(grid.world_from_grid * Eigen::Vector3d(x, y, h));
-        };
         // Free needs evidence near the floor: the band's lowest voxels seen free, or the floor
         // itself seen (below). Space seen free only higher up (over a box, into its shadow) may
         // hide a low obstacle, and stays unknown.
-        bool occupied = false, free = false;
+        bool occupied = false, free = false, floor_seen = false;
         double strongest = -1.0;
-        for (double h : band) {
-          const double p = at(h);
-          strongest = std::max(strongest, p);
-          occupied = occupied || p > options.occupied_probability;
-          free = free || (p >= 0.0 && h < options.min_height + 2.0 * resolution);
-        }
-        support[static_cast<size_t>(j) * static_cast<size_t>(grid.width) + static_cast<size_t>(i)] =
-            static_cast<float>(strongest);
-        if (!occupied && !free) {
-          for (double h : floor_band) {
-            if (at(h) > 0.5) {
-              free = true;  // the floor, with nothing known above it in the band
-              break;
+        for (double dx : offsets) {
+          for (double dy : offsets) {
+            const Eigen::Vector3d column = grid.world_from_grid *
+                                           Eigen::Vector3d(grid.origin.x() + i * resolution + dx,
+                                                           grid.origin.y() + j * resolution + dy,
+                                                           0.0);
+            const Eigen::Vector3d up = grid.world_from_grid.linear().col(2);
+            for (double h : band) {
+              const double p = map.Occupancy(column + h * up);
+              strongest = std::max(strongest, p);
+              occupied = occupied || p > options.occupied_probability;
+              free = free || (p >= 0.0 && h < options.min_height + 2.0 * voxel);
+            }
+            for (size_t k = 0; k < floor_band.size() && !floor_seen && !occupied && !free; ++k) {
+              floor_seen = map.Occupancy(column + floor_band[k] * up) > 0.5;
             }
           }
         }
-        grid.cells[static_cast<size_t>(j) * static_cast<size_t>(grid.width) +
-                   static_cast<size_t>(i)] = occupied ? kGridOccupied
-                                             : free   ? kGridFree
-                                                      : kGridUnknown;
+        // With nothing known above it in the band, the floor seen makes the cell free.
+        free = free || floor_seen;
+        const size_t cell =
+            static_cast<size_t>(j) * static_cast<size_t>(grid.width) + static_cast<size_t>(i);
+        support[cell] = static_cast<float>(strongest);
+        grid.cells[cell] = occupied ? kGridOccupied : free ? kGridFree : kGridUnknown;
       }
     }
   });
   return support;
+}
+
+// Occupied cells whose band holds fewer than min_cloud_points points of the cleaned cloud: free
+// when the cloud shows the floor there (points below min_height), else unknown.
+void RequireCloudSupport(const std::vector<VoxelPoint>& cloud, const GridOptions& options,
+                         double floor_low, OccupancyGrid* grid) {
+  std::vector<int> in_band(grid->cells.size(), 0), on_floor(grid->cells.size(), 0);
+  const Eigen::Isometry3f grid_from_world = grid->world_from_grid.inverse().cast<float>();
+  for (const VoxelPoint& point : cloud) {
+    const Eigen::Vector3f g = grid_from_world * point.position;
+    if (g.z() < floor_low || g.z() > options.max_height) continue;
+    const int i = static_cast<int>(std::floor((g.x() - grid->origin.x()) / grid->resolution));
+    const int j = static_cast<int>(std::floor((g.y() - grid->origin.y()) / grid->resolution));
+    if (i < 0 || j < 0 || i >= grid->width || j >= grid->height) continue;
+    const size_t k = static_cast<size_t>(j) * static_cast<size_t>(grid->width) +
+                     static_cast<size_t>(i);
+    ++(g.z() >= options.min_height ? in_band[k] : on_floor[k]);
+  }
+  for (size_t k = 0; k < grid->cells.size(); ++k) {
+    if (grid->cells[k] != kGridOccupied || in_band[k] >= options.min_cloud_points) continue;
+    grid->cells[k] = on_floor[k] > 0 ? kGridFree : kGridUnknown;
+    ++grid->unsupported_cells;
+  }
 }
 
 // Hysteresis: an occupied cell whose voxels were hit only weakly (about once, as the remnant of a
@@ -189,30 +235,45 @@ void DropUnconfirmed(const std::vector<float>& support, double confirm_probabili
 
 }  // namespace
 
-OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
-                            const GridOptions& options) {
+OccupancyGrid ProjectToGrid(const GridSources& sources, const GridOptions& options) {
   options.Validate();
+  const OccupancyMap& map = *sources.map;
   OccupancyGrid grid;
-  grid.resolution = map.resolution();
-  grid.floor = floor;
+  grid.resolution = options.resolution;
+  grid.floor = sources.floor;
   grid.min_height = options.min_height;
   grid.max_height = options.max_height;
-  // Grid frame: rotation rows x, y, up; the world origin lands at height offset above the floor.
-  const Eigen::Matrix3d axes = FloorAxes(floor.up);
-  Eigen::Isometry3d grid_from_world = Eigen::Isometry3d::Identity();
-  grid_from_world.linear() = axes;
-  grid_from_world.translation() = Eigen::Vector3d(0.0, 0.0, floor.offset);
-  grid.world_from_grid = grid_from_world.inverse();
+  grid.world_from_grid = sources.world_from_grid;
   // Occupied voxels this far below min_height (and above the plane's fit error) count as floor.
-  const double floor_low = -std::max(2.0 * grid.resolution, 0.1);
-  if (!FitExtent(map, grid_from_world, floor_low, options.max_height, &grid)) {
+  const double floor_low = -std::max(2.0 * map.resolution(), 0.1);
+  if (!FitExtent(map, grid.world_from_grid.inverse(), floor_low, options.max_height, &grid)) {
     return grid;  // nothing near the band: an empty grid
   }
   const std::vector<float> support = ClassifyCells(map, options, floor_low, &grid);
+  if (sources.cloud != nullptr && options.min_cloud_points > 0) {
+    RequireCloudSupport(*sources.cloud, options, floor_low, &grid);
+  }
   if (options.confirm_probability > options.occupied_probability) {
     DropUnconfirmed(support, options.confirm_probability, &grid);
   }
+  if (sources.start) {
+    const std::optional<Eigen::Vector2i> cell = grid.CellOf(*sources.start);
+    if (cell && grid.At(cell->x(), cell->y()) == kGridUnknown) {
+      grid.cells[static_cast<size_t>(cell->y()) * static_cast<size_t>(grid.width) +
+                 static_cast<size_t>(cell->x())] = kGridFree;
+      grid.start_made_free = true;
+    }
+  }
   return grid;
+}
+
+OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
+                            const GridOptions& options) {
+  GridSources sources;
+  sources.map = &map;
+  sources.floor = floor;
+  sources.world_from_grid = FloorFrame(floor, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX());
+  return ProjectToGrid(sources, options);
 }
 
 void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
@@ -237,10 +298,12 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
   const Eigen::Matrix4d m = grid.world_from_grid.matrix();
   out << "# stillmap 2-D occupancy grid (ROS map_server format).\n"
       << "# Frame: x, y in the floor plane, z up from the floor; the origin lies on the floor\n"
-      << "# below stillmap's world origin (the first camera when tracking). world_from_map is\n"
-      << "# this frame in stillmap's world frame (row-major 4x4; trajectory.txt, map.ply).\n"
+      << "# under the first camera, x along its view. world_from_map places this frame in the\n"
+      << "# frame of stillmap's 3-D outputs (map.ply, map.bt, trajectory.txt; report.json\n"
+      << "# map_frame), row-major 4x4: the identity when map.frame=floor.\n"
       << "# Occupied: an occupied OctoMap voxel between min_height and max_height above the\n"
-      << "# floor; free: that band observed free, or the floor seen with nothing above it.\n"
+      << "# floor, with voxel-cloud points there; free: that band observed free, or the floor\n"
+      << "# seen with nothing above it.\n"
       << "image: " << image_name << "\n"
       << "resolution: " << grid.resolution << "\n"
       << "origin: [" << grid.origin.x() << ", " << grid.origin.y() << ", 0.0]\n"

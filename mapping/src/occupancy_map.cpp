@@ -74,6 +74,66 @@ void OccupancyMap::InsertScan(const std::vector<Eigen::Vector3f>& points_in_worl
                                /*discretize=*/true);
 }
 
+namespace {
+
+// Sets the voxels of `to` whose centres lie in `leaf` of `from`, grown by `grow` on each side, to
+// the leaf's log-odds; with `keep_higher`, a voxel keeps a higher value it already has.
+void Resample(const octomap::OcTree::leaf_iterator& leaf, const Eigen::Isometry3d& new_from_old,
+              double grow, bool keep_higher, octomap::OcTree* to) {
+  const Eigen::Vector3d centre(leaf.getX(), leaf.getY(), leaf.getZ());
+  const double half = leaf.getSize() / 2.0 + grow;
+  // The new voxels whose centres may lie in the leaf: the rotated cube's bounding box.
+  const Eigen::Vector3d reach = new_from_old.linear().cwiseAbs() * Eigen::Vector3d::Constant(half);
+  const Eigen::Vector3d low = new_from_old * centre - reach, high = new_from_old * centre + reach;
+  octomap::OcTreeKey first, last;
+  if (!to->coordToKeyChecked(octomap::point3d(low.x(), low.y(), low.z()), first) ||
+      !to->coordToKeyChecked(octomap::point3d(high.x(), high.y(), high.z()), last)) {
+    return;
+  }
+  const Eigen::Isometry3d old_from_new = new_from_old.inverse();
+  const float log_odds = leaf->getLogOdds();
+  for (int a = first[0]; a <= last[0]; ++a) {
+    for (int b = first[1]; b <= last[1]; ++b) {
+      for (int c = first[2]; c <= last[2]; ++c) {
+        const octomap::OcTreeKey key(static_cast<octomap::key_type>(a),
+                                     static_cast<octomap::key_type>(b),
+                                     static_cast<octomap::key_type>(c));
+        const octomap::point3d at = to->keyToCoord(key);
+        const Eigen::Vector3d offset =
+            old_from_new * Eigen::Vector3d(at.x(), at.y(), at.z()) - centre;
+        // Half-open, so that a centre on a shared face belongs to one leaf.
+        if (!((offset.array() >= -half).all() && (offset.array() < half).all())) continue;
+        if (keep_higher) {
+          const octomap::OcTreeNode* node = to->search(key);
+          if (node != nullptr && node->getLogOdds() >= log_odds) continue;
+        }
+        to->setNodeValue(key, log_odds, /*lazy_eval=*/true);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+OccupancyMap OccupancyMap::Transformed(const Eigen::Isometry3d& new_from_old) const {
+  OccupancyMap result(impl_->options);
+  result.impl_->rejected = impl_->rejected;
+  const octomap::OcTree& from = impl_->tree;
+  octomap::OcTree& to = result.impl_->tree;
+  for (auto it = from.begin_leafs(); it != from.end_leafs(); ++it) {
+    if (!from.isNodeOccupied(*it)) Resample(it, new_from_old, 0.0, false, &to);
+  }
+  // Occupied leaves grown by a quarter voxel: a one-voxel wall then holds a new voxel centre in
+  // every column of the new lattice through it, so rays cannot slip through it.
+  const double grow = from.getResolution() / 4.0;
+  for (auto it = from.begin_leafs(); it != from.end_leafs(); ++it) {
+    if (from.isNodeOccupied(*it)) Resample(it, new_from_old, grow, true, &to);
+  }
+  to.updateInnerOccupancy();
+  to.prune();
+  return result;
+}
+
 double OccupancyMap::Occupancy(const Eigen::Vector3d& point_in_world) const {
   if (!impl_->Inside(point_in_world.x(), point_in_world.y(), point_in_world.z())) return -1.0;
   const octomap::OcTreeNode* node =

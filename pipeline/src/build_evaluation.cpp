@@ -1,5 +1,7 @@
 #include "build_evaluation.h"
 
+#include "map_frame.h"
+
 #include <chrono>
 #include <filesystem>
 
@@ -10,23 +12,6 @@
 
 namespace stillmap {
 namespace {
-
-// With ground-truth poses the map is in the ground truth's frame. A tracked map is anchored at
-// the first tracked frame: its ground-truth pose times the inverse of its tracked pose (the
-// identity). Not the ATE alignment, whose rotation is ill-determined by positions alone when the
-// camera moves little or along a line.
-std::optional<Eigen::Isometry3d> GroundTruthFromMap(const BuildInputs& inputs,
-                                                    const BuildRequest& request,
-                                                    const PosedFrames& posed) {
-  if (request.poses == PoseSource::kGroundTruth) return Eigen::Isometry3d::Identity();
-  if (!inputs.sequence.groundtruth()) return std::nullopt;
-  const StampedPose& first = posed.trajectory.poses().front();
-  const std::optional<Eigen::Isometry3d> world_from_first =
-      inputs.sequence.groundtruth()->Interpolate(first.time,
-                                                 request.config.sequence.max_groundtruth_gap);
-  if (!world_from_first) return std::nullopt;
-  return *world_from_first * first.world_from_camera.inverse();
-}
 
 void EvaluateTrajectory(const BuildInputs& inputs, const BuildRequest& request,
                         const PosedFrames& posed, EvaluationFigures* evaluation) {
@@ -83,7 +68,7 @@ void EvaluateMapQuality(const BuildInputs& inputs, const BuildRequest& request,
   if (!PathExists(truth_path)) return;
   evaluation.static_groundtruth = truth_path;
   const std::optional<Eigen::Isometry3d> groundtruth_from_map =
-      GroundTruthFromMap(inputs, request, posed);
+      GroundTruthFromPoses(inputs, request, posed);
   if (!groundtruth_from_map) {
     evaluation.map_quality_note =
         "not evaluated: the first tracked frame has no ground-truth pose to anchor the map";

@@ -65,6 +65,11 @@ BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result) {
     throw InputError(request.sequence_dir +
                      ": no groundtruth.txt; --poses groundtruth needs the sequence's ground truth");
   }
+  if (config.map.frame == "groundtruth" && !inputs.sequence.groundtruth()) {
+    throw InputError(request.sequence_dir +
+                     ": no groundtruth.txt; map.frame=groundtruth needs the sequence's ground "
+                     "truth (map.frame=floor puts the map on the floor)");
+  }
   const size_t total_pairs = inputs.sequence.frames().size();
   if (config.first_frame >= total_pairs) {
     throw InputError("sequence.first_frame=" + std::to_string(config.first_frame) +

@@ -153,12 +153,12 @@ BuildResult RunBuild(const BuildRequest& request) {
   MapperOptions mapper_options = request.config.mapping;
   mapper_options.in_background = mapper_options.in_background && request.threads > 1;
   Mapper mapper(inputs.camera, mapper_options);
-  const PosedFrames posed = RunPoseLoop(inputs, request, *masks, mapper, &result);
+  PosedFrames posed = RunPoseLoop(inputs, request, *masks, mapper, &result);
   FinishedMap map = mapper.Finish();
   result.timings.processing_ms = SecondsSince(start) * 1000.0;
 
   std::vector<VoxelPoint> cloud =
-      WriteMapOutputs(std::move(map), posed, request, inputs.camera, outputs, &result);
+      WriteMapOutputs(std::move(map), &posed, inputs, request, outputs, &result);
   result.wall_time_s = SecondsSince(start);
   result.frames_per_second = static_cast<double>(result.frames.pairs_used) / result.wall_time_s;
   result.peak_memory_mib = PeakMemoryMib();

@@ -136,6 +136,9 @@ void BuildConfig::Validate() const {
                      run.detector + "'");
   }
   if (run.threads < 1 || run.threads > 64) throw InputError("run.threads must be 1..64");
+  if (map.frame != "floor" && map.frame != "camera" && map.frame != "groundtruth") {
+    throw InputError("map.frame must be floor, camera or groundtruth, not '" + map.frame + "'");
+  }
   // Association looks at every pair within the window: beyond a second it pairs wrong frames and
   // its candidates grow with the square of the frame rate.
   if (!(sequence.max_pair_time_difference > 0.0 && sequence.max_pair_time_difference <= 1.0)) {

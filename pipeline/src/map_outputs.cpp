@@ -6,6 +6,7 @@
 #include <fstream>
 #include <future>
 
+#include "map_frame.h"
 #include "stillmap/io/image_io.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/mapping/map_mesh.h"
@@ -45,17 +46,60 @@ std::string EmptyMapMessage(const MapFigures& map, const MapperOptions& options,
   return message + ". Check the depth scale (camera.depth_factor), the depth range and the poses";
 }
 
-// The 2-D grid for planners, from the OctoMap; the floor is fitted to it and checked against the
+// The floor, fitted to the OctoMap's occupied voxels (refined on the cloud once it is clean)
+// or, without one, to the cloud thinned to grid cells and refined on it; checked against the
 // fused cameras' mean up direction (camera -y).
-std::optional<OccupancyGrid> WriteGridFiles(const FinishedMap& map, const PosedFrames& posed,
+FloorPlane MapFloor(const FinishedMap& map, const std::vector<VoxelPoint>* cloud,
+                    const PosedFrames& posed, const GridOptions& options) {
+  const Eigen::Vector3d cameras_up = MeanCameraUp(WorldFromCameras(posed.fused_poses));
+  if (map.occupancy) return FindFloor(*map.occupancy, cameras_up, options);
+  return RefineFloor(FindFloor(*cloud, options.resolution, cameras_up, options), *cloud,
+                     2.0 * options.resolution);
+}
+
+// The 2-D grid for planners, from the OctoMap (in the poses' frame) and the cleaned cloud, in
+// the floor frame; written in the map frame.
+std::optional<OccupancyGrid> WriteGridFiles(const FinishedMap& map,
+                                            const std::vector<VoxelPoint>& cloud,
+                                            const PosedFrames& posed, const MapFrameFigures& frame,
                                             const GridOptions& options, OutputSet& outputs) {
   if (!options.enabled || map.occupancy == nullptr) return std::nullopt;
-  const FloorPlane floor =
-      FindFloor(*map.occupancy, MeanCameraUp(WorldFromCameras(posed.fused_poses)), options);
-  OccupancyGrid grid = ProjectToGrid(*map.occupancy, floor, options);
+  GridSources sources;
+  sources.map = map.occupancy.get();
+  sources.floor = frame.floor;
+  sources.world_from_grid = frame.poses_from_map * frame.map_from_floor;
+  sources.cloud = &cloud;
+  sources.start = posed.trajectory.poses().front().world_from_camera.translation();
+  OccupancyGrid grid = ProjectToGrid(sources, options);
+  grid.world_from_grid = frame.map_from_floor;
   WriteGrid(grid, outputs.TemporaryPath("grid.pgm"), outputs.TemporaryPath("grid.yaml"),
             "grid.pgm");
   return grid;
+}
+
+bool IsIdentity(const Eigen::Isometry3d& transform) {
+  return (transform.matrix() - Eigen::Matrix4d::Identity()).norm() < 1e-12;
+}
+
+// The OctoMap files, in the map frame (resampled when it is not the poses' frame).
+void WriteOccupancyFiles(const FinishedMap& map, const MapFrameFigures& frame,
+                         OutputSet& outputs) {
+  if (!map.occupancy) return;
+  const std::string bt = outputs.TemporaryPath("map.bt"), ot = outputs.TemporaryPath("map.ot");
+  if (IsIdentity(frame.poses_from_map)) {
+    map.occupancy->WriteBinary(bt);
+    map.occupancy->WriteFull(ot);
+    return;
+  }
+  const OccupancyMap in_map = map.occupancy->Transformed(frame.poses_from_map.inverse());
+  in_map.WriteBinary(bt);
+  in_map.WriteFull(ot);
+}
+
+void MoveToMap(const Eigen::Isometry3d& map_from_poses, std::vector<VoxelPoint>* cloud) {
+  if (IsIdentity(map_from_poses)) return;
+  const Eigen::Isometry3f transform = map_from_poses.cast<float>();
+  for (VoxelPoint& point : *cloud) point.position = transform * point.position;
 }
 
 // The mesh of the voxel cloud (throws for an empty one).
@@ -72,14 +116,19 @@ MeshFigures WriteMesh(const std::vector<VoxelPoint>& cloud, const MapMeshOptions
   return {options.FileName(), mesh.voxels, mesh.vertices.size(), mesh.faces.size()};
 }
 
-void WriteTrajectoryFiles(const PosedFrames& posed, bool tracking, OutputSet& outputs) {
-  posed.trajectory.WriteTum(outputs.TemporaryPath("trajectory.txt"),
-                            tracking ? "stillmap trajectory (camera-to-world, every tracked frame)"
-                                     : "stillmap trajectory (camera-to-world, ground-truth poses)");
+void WriteTrajectoryFiles(const PosedFrames& posed, bool tracking, const std::string& frame,
+                          OutputSet& outputs) {
+  const std::string in_frame = "; map frame " + frame;
+  posed.trajectory.WriteTum(
+      outputs.TemporaryPath("trajectory.txt"),
+      (tracking ? "stillmap trajectory (camera-to-map, every tracked frame)"
+                : "stillmap trajectory (camera-to-map, ground-truth poses)") +
+          in_frame);
   Trajectory(posed.fused_poses)
       .WriteTum(outputs.TemporaryPath("keyframes.txt"),
-                tracking ? "stillmap keyframes fused into the map (camera-to-world, final poses)"
-                         : "stillmap keyframes fused into the map (every frame with a pose)");
+                (tracking ? "stillmap keyframes fused into the map (camera-to-map, final poses)"
+                          : "stillmap keyframes fused into the map (every frame with a pose)") +
+                    in_frame);
 }
 
 // The effective configuration with the run's own settings as the request had them, so that
@@ -112,7 +161,8 @@ MapFigures Figures(const FinishedMap& map, const MapCleaningResult& cleaning) {
 }
 
 // Warnings about the finished map that the figures alone do not make plain.
-void AddMapWarnings(const MapFigures& map, const MapperOptions& options, BuildResult* result) {
+void AddMapWarnings(const MapFigures& map, const BuildConfig& config, BuildResult* result) {
+  const MapperOptions& options = config.mapping;
   if (result->tracking && result->tracking->statistics.new_maps > 0) {
     result->warnings.push_back(fmt::format(
         "tracking was lost and not relocalized {} time(s); each time a new local map was started "
@@ -126,12 +176,21 @@ void AddMapWarnings(const MapFigures& map, const MapperOptions& options, BuildRe
         "from the origin) and were left out: the poses went far astray",
         map.voxels_out_of_range, map.octomap_points_out_of_range, options.Extent()));
   }
+  if (!options.occupancy.enabled) {
+    result->warnings.push_back(
+        "the OctoMap is off (mapping.octomap.enabled=false): no map.bt, map.ot or grid, and the "
+        "cloud was not cleaned of voxels the cameras saw through");
+  }
+  if (!result->map_frame.floor_found) {
+    result->warnings.push_back("no floor plane was found (report.json: map_frame.floor): the map "
+                               "frame's z is the cameras' mean up, gravity assumed");
+  }
 }
 
 }  // namespace
 
-std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, const PosedFrames& posed,
-                                        const BuildRequest& request, const Camera& camera,
+std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
+                                        const BuildInputs& inputs, const BuildRequest& request,
                                         OutputSet& outputs, BuildResult* result) {
   const BuildConfig& config = request.config;
   const Clock::time_point write_start = Clock::now();
@@ -139,13 +198,13 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, const PosedFrames& pose
   MapCleaningResult cleaning;
   std::future<void> clean_job = std::async(Policy(request), [&] {
     const Clock::time_point start = Clock::now();
-    cleaning = map.CleanCloud(config.mapping.cleaning, camera);
+    cleaning = map.CleanCloud(config.mapping.cleaning, inputs.camera);
     timings.map_cleaning_ms = MillisecondsSince(start);
   });
-  map.WriteOccupancy(outputs.TemporaryPath("map.bt"), outputs.TemporaryPath("map.ot"));
-  const Clock::time_point grid_start = Clock::now();
-  result->grid = WriteGridFiles(map, posed, config.grid, outputs);
-  if (result->grid) timings.grid_ms = MillisecondsSince(grid_start);
+  const Clock::time_point floor_start = Clock::now();
+  std::optional<FloorPlane> floor;
+  if (map.occupancy) floor = MapFloor(map, nullptr, *posed, config.grid);  // beside the cleaning
+  double floor_ms = MillisecondsSince(floor_start);
   clean_job.get();
   result->map = Figures(map, cleaning);
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
@@ -153,6 +212,19 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, const PosedFrames& pose
   if (cloud.empty()) {
     throw std::runtime_error(EmptyMapMessage(result->map, config.mapping, *result));
   }
+  const Clock::time_point grid_start = Clock::now();
+  floor = floor ? RefineFloor(*floor, cloud, 2.0 * config.mapping.occupancy.resolution)
+                : MapFloor(map, &cloud, *posed, config.grid);
+  result->map_frame = ChooseMapFrame(*floor, inputs, request, *posed);
+  const MapFrameFigures& frame = result->map_frame;
+  result->grid = WriteGridFiles(map, cloud, *posed, frame, config.grid, outputs);
+  timings.grid_ms = floor_ms + MillisecondsSince(grid_start);
+  const Eigen::Isometry3d map_from_poses = frame.poses_from_map.inverse();
+  std::future<void> octomap_job = std::async(Policy(request), [&] {
+    WriteOccupancyFiles(map, frame, outputs);
+  });
+  MoveToMap(map_from_poses, &cloud);
+  *posed = PosesInMap(*posed, map_from_poses);
   std::future<void> mesh_job;
   if (config.mesh.enabled) {
     const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
@@ -163,14 +235,15 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, const PosedFrames& pose
     });
   }
   WriteCloudFiles(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"), cloud,
-                  config.mapping.voxel.leaf_size);
-  WriteTrajectoryFiles(posed, result->tracked(), outputs);
+                  config.mapping.voxel.leaf_size, frame.description);
+  WriteTrajectoryFiles(*posed, result->tracked(), frame.name, outputs);
   WriteConfig(request, outputs);
+  octomap_job.get();
   if (mesh_job.valid()) mesh_job.get();
   timings.write_ms = MillisecondsSince(write_start);
   result->frames.fused = result->map.statistics.frames;
-  result->frames.tracked = posed.trajectory.size();
-  AddMapWarnings(result->map, config.mapping, result);
+  result->frames.tracked = posed->trajectory.size();
+  AddMapWarnings(result->map, config, result);
   return cloud;
 }
 

@@ -12,12 +12,15 @@
 namespace stillmap {
 
 // Finishes and writes the map: the cloud is cleaned against the final OctoMap on another thread
-// while the OctoMap files and the grid (which only read the OctoMap) are written, then the cloud
-// files, the mesh (on another thread), trajectory.txt, keyframes.txt and config.yaml. Fills
+// while the floor is fitted to the OctoMap; then the map frame is chosen, the grid projected,
+// and the OctoMap files, the cloud files, the mesh (on other threads), trajectory.txt,
+// keyframes.txt and config.yaml written. Fills
 // result->map, mesh, grid, timings and warnings. Returns the cloud's points for the evaluation
 // and the renders. Throws std::runtime_error for an empty map or mesh (nothing is committed).
-std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, const PosedFrames& posed,
-                                        const BuildRequest& request, const Camera& camera,
+// The 3-D outputs are in the map frame (config.map.frame, result->map_frame), and so are `posed`
+// and the cloud afterwards.
+std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
+                                        const BuildInputs& inputs, const BuildRequest& request,
                                         OutputSet& outputs, BuildResult* result);
 
 // The renders (renders/: top views of the cloud and grid, the trajectory error plot when the

@@ -133,13 +133,35 @@ json MeshJson(const std::optional<MeshFigures>& mesh, const MapMeshOptions& opti
            "there"}};
 }
 
-json GridJson(const OccupancyGrid& grid) {
-  const Eigen::Matrix4d m = grid.world_from_grid.matrix();
-  std::vector<double> world_from_map;
+std::vector<double> RowMajor(const Eigen::Isometry3d& transform) {
+  const Eigen::Matrix4d m = transform.matrix();
+  std::vector<double> values;
   for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) world_from_map.push_back(m(r, c));
+    for (int c = 0; c < 4; ++c) values.push_back(m(r, c));
   }
-  const FloorPlane& floor = grid.floor;
+  return values;
+}
+
+json FloorJson(const FloorPlane& floor) {
+  return {{"source", floor.source},
+          {"up_in_poses_frame", {floor.up.x(), floor.up.y(), floor.up.z()}},
+          {"offset_in_poses_frame_m", floor.offset},
+          {"tilt_to_cameras_up_deg", floor.tilt_to_cameras_deg},
+          {"plane_voxels", floor.inliers}};
+}
+
+json MapFrameJson(const MapFrameFigures& frame, bool tracked) {
+  return {{"name", frame.name},
+          {"description", frame.description},
+          {"files", "map.ply, map.pcd, map.bt, map.ot, the mesh, trajectory.txt, keyframes.txt"},
+          {"floor_found", frame.floor_found},
+          {"floor", FloorJson(frame.floor)},
+          {"poses_frame",
+           tracked ? "the first tracked camera's frame" : "the ground truth's world frame"},
+          {"poses_from_map", RowMajor(frame.poses_from_map)}};
+}
+
+json GridJson(const OccupancyGrid& grid) {
   return {{"files", {"grid.pgm", "grid.yaml"}},
           {"width", grid.width},
           {"height", grid.height},
@@ -150,18 +172,16 @@ json GridJson(const OccupancyGrid& grid) {
            {{"free", grid.Count(kGridFree)},
             {"occupied", grid.Count(kGridOccupied)},
             {"unknown", grid.Count(kGridUnknown)},
-            {"occupied_unconfirmed_made_unknown", grid.unconfirmed_cells}}},
+            {"occupied_unconfirmed_made_unknown", grid.unconfirmed_cells},
+            {"occupied_without_cloud_points_in_band", grid.unsupported_cells},
+            {"start_cell_made_free", grid.start_made_free}}},
           {"frame",
-           "x, y in the floor plane, z up from the floor, origin on the floor below the world "
-           "origin"},
-          {"world_from_map", world_from_map},
-          {"floor",
-           {{"source", floor.source},
-            {"up", {floor.up.x(), floor.up.y(), floor.up.z()}},
-            {"offset_m", floor.offset},
-            {"world_origin_height_m", floor.offset},
-            {"tilt_to_cameras_up_deg", floor.tilt_to_cameras_deg},
-            {"plane_voxels", floor.inliers}}}};
+           "x, y in the floor plane, z up from the floor, origin on the floor under the first "
+           "camera, x along its view (the map frame itself when map.frame=floor)"},
+          {"world_from_map", RowMajor(grid.world_from_grid)},
+          {"floor", {{"source", grid.floor.source},
+                     {"tilt_to_cameras_up_deg", grid.floor.tilt_to_cameras_deg},
+                     {"plane_voxels", grid.floor.inliers}}}};
 }
 
 json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {
@@ -330,8 +350,7 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   report["stillmap_version"] = STILLMAP_VERSION;
   report["sequence"] = result.sequence_dir;
   report["poses"] = result.tracked() ? "tracking" : "groundtruth";
-  report["world_frame"] =
-      result.tracked() ? "the first tracked camera frame" : "the ground truth's world frame";
+  report["map_frame"] = MapFrameJson(result.map_frame, result.tracked());
   report["camera"] = CameraJson(result.camera);
   report["frames"] = FramesJson(result.frames);
   report["keyframes"] = KeyframesJson(result, config);

@@ -83,7 +83,7 @@ TEST(CloudFilesTest, PclToolsConvertThePcdAndPlyWithTheSamePointsAndColours) {
       << "pcl_pcd2ply / pcl_ply2pcd not found: install Debian's pcl-tools (scripts/setup.sh does)";
   const TempDir dir;
   const std::vector<VoxelPoint> points = Points();
-  WriteCloudFiles(dir / "map.ply", dir / "map.pcd", points, 0.05);
+  WriteCloudFiles(dir / "map.ply", dir / "map.pcd", points, 0.05, "test frame");
   std::string output;
   ASSERT_EQ(RunCommand("pcl_pcd2ply -format 0 " + (dir / "map.pcd") + " " + (dir / "from_pcd.ply"),
                        &output),

@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <iostream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 
@@ -80,6 +81,7 @@ class OccupancyGridTest : public ::testing::Test {
       scan.reserve(nearest.size());
       for (const auto& [key, p] : nearest) scan.push_back(p.cast<float>());
       for (int k = 0; k < 2; ++k) map_.InsertScan(scan, origin.cast<float>());
+      scans_.emplace_back(scan, origin.cast<float>());
     }
     // The cameras' mean up, 5 degrees off the truth (as a tilted hand-held camera gives it).
     cameras_up_ = world_from_room.linear() *
@@ -92,8 +94,41 @@ class OccupancyGridTest : public ::testing::Test {
     return cell ? grid.At(cell->x(), cell->y()) : kGridUnknown;
   }
 
+  // The scans inserted into map_ twice each, to build maps of other resolutions.
+  OccupancyMap MapOf(double resolution) const {
+    OccupancyMapOptions options;
+    options.resolution = resolution;
+    OccupancyMap map(options);
+    for (const auto& [scan, origin] : scans_) {
+      for (int k = 0; k < 2; ++k) map.InsertScan(scan, origin);
+    }
+    return map;
+  }
+  // The truth as a voxel cloud (what the cleaned map holds).
+  std::vector<VoxelPoint> TruthCloud() const {
+    std::vector<VoxelPoint> cloud;
+    for (const Eigen::Vector3d& p : truth_) cloud.push_back({p.cast<float>(), {0, 0, 0}, 1});
+    return cloud;
+  }
+  // Occupied cells without a truth point above min_height over them.
+  size_t PhantomCells(const OccupancyGrid& grid) const {
+    std::vector<bool> high(grid.cells.size(), false);
+    for (const Eigen::Vector3d& p : truth_) {
+      const auto cell = grid.CellOf(p);
+      if (cell && grid.floor.Height(p) > grid.min_height) {
+        high[static_cast<size_t>(cell->y() * grid.width + cell->x())] = true;
+      }
+    }
+    size_t phantoms = 0;
+    for (size_t k = 0; k < grid.cells.size(); ++k) {
+      phantoms += grid.cells[k] == kGridOccupied && !high[k] ? 1 : 0;
+    }
+    return phantoms;
+  }
+
   Eigen::Isometry3d room_from_world_ = Eigen::Isometry3d::Identity();
   std::vector<Eigen::Vector3d> truth_;
+  std::vector<std::pair<std::vector<Eigen::Vector3f>, Eigen::Vector3f>> scans_;
   OccupancyMap map_;
   Eigen::Vector3d cameras_up_;
 };
@@ -170,7 +205,8 @@ TEST_F(OccupancyGridTest, WeaklyHitCellsNeedConfirmedNeighbours) {
   const FloorPlane floor = FindFloor(map_, cameras_up_, options);
   const OccupancyGrid grid = ProjectToGrid(map_, floor, options);
   EXPECT_EQ(CellAt(grid, -1.98, 2.0), kGridUnknown);
-  EXPECT_EQ(CellAt(grid, 0.75, 2.54), kGridOccupied);
+  // The ledge (y 2.52 to 2.56) falls in the tilted OctoMap's voxels up to y 2.6.
+  EXPECT_EQ(CellAt(grid, 0.75, 2.58), kGridOccupied);
   EXPECT_EQ(CellAt(grid, 0.75, 2.25), kGridOccupied);  // the box itself, seen six times
   EXPECT_GT(grid.unconfirmed_cells, 0u);
 
@@ -178,6 +214,92 @@ TEST_F(OccupancyGridTest, WeaklyHitCellsNeedConfirmedNeighbours) {
   const OccupancyGrid plain = ProjectToGrid(map_, floor, options);
   EXPECT_EQ(CellAt(plain, -1.98, 2.0), kGridOccupied);
   EXPECT_EQ(plain.unconfirmed_cells, 0u);
+}
+
+// A coarse OctoMap in a tilted frame: its floor voxels reach into the band (10 cm voxels at 20
+// degrees span up to 8 cm above their centres), so the OctoMap alone blocks bare floor. With the
+// cloud, a cell is occupied only where points lie in the band: no phantom, the box kept.
+TEST_F(OccupancyGridTest, TheCloudKeepsBareFloorOutOfTheObstacles) {
+  const OccupancyMap coarse = MapOf(0.10);
+  GridOptions options;
+  GridSources sources;
+  sources.map = &coarse;
+  sources.floor = FindFloor(coarse, cameras_up_, options);
+  sources.world_from_grid =
+      FloorFrame(sources.floor, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX());
+  options.min_cloud_points = 0;
+  const OccupancyGrid alone = ProjectToGrid(sources, options);
+  const std::vector<VoxelPoint> cloud = TruthCloud();
+  sources.cloud = &cloud;
+  options.min_cloud_points = 2;
+  const OccupancyGrid checked = ProjectToGrid(sources, options);
+  std::cout << "coarse tilted OctoMap: " << alone.Count(kGridOccupied) << " occupied cells, "
+            << PhantomCells(alone) << " without points above the floor; with the cloud "
+            << checked.Count(kGridOccupied) << " and " << PhantomCells(checked) << "\n";
+  EXPECT_GT(PhantomCells(alone), 0u);
+  EXPECT_EQ(PhantomCells(checked), 0u);
+  EXPECT_GT(checked.unsupported_cells, 0u);
+  EXPECT_EQ(CellAt(checked, 0.75, 2.25), kGridOccupied);  // the box
+  EXPECT_EQ(CellAt(checked, 0.0, 1.0), kGridFree);        // open floor
+}
+
+// grid.resolution is the cell size, whatever the OctoMap's voxels: 10 cm cells over 5 cm voxels
+// see the same room.
+TEST_F(OccupancyGridTest, TheCellSizeIsTheGridsOwn) {
+  GridOptions options;
+  options.resolution = 0.10;
+  const OccupancyGrid grid = ProjectToGrid(map_, FindFloor(map_, cameras_up_, options), options);
+  EXPECT_DOUBLE_EQ(grid.resolution, 0.10);
+  EXPECT_EQ(CellAt(grid, 0.75, 2.25), kGridOccupied);
+  EXPECT_EQ(CellAt(grid, 0.0, 1.0), kGridFree);
+  EXPECT_EQ(CellAt(grid, -0.75, 2.2), kGridFree);
+  EXPECT_EQ(EvaluateGrid(grid, truth_).false_occupied, 0u);
+}
+
+// The floor frame: z the floor's up, the origin on the floor under the given point, x along the
+// given direction projected onto the floor.
+TEST_F(OccupancyGridTest, TheFloorFrameStandsUnderTheCamera) {
+  const Eigen::Isometry3d world_from_room = room_from_world_.inverse();
+  FloorPlane floor;  // the room's floor, exactly
+  floor.up = world_from_room.linear() * Eigen::Vector3d::UnitZ();
+  floor.offset = -floor.up.dot(world_from_room.translation());
+  const Eigen::Vector3d camera = world_from_room * Eigen::Vector3d(0.3, 0.2, 1.2);
+  const Eigen::Vector3d view = world_from_room.linear() * Eigen::Vector3d(0.0, 0.94, -0.34);
+  const Eigen::Isometry3d frame = FloorFrame(floor, camera, view);
+  const Eigen::Vector3d origin = room_from_world_ * frame.translation();
+  EXPECT_NEAR(origin.x(), 0.3, 1e-9);
+  EXPECT_NEAR(origin.y(), 0.2, 1e-9);
+  EXPECT_NEAR(origin.z(), 0.0, 1e-9);
+  const Eigen::Vector3d x = room_from_world_.linear() * frame.linear().col(0);
+  const Eigen::Vector3d z = room_from_world_.linear() * frame.linear().col(2);
+  EXPECT_GT(x.y(), 0.999);  // the view along room +y, projected
+  EXPECT_GT(z.z(), 0.999);
+  EXPECT_NEAR(frame.linear().determinant(), 1.0, 1e-9);
+}
+
+// The cell under the first camera is free: the camera stood there, and the floor right under it
+// is never in view. A camera held over the box leaves its cell occupied.
+TEST_F(OccupancyGridTest, TheStartCellIsFree) {
+  const GridOptions options;
+  GridSources sources;
+  sources.map = &map_;
+  sources.floor = FindFloor(map_, cameras_up_, options);
+  const Eigen::Isometry3d world_from_room = room_from_world_.inverse();
+  // Over the room's origin the floor is out of every view (the cameras look down 20 degrees).
+  sources.start = world_from_room * Eigen::Vector3d(0.0, 0.0, 1.2);
+  sources.world_from_grid =
+      FloorFrame(sources.floor, *sources.start, world_from_room.linear() * Eigen::Vector3d::UnitY());
+  const OccupancyGrid without = ProjectToGrid(map_, sources.floor, options);
+  EXPECT_EQ(CellAt(without, 0.0, 0.0), kGridUnknown);
+  const OccupancyGrid grid = ProjectToGrid(sources, options);
+  EXPECT_TRUE(grid.start_made_free);
+  EXPECT_EQ(CellAt(grid, 0.0, 0.0), kGridFree);
+  // The grid frame's origin, under the camera, is a cell's centre (not a corner of four).
+  const Eigen::Vector2i start = *grid.CellOf(*sources.start);
+  EXPECT_NEAR(grid.origin.x() + (start.x() + 0.5) * grid.resolution, 0.0, 1e-9);
+  EXPECT_NEAR(grid.origin.y() + (start.y() + 0.5) * grid.resolution, 0.0, 1e-9);
+  sources.start = world_from_room * Eigen::Vector3d(0.75, 2.25, 1.2);
+  EXPECT_EQ(CellAt(ProjectToGrid(sources, options), 0.75, 2.25), kGridOccupied);
 }
 
 // The files as map_server (ROS 1 and Nav2) reads them: the YAML keys, and each pixel's value

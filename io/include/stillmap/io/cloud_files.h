@@ -12,7 +12,7 @@ namespace stillmap {
 
 // A colored point of a map: the centroid of a voxel's points with their mean color.
 struct VoxelPoint {
-  Eigen::Vector3f position;         // centroid of the voxel's points, world frame [m]
+  Eigen::Vector3f position;         // centroid of the voxel's points [m]
   std::array<std::uint8_t, 3> rgb;  // mean color
   std::uint32_t count;              // points averaged
 };
@@ -22,9 +22,11 @@ struct VoxelPoint {
 // x y z rgb, PCL's packed PointXYZRGB: rgb a float field holding 0x00RRGGBB). Written here rather
 // than with PCL's writers, which need the whole cloud copied into a pcl::PointCloud first: on Bonn
 // (6.1 M voxels) that copy and ours cost 340 MB of peak memory. PCL reads both files back in the
-// tests.
+// tests. `frame` names the points' frame in the headers' comments (PLY: "comment frame: ...",
+// PCD: "# frame: ...").
 void WriteCloudFiles(const std::string& ply_path, const std::string& pcd_path,
-                     const std::vector<VoxelPoint>& points, double leaf_size);
+                     const std::vector<VoxelPoint>& points, double leaf_size,
+                     const std::string& frame);
 
 // Writes points as a binary little-endian PLY (float x, y, z; uchar red, green, blue).
 void WritePly(const std::string& path, const std::vector<VoxelPoint>& points);

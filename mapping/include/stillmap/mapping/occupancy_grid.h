@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "stillmap/io/cloud_files.h"
 #include "stillmap/mapping/occupancy_map.h"
 
 namespace stillmap {
@@ -19,6 +20,14 @@ struct GridOptions {
   // what it passes under.
   double min_height = 0.10;
   double max_height = 1.50;
+  // The cell edge [m], independent of the OctoMap's voxels (each cell's column is sampled at
+  // the OctoMap's resolution).
+  double resolution = 0.05;
+  // An occupied OctoMap voxel in the band blocks its cell only when the cleaned voxel cloud holds
+  // at least this many points in the band over the cell: a floor voxel of a coarse, tilted
+  // OctoMap reaches into the band with nothing above the floor. Cells that fail it are free
+  // when the cloud shows the floor there, else unknown. 0: the OctoMap alone decides.
+  int min_cloud_points = 2;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
   // (grid.floor "a b c d"); otherwise fitted to the map.
   std::optional<Eigen::Vector4d> floor;
@@ -52,6 +61,9 @@ struct GridOptions {
     visit("enabled", self.enabled, "write the 2-D occupancy grid (grid.pgm, grid.yaml)");
     visit("min_height", self.min_height, "lowest height above the floor that blocks a cell [m]");
     visit("max_height", self.max_height, "robot height: highest blocking height [m]");
+    visit("resolution", self.resolution, "grid cell edge [m] (independent of octomap.resolution)");
+    visit("min_cloud_points", self.min_cloud_points,
+          "voxel-cloud points in the band a cell needs to be occupied (0: OctoMap alone)");
     visit("floor", self.floor,
           "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 in the "
           "world frame, (a, b, c) pointing up");
@@ -83,6 +95,13 @@ struct FloorPlane {
 // floor (the world z axis when x points nearly up), y = up x x. The grid's and the renders' frame.
 Eigen::Matrix3d FloorAxes(const Eigen::Vector3d& up);
 
+// The frame on the floor: z = floor.up, origin = `above` projected onto the floor, x = `forward`
+// projected onto the floor (FloorAxes' x when `forward` is within 25 degrees of vertical), y = z
+// x x. The default map frame (with the first camera's centre and viewing direction) and the
+// grid's frame.
+Eigen::Isometry3d FloorFrame(const FloorPlane& floor, const Eigen::Vector3d& above,
+                             const Eigen::Vector3d& forward);
+
 // The sum of the cameras' up (-y) axes: a direction for FindFloor to check the floor against
 // (zero for no cameras).
 Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_cameras);
@@ -93,6 +112,17 @@ Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_ca
 // `cameras_up` (source says so). `cameras_up`: the mean of the cameras' up (-y) axes.
 FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
                      const GridOptions& options);
+// The same fit to a point cloud (a map without OctoMap), thinned to one point per `cell` [m]
+// voxel, with `cell` as the plane threshold.
+FloorPlane FindFloor(const std::vector<VoxelPoint>& cloud, double cell,
+                     const Eigen::Vector3d& cameras_up, const GridOptions& options);
+
+// A fitted floor moved onto the cloud's own floor points: twice, the points within `band` [m]
+// (then band / 2) of the plane give its normal (their principal axis, kept when within 5 degrees
+// of the fit) and its height (their median). The OctoMap's voxel centres put a thick or tilted
+// floor up to a voxel off; the cloud's finer points put z = 0 where the floor's points are. Given
+// floors and the percentile fallback are returned as they are.
+FloorPlane RefineFloor(const FloorPlane& floor, const std::vector<VoxelPoint>& cloud, double band);
 
 // Cell values as ROS nav_msgs/OccupancyGrid has them.
 constexpr std::int8_t kGridUnknown = -1;
@@ -103,9 +133,8 @@ struct OccupancyGrid {
   int width = 0;  // cells along the grid's x
   int height = 0;
   double resolution = 0.05;  // cell edge [m]
-  // The grid frame (ROS's "map" frame for this grid): origin on the floor below the world origin
-  // (the first camera when tracking), z up, x along the world x axis projected onto the floor (or
-  // the world z axis when x points nearly up). Cell (i, j) covers
+  // The grid frame (ROS's "map" frame for this grid), on the floor with z up (GridSources).
+  // Cell (i, j) covers
   // x in origin.x + [i, i+1) * resolution, y in origin.y + [j, j+1) * resolution.
   Eigen::Isometry3d world_from_grid = Eigen::Isometry3d::Identity();
   Eigen::Vector2d origin = Eigen::Vector2d::Zero();  // lower-left corner of cell (0, 0) [m]
@@ -113,6 +142,10 @@ struct OccupancyGrid {
   FloorPlane floor;
   double min_height = 0.0, max_height = 0.0;
   size_t unconfirmed_cells = 0;  // occupied but not connected to confirmed structure: unknown
+  // Occupied in the OctoMap with fewer than min_cloud_points cloud points in the band: made free
+  // (the cloud shows the floor there) or unknown.
+  size_t unsupported_cells = 0;
+  bool start_made_free = false;  // the cell under the first camera was unknown, now free
 
   std::int8_t At(int i, int j) const {
     return cells[static_cast<size_t>(j) * static_cast<size_t>(width) + static_cast<size_t>(i)];
@@ -122,11 +155,28 @@ struct OccupancyGrid {
   size_t Count(std::int8_t value) const;
 };
 
-// Occupied where any occupied voxel lies in the band; free where nothing in the band is occupied
-// and either the floor or the band's lowest voxels (up to two above min_height) were seen free;
-// unknown elsewhere (space seen free only higher up, as in the shadow of a box, may hide a low
-// obstacle). Each cell's
-// column is looked up in the OctoMap at the cell's centre, every half voxel in height.
+// What a grid is projected from.
+struct GridSources {
+  const OccupancyMap* map = nullptr;  // required
+  FloorPlane floor;
+  // The grid's frame in the world: z = floor.up, origin on the floor (FloorFrame).
+  Eigen::Isometry3d world_from_grid = Eigen::Isometry3d::Identity();
+  // The cleaned voxel cloud in the world frame, for GridOptions::min_cloud_points; null: the
+  // OctoMap alone decides.
+  const std::vector<VoxelPoint>* cloud = nullptr;
+  // Where the first camera was: the cell under it is made free when it is unknown (the camera
+  // stood there; the floor right under it is never in view).
+  std::optional<Eigen::Vector3d> start;
+};
+
+// Occupied where an occupied voxel lies in the band (and the cloud holds min_cloud_points points
+// in the band over the cell); free where nothing in the band is occupied and either the floor or
+// the band's lowest voxels (up to two above min_height) were seen free; unknown elsewhere (space
+// seen free only higher up, as in the shadow of a box, may hide a low obstacle). Each cell's
+// column is looked up in the OctoMap at OctoMap-voxel spacing across the cell, every half voxel
+// in height.
+OccupancyGrid ProjectToGrid(const GridSources& sources, const GridOptions& options);
+// The OctoMap alone, in FloorFrame(floor, world origin, world x axis), no start cell.
 OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
                             const GridOptions& options);
 

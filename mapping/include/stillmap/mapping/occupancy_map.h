@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <functional>
 #include <memory>
 #include <string>
@@ -51,6 +52,14 @@ class OccupancyMap {
   // it, are counted in rejected_count() and left out (OctoMap would print an error for each).
   void InsertScan(const std::vector<Eigen::Vector3f>& points_in_world,
                   const Eigen::Vector3f& sensor_origin_in_world);
+
+  // The map in another frame: each voxel of the new tree takes the value of the old leaf that
+  // holds its centre (nearest-neighbour resampling: no holes, known space stays known), and the
+  // highest value of the occupied leaves that hold it when they are grown by a quarter voxel
+  // (occupied wins: thin walls stay closed, obstacles grow by at most a quarter voxel). Voxels
+  // whose centre falls outside the old known space stay unknown; those beyond the extent are
+  // left out.
+  OccupancyMap Transformed(const Eigen::Isometry3d& new_from_old) const;
 
   // Occupancy probability of the leaf at `point_in_world`, or a negative value when unknown.
   double Occupancy(const Eigen::Vector3d& point_in_world) const;

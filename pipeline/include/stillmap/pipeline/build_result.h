@@ -101,6 +101,20 @@ struct StageTimings {
   std::optional<double> renders_ms;
 };
 
+// The frame of the 3-D outputs (MapFrameOptions) and the floor it was found from.
+struct MapFrameFigures {
+  std::string name;         // floor | camera | groundtruth
+  std::string description;  // for the files' headers and the report
+  // The outputs' frame in the frame the poses were computed in (the first tracked camera's, or
+  // the ground truth's world with --poses groundtruth).
+  Eigen::Isometry3d poses_from_map = Eigen::Isometry3d::Identity();
+  FloorPlane floor;  // in the poses' frame
+  // The floor frame (FloorFrame: z up from the floor, origin under the first camera) in the
+  // outputs' frame: the identity for map.frame=floor, the grid's frame for all.
+  Eigen::Isometry3d map_from_floor = Eigen::Isometry3d::Identity();
+  bool floor_found = false;  // a fitted or given plane; false: the cameras' mean up (gravity)
+};
+
 struct BuildResult {
   std::string sequence_dir;
   PoseSource poses = PoseSource::kTracking;
@@ -111,6 +125,7 @@ struct BuildResult {
   SelectionFigures selection;
   MaskingFigures masking;
   MapFigures map;
+  MapFrameFigures map_frame;
   std::optional<MeshFigures> mesh;    // when mesh.enabled
   std::optional<OccupancyGrid> grid;  // when written (grid.enabled and the OctoMap on)
   EvaluationFigures evaluation;

@@ -38,8 +38,26 @@ struct RunSettings {
   }
 };
 
+// The frame of every 3-D output: map.ply, map.pcd, map.bt, map.ot, the mesh, trajectory.txt and
+// keyframes.txt (grid.yaml places the grid in it).
+struct MapFrameOptions {
+  // floor: REP-103, z up from the floor plane at z = 0, the origin on the floor under the first
+  // camera, x along its viewing direction projected on the floor; camera: the first camera's
+  // optical frame (x right, y down, z forward); groundtruth: the ground truth's world frame.
+  std::string frame = "floor";
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("frame", self.frame,
+          "floor (z up, floor at z = 0, origin under the first camera, x along its view), camera "
+          "(the first camera's optical frame) or groundtruth (groundtruth.txt's world)");
+  }
+};
+
 struct BuildConfig {
   RunSettings run;
+  MapFrameOptions map;
   CameraOverrides camera;
   SequenceOptions sequence;
   size_t first_frame = 0;  // index of the first color/depth pair to use
@@ -73,6 +91,7 @@ struct BuildConfig {
   template <typename Self, typename Visitor>
   static void VisitFields(Self& self, Visitor& visit) {
     visit.Section("run", self.run);
+    visit.Section("map", self.map);
     visit.Section("camera", self.camera);
     visit.Section("sequence", self.sequence);
     visit("sequence.first_frame", self.first_frame, "index of the first color/depth pair used");

@@ -1,0 +1,80 @@
+#include "map_frame.h"
+
+#include <stdexcept>
+
+namespace stillmap {
+namespace {
+
+bool FloorFound(const FloorPlane& floor) {
+  return floor.source == "fitted" || floor.source.rfind("given", 0) == 0;
+}
+
+std::string FloorDescription(const FloorPlane& floor) {
+  const std::string axes =
+      "the origin on the floor under the first camera, x along its viewing direction projected "
+      "on the floor, y to its left (REP-103, metres)";
+  if (FloorFound(floor)) return "floor: z up, the floor plane at z = 0, " + axes;
+  return "floor: no floor plane was found, so z is the cameras' mean up (gravity assumed) and "
+         "z = 0 the 2nd percentile of the map's heights; " +
+         axes;
+}
+
+}  // namespace
+
+std::optional<Eigen::Isometry3d> GroundTruthFromPoses(const BuildInputs& inputs,
+                                                      const BuildRequest& request,
+                                                      const PosedFrames& posed) {
+  if (!inputs.sequence.groundtruth() || posed.trajectory.empty()) return std::nullopt;
+  const StampedPose& first = posed.trajectory.poses().front();
+  const std::optional<Eigen::Isometry3d> world_from_first =
+      inputs.sequence.groundtruth()->Interpolate(first.time,
+                                                 request.config.sequence.max_groundtruth_gap);
+  if (!world_from_first) return std::nullopt;
+  return *world_from_first * first.world_from_camera.inverse();
+}
+
+MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& inputs,
+                               const BuildRequest& request, const PosedFrames& posed) {
+  MapFrameFigures frame;
+  frame.name = request.config.map.frame;
+  frame.floor = floor;
+  frame.floor_found = FloorFound(floor);
+  const Eigen::Isometry3d first_camera = posed.trajectory.poses().front().world_from_camera;
+  const Eigen::Isometry3d poses_from_floor =
+      FloorFrame(floor, first_camera.translation(), first_camera.linear().col(2));
+  if (frame.name == "floor") {
+    frame.poses_from_map = poses_from_floor;
+    frame.description = FloorDescription(floor);
+  } else if (frame.name == "camera") {
+    frame.poses_from_map = first_camera;
+    frame.description = "camera: the first camera's optical frame (x right, y down, z forward)";
+  } else {
+    const std::optional<Eigen::Isometry3d> groundtruth_from_poses =
+        request.poses == PoseSource::kGroundTruth
+            ? std::optional<Eigen::Isometry3d>(Eigen::Isometry3d::Identity())
+                                                  : GroundTruthFromPoses(inputs, request, posed);
+    if (!groundtruth_from_poses) {
+      throw std::runtime_error(
+          "map.frame=groundtruth: the first tracked frame has no ground-truth pose to anchor the "
+          "map; use map.frame=floor");
+    }
+    frame.poses_from_map = groundtruth_from_poses->inverse();
+    frame.description =
+        request.poses == PoseSource::kGroundTruth
+            ? "groundtruth: the ground truth's world frame (groundtruth.txt)"
+            : "groundtruth: the ground truth's world frame (groundtruth.txt), the tracked map "
+              "anchored at the first frame's ground-truth pose";
+  }
+  frame.map_from_floor = frame.poses_from_map.inverse() * poses_from_floor;
+  return frame;
+}
+
+PosedFrames PosesInMap(const PosedFrames& posed, const Eigen::Isometry3d& map_from_poses) {
+  auto moved = [&](std::vector<StampedPose> poses) {
+    for (StampedPose& pose : poses) pose.world_from_camera = map_from_poses * pose.world_from_camera;
+    return poses;
+  };
+  return {Trajectory(moved(posed.trajectory.poses())), moved(posed.fused_poses)};
+}
+
+}  // namespace stillmap
