@@ -217,7 +217,7 @@ FloorPlane FindFloor(const std::vector<VoxelPoint>& cloud, double cell,
 FloorPlane RefineFloor(const FloorPlane& floor, const std::vector<VoxelPoint>& cloud, double band) {
   if (floor.source != "fitted") return floor;
   FloorPlane refined = floor;
-  for (const double width : {band, band / 2.0}) {
+  for (const double width : {band, band / 2.0, band / 4.0, band / 8.0}) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Matrix3d products = Eigen::Matrix3d::Zero();
     std::vector<double> heights;

@@ -181,7 +181,7 @@ void AddMapWarnings(const MapFigures& map, const BuildConfig& config, BuildResul
         "the OctoMap is off (mapping.octomap.enabled=false): no map.bt, map.ot or grid, and the "
         "cloud was not cleaned of voxels the cameras saw through");
   }
-  if (!result->map_frame.floor_found) {
+  if (!result->map_frame.floor_found && result->map_frame.name == "floor") {
     result->warnings.push_back("no floor plane was found (report.json: map_frame.floor): the map "
                                "frame's z is the cameras' mean up, gravity assumed");
   }

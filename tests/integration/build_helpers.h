@@ -1,8 +1,13 @@
 // What the whole-build tests share.
 #pragma once
 
+#include <Eigen/Dense>
+#include <cmath>
 #include <string>
 #include <vector>
+
+#include "stillmap/io/cloud_files.h"
+#include "stillmap/mapping/occupancy_grid.h"
 
 #include "stillmap/pipeline/build_pipeline.h"
 #include "test_util.h"
@@ -41,6 +46,56 @@ inline BuildResult TrackRepeatably(const std::string& sequence,
   ApplySetArgument(&request.config, "octomap.enabled=false");
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
   return RunBuild(request);
+}
+
+// The floor of a map as the tests check it, by least squares independent of stillmap's fit: the
+// plane z = a x + b y + c through the points within 5 cm of z = 0.
+struct FloorCheck {
+  double tilt_deg = 90.0;       // of the plane's normal from +z
+  double height_at_origin = 0;  // c [m]
+  double share_near = 0.0;      // of all points, within 5 cm of z = 0
+  double share_below = 0.0;     // of all points, more than 10 cm below z = 0
+};
+inline FloorCheck CheckFloor(const std::vector<VoxelPoint>& points) {
+  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  size_t near = 0, below = 0;
+  for (const VoxelPoint& p : points) {
+    below += p.position.z() < -0.10f ? 1 : 0;
+    if (std::abs(p.position.z()) >= 0.05f) continue;
+    const Eigen::Vector3d v(p.position.x(), p.position.y(), 1.0);
+    normal_matrix += v * v.transpose();
+    rhs += v * p.position.z();
+    ++near;
+  }
+  FloorCheck check;
+  if (near < 3 || points.empty()) return check;
+  const Eigen::Vector3d abc = normal_matrix.ldlt().solve(rhs);
+  check.tilt_deg = std::atan(std::hypot(abc.x(), abc.y())) * 180.0 / M_PI;
+  check.height_at_origin = abc.z();
+  check.share_near = static_cast<double>(near) / static_cast<double>(points.size());
+  check.share_below = static_cast<double>(below) / static_cast<double>(points.size());
+  return check;
+}
+
+// Occupied cells of a grid with no cloud point more than `min_height` above the floor over them
+// (the cloud in the 3-D outputs' frame, grid.world_from_grid placing the grid in it).
+inline size_t PhantomCells(const OccupancyGrid& grid, const std::vector<VoxelPoint>& cloud,
+                           double min_height = 0.10) {
+  std::vector<bool> high(grid.cells.size(), false);
+  const Eigen::Isometry3d grid_from_map = grid.world_from_grid.inverse();
+  for (const VoxelPoint& p : cloud) {
+    const Eigen::Vector3d g = grid_from_map * p.position.cast<double>();
+    const int i = static_cast<int>(std::floor((g.x() - grid.origin.x()) / grid.resolution));
+    const int j = static_cast<int>(std::floor((g.y() - grid.origin.y()) / grid.resolution));
+    if (g.z() <= min_height || i < 0 || j < 0 || i >= grid.width || j >= grid.height) continue;
+    high[static_cast<size_t>(j) * static_cast<size_t>(grid.width) + static_cast<size_t>(i)] = true;
+  }
+  size_t phantoms = 0;
+  for (size_t k = 0; k < grid.cells.size(); ++k) {
+    phantoms += grid.cells[k] == kGridOccupied && !high[k] ? 1 : 0;
+  }
+  return phantoms;
 }
 
 }  // namespace testing

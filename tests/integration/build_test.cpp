@@ -21,6 +21,7 @@
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/back_projection.h"
 #include "stillmap/mapping/map_quality.h"
+#include "stillmap/mapping/occupancy_grid.h"
 #include "stillmap/pipeline/build_pipeline.h"
 #include "stillmap/synth/mesh.h"
 #include "stillmap/synth/synthetic.h"
@@ -50,6 +51,7 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   request.output_dir = dir / "out";
   request.poses = PoseSource::kGroundTruth;
   ApplySetArgument(&request.config, "mapping.voxel_leaf_size=0.02");
+  ApplySetArgument(&request.config, "map.frame=groundtruth");  // the truth's frame, exactly
   const BuildResult summary = RunBuild(request);
   EXPECT_EQ(summary.frames.fused, 6u);
   EXPECT_EQ(summary.frames.without_pose, 0u);
@@ -328,8 +330,8 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
   EXPECT_EQ(trajectory.size(), 90u);
   ASSERT_GE(keyframes.size(), 3u);
   EXPECT_LT(keyframes.size(), trajectory.size());
-  // World = the first camera.
-  EXPECT_LT(trajectory.poses()[0].world_from_camera.translation().norm(), 1e-9);
+  // The map frame stands under the first camera, x along its view: no sideways offset.
+  EXPECT_LT(trajectory.poses()[0].world_from_camera.translation().head<2>().norm(), 1e-6);
 
   const nlohmann::json report = nlohmann::json::parse(testing::ReadText(dir / "out/report.json"));
   EXPECT_EQ(report["poses"], "tracking");
@@ -360,6 +362,103 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
             << " mm, completeness " << 100.0 * completeness << " %\n";
   EXPECT_LT(accuracy_median, 0.015);
   EXPECT_GT(completeness, 0.9);
+}
+
+// Every 3-D output in one z-up frame on the floor (map.frame=floor, the default), in both pose
+// modes, against the synthetic room's truth (its world is z up with the floor at z = 0): the
+// cloud's floor (fitted here by least squares) within 2 degrees of +z and 2 cm of z = 0; the
+// cameras' heights and up axes in trajectory.txt and keyframes.txt those of the ground truth; the
+// OctoMap's and the mesh's floor at z = 0; the grid's frame the map frame itself.
+TEST(BuildTest, EveryOutputStandsOnTheFloorInBothPoseModes) {
+  testing::TempDir dir;
+  WriteScenario(dir / "seq", "static", 60);
+  const Trajectory truth = Trajectory::ReadTum(dir / "seq/groundtruth.txt");
+  for (const std::string poses : {"tracking", "groundtruth"}) {
+    const std::string out = dir / ("out_" + poses);
+    std::string output;
+    ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + out + " --poses " + poses +
+                                       " --detector none --quiet",
+                                   &output),
+              0)
+        << output;
+    const testing::FloorCheck floor = testing::CheckFloor(ReadCloud(out + "/map.ply"));
+    std::cout << poses << ": floor tilt " << floor.tilt_deg << " deg, height at the origin "
+              << floor.height_at_origin * 1e3 << " mm, " << 100 * floor.share_near
+              << " % of the points on it, " << 100 * floor.share_below << " % below\n";
+    EXPECT_LT(floor.tilt_deg, 2.0) << poses;
+    EXPECT_LT(std::abs(floor.height_at_origin), 0.02) << poses;
+    EXPECT_GT(floor.share_near, 0.1) << poses;
+    EXPECT_LT(floor.share_below, 0.005) << poses;
+    for (const char* file : {"trajectory.txt", "keyframes.txt"}) {
+      const Trajectory written = Trajectory::ReadTum(out + "/" + file);
+      ASSERT_GT(written.size(), 2u) << file;
+      for (const StampedPose& pose : written.poses()) {
+        const std::optional<Eigen::Isometry3d> true_pose = truth.Interpolate(pose.time, 0.1);
+        ASSERT_TRUE(true_pose.has_value());
+        EXPECT_NEAR(pose.world_from_camera.translation().z(), true_pose->translation().z(), 0.02)
+            << poses << " " << file << " " << pose.time;
+        // The world's up seen from the camera: the same direction in both.
+        const Eigen::Vector3d up = pose.world_from_camera.linear().row(2).transpose();
+        const Eigen::Vector3d true_up = true_pose->linear().row(2).transpose();
+        EXPECT_LT(std::acos(std::min(1.0, up.dot(true_up))) * 180.0 / M_PI, 2.0) << poses << file;
+      }
+    }
+    // The OctoMap as OctoMap reads it: its occupied voxels rest on z = 0.
+    octomap::OcTree tree(0.1);
+    ASSERT_TRUE(tree.readBinary(out + "/map.bt"));
+    size_t occupied = 0, on_floor = 0, under = 0;
+    for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+      if (!tree.isNodeOccupied(*it)) continue;
+      ++occupied;
+      on_floor += std::abs(it.getZ()) < 0.08 ? 1 : 0;
+      under += it.getZ() < -0.1 ? 1 : 0;
+    }
+    EXPECT_GT(on_floor, occupied / 5) << poses;
+    EXPECT_LT(under, occupied / 100 + 1) << poses;
+    const TriangleMesh mesh = LoadMesh(out + "/mesh.glb");
+    size_t low_vertices = 0;
+    for (const Eigen::Vector3f& v : mesh.vertices) low_vertices += v.z() < -0.1f ? 1 : 0;
+    EXPECT_LT(low_vertices, mesh.vertices.size() / 100 + 1) << poses;
+    const OccupancyGrid grid = ReadGrid(out + "/grid.yaml");
+    EXPECT_TRUE(grid.world_from_grid.isApprox(Eigen::Isometry3d::Identity(), 1e-6)) << poses;
+    EXPECT_EQ(testing::PhantomCells(grid, ReadCloud(out + "/map.ply")), 0u) << poses;
+    const nlohmann::json report = nlohmann::json::parse(testing::ReadText(out + "/report.json"));
+    EXPECT_EQ(report["map_frame"]["name"], "floor");
+    EXPECT_TRUE(report["map_frame"]["floor_found"].get<bool>());
+    EXPECT_NE(testing::ReadText(out + "/map.pcd").find("# frame: floor: z up"), std::string::npos);
+  }
+}
+
+// map.frame=camera keeps the first camera's optical frame; map.frame=groundtruth with tracked
+// poses anchors the map at the first frame's ground-truth pose.
+TEST(BuildTest, TheOtherMapFramesAreTheFirstCameraAndTheGroundTruth) {
+  testing::TempDir dir;
+  WriteScenario(dir / "seq", "static", 30);
+  const Trajectory truth = Trajectory::ReadTum(dir / "seq/groundtruth.txt");
+  std::string output;
+  for (const std::string frame : {"camera", "groundtruth"}) {
+    const std::string out = dir / ("out_" + frame);
+    ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + out +
+                                       " --detector none --quiet --set map.frame=" + frame,
+                                   &output),
+              0)
+        << output;
+    const Trajectory written = Trajectory::ReadTum(out + "/trajectory.txt");
+    const StampedPose& first = written.poses().front();
+    const Eigen::Isometry3d expected = frame == "camera" ? Eigen::Isometry3d::Identity()
+                                                         : *truth.Interpolate(first.time, 0.1);
+    EXPECT_TRUE(first.world_from_camera.isApprox(expected, 1e-6)) << frame;
+    // The last pose is where the truth has it, up to the tracking's drift.
+    const StampedPose& last = written.poses().back();
+    if (frame == "groundtruth") {
+      EXPECT_LT((last.world_from_camera.translation() -
+                 truth.Interpolate(last.time, 0.1)->translation())
+                    .norm(),
+                0.02);
+    }
+    const nlohmann::json report = nlohmann::json::parse(testing::ReadText(out + "/report.json"));
+    EXPECT_EQ(report["map_frame"]["name"], frame);
+  }
 }
 
 // Renders `frames` frames of the static room into DIR/seq and covers the lens (black color, no

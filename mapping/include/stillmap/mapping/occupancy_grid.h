@@ -117,11 +117,12 @@ FloorPlane FindFloor(const OccupancyMap& map, const Eigen::Vector3d& cameras_up,
 FloorPlane FindFloor(const std::vector<VoxelPoint>& cloud, double cell,
                      const Eigen::Vector3d& cameras_up, const GridOptions& options);
 
-// A fitted floor moved onto the cloud's own floor points: twice, the points within `band` [m]
-// (then band / 2) of the plane give its normal (their principal axis, kept when within 5 degrees
-// of the fit) and its height (their median). The OctoMap's voxel centres put a thick or tilted
-// floor up to a voxel off; the cloud's finer points put z = 0 where the floor's points are. Given
-// floors and the percentile fallback are returned as they are.
+// A fitted floor moved onto the cloud's own floor points: four times, the points within `band`
+// [m] of the plane (then band / 2, / 4, / 8: the narrowing band leaves walls and furniture out)
+// give its normal (their principal axis, kept when within 5 degrees of the fit) and its height
+// (their median). The OctoMap's voxel centres put a thick or tilted floor up to a voxel off; the
+// cloud's finer points put z = 0 where the floor's points are. Given floors and the percentile
+// fallback are returned as they are.
 FloorPlane RefineFloor(const FloorPlane& floor, const std::vector<VoxelPoint>& cloud, double band);
 
 // Cell values as ROS nav_msgs/OccupancyGrid has them.
