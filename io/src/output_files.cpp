@@ -159,6 +159,20 @@ bool OutputSet::IsInternalName(const std::string& filename) {
   return filename == kLockName || filename == kStagingName || filename == kPreviousName;
 }
 
+std::vector<std::string> OutputSet::ForeignNames() const {
+  std::vector<std::string> foreign;
+  std::error_code error;
+  for (const fs::directory_entry& entry : fs::directory_iterator(dir_, error)) {
+    const std::string name = entry.path().filename().string();
+    const bool owned =
+        std::find(owned_names_.begin(), owned_names_.end(), name) != owned_names_.end() ||
+        std::find(owned_names_.begin(), owned_names_.end(), name + "/") != owned_names_.end();
+    if (!owned && !IsInternalName(name)) foreign.push_back(name);
+  }
+  std::sort(foreign.begin(), foreign.end());
+  return foreign;
+}
+
 std::string OutputSet::TemporaryPath(const std::string& name) {
   const fs::path path = fs::path(staging_) / name;
   fs::create_directories(path.parent_path());

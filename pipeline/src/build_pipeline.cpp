@@ -149,6 +149,13 @@ BuildResult RunBuild(const BuildRequest& request) {
   // Locks the output folder and stages the outputs aside until all are written.
   OutputSet outputs(request.output_dir, BuildOutputNames());
   if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
+  const std::vector<std::string> foreign = outputs.ForeignNames();
+  if (!foreign.empty()) {
+    std::string names;
+    for (const std::string& name : foreign) names += (names.empty() ? "" : ", ") + name;
+    result.warnings.push_back("the output folder also holds files stillmap does not write, left "
+                              "as they are: " + names);
+  }
 
   MapperOptions mapper_options = request.config.mapping;
   mapper_options.in_background = mapper_options.in_background && request.threads > 1;

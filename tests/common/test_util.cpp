@@ -2,13 +2,16 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
+#include <queue>
 #include <random>
 #include <sstream>
 
@@ -155,6 +158,51 @@ std::string ErrorOf(const std::function<void()>& call) {
     return e.what();
   }
   return "";
+}
+
+std::vector<cv::Point> PlanPath(const std::vector<bool>& passable, int width, int height,
+                                cv::Point start, cv::Point goal) {
+  auto index = [width](cv::Point p) {
+    return static_cast<size_t>(p.y) * static_cast<size_t>(width) + static_cast<size_t>(p.x);
+  };
+  auto open = [&](cv::Point p) {
+    return p.x >= 0 && p.y >= 0 && p.x < width && p.y < height && passable[index(p)];
+  };
+  if (!open(start) || !open(goal)) return {};
+  auto heuristic = [&goal](cv::Point p) {  // octile distance
+    const int dx = std::abs(p.x - goal.x), dy = std::abs(p.y - goal.y);
+    return std::max(dx, dy) + (std::sqrt(2.0) - 1.0) * std::min(dx, dy);
+  };
+  std::vector<double> cost(passable.size(), std::numeric_limits<double>::infinity());
+  std::vector<long> parent(passable.size(), -1);
+  using Entry = std::pair<double, cv::Point>;
+  auto later = [](const Entry& a, const Entry& b) { return a.first > b.first; };
+  std::priority_queue<Entry, std::vector<Entry>, decltype(later)> queue(later);
+  cost[index(start)] = 0.0;
+  queue.emplace(heuristic(start), start);
+  while (!queue.empty() && queue.top().second != goal) {
+    const cv::Point p = queue.top().second;
+    queue.pop();
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const cv::Point q(p.x + dx, p.y + dy);
+        if ((dx == 0 && dy == 0) || !open(q)) continue;
+        if (dx != 0 && dy != 0 && (!open({p.x + dx, p.y}) || !open({p.x, p.y + dy}))) continue;
+        const double reached = cost[index(p)] + (dx != 0 && dy != 0 ? std::sqrt(2.0) : 1.0);
+        if (reached >= cost[index(q)]) continue;
+        cost[index(q)] = reached;
+        parent[index(q)] = static_cast<long>(index(p));
+        queue.emplace(reached + heuristic(q), q);
+      }
+    }
+  }
+  if (queue.empty()) return {};
+  std::vector<cv::Point> path;
+  for (long k = static_cast<long>(index(goal)); k >= 0; k = parent[static_cast<size_t>(k)]) {
+    path.emplace_back(k % width, k / width);
+  }
+  std::reverse(path.begin(), path.end());
+  return path;
 }
 
 }  // namespace stillmap::testing

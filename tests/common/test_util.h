@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <functional>
 #include <optional>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,12 @@ Camera SmallCamera(int width = 64, int height = 48);
 // Writes a text file.
 void WriteText(const std::string& path, const std::string& text);
 std::string ReadText(const std::string& path);
+
+// A shortest 8-connected path over `passable` cells (row-major, width x height; diagonal steps
+// only between two passable neighbours) from `start` to `goal` by A*, both ends included; empty
+// when there is none or an end is not passable.
+std::vector<cv::Point> PlanPath(const std::vector<bool>& passable, int width, int height,
+                                cv::Point start, cv::Point goal);
 
 // Runs a shell command; returns its exit status and puts its stderr and stdout in `output`.
 int RunCommand(const std::string& command, std::string* output);

@@ -93,6 +93,11 @@ TEST_F(ReliabilityTest, ARerunReplacesTheWholeSet) {
     EXPECT_FALSE(fs::exists(output_ + "/" + stale)) << stale << " of the earlier run stayed";
   }
   EXPECT_EQ(ReadText(output_ + "/notes.txt"), "mine");
+  // The user's file is named, and what the OctoMap's absence leaves out is said.
+  EXPECT_NE(output.find("files stillmap does not write, left as they are: notes.txt"),
+            std::string::npos)
+      << output;
+  EXPECT_NE(output.find("the OctoMap is off"), std::string::npos) << output;
   for (const auto& entry : fs::directory_iterator(output_)) {
     EXPECT_NE(entry.path().extension(), ".tmp") << entry.path();
   }

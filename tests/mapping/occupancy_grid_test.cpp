@@ -359,6 +359,36 @@ TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
   const int row =
       image.rows - 1 - static_cast<int>(std::floor((in_map.y() - origin[1]) / resolution));
   EXPECT_EQ(image.at<std::uint8_t>(row, col), 0);
+
+  // A planner on the loaded grid (A*, 8-connected, free cells only) gets from one side of the box
+  // to the other, around it: no cell of its path lies on the box or off the free space.
+  std::vector<bool> passable(static_cast<size_t>(image.rows * image.cols));
+  for (int r = 0; r < image.rows; ++r) {
+    for (int c = 0; c < image.cols; ++c) {
+      passable[static_cast<size_t>(r * image.cols + c)] =
+          (255.0 - image.at<std::uint8_t>(r, c)) / 255.0 < free_thresh;
+    }
+  }
+  auto pixel_of = [&](double x, double y) {  // a room point's pixel, through the YAML alone
+    const Eigen::Vector4d p = m.inverse() * (room_from_world_.inverse().matrix() *
+                                             Eigen::Vector4d(x, y, 0.0, 1.0));
+    return cv::Point(static_cast<int>(std::floor((p.x() - origin[0]) / resolution)),
+                     image.rows - 1 - static_cast<int>(std::floor((p.y() - origin[1]) / resolution)));
+  };
+  const std::vector<cv::Point> path =
+      testing::PlanPath(passable, image.cols, image.rows, pixel_of(0.2, 2.25), pixel_of(1.3, 2.25));
+  ASSERT_GT(path.size(), 10u) << "no path between two free cells either side of the box";
+  const Eigen::Matrix4d room_from_map = room_from_world_.matrix() * m;
+  for (const cv::Point& pixel : path) {
+    ASSERT_TRUE(passable[static_cast<size_t>(pixel.y * image.cols + pixel.x)]);
+    const Eigen::Vector4d centre =
+        room_from_map * Eigen::Vector4d(origin[0] + (pixel.x + 0.5) * resolution,
+                                        origin[1] + (image.rows - 1 - pixel.y + 0.5) * resolution,
+                                        0.0, 1.0);
+    const bool on_box = centre.x() > 0.5 && centre.x() < 1.0 && centre.y() > 2.0 &&
+                        centre.y() < 2.5;
+    EXPECT_FALSE(on_box) << centre.transpose();
+  }
 }
 
 TEST(GridOptionsTest, ImpossibleValuesAreRejectedByName) {

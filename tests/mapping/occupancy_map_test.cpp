@@ -106,6 +106,36 @@ TEST(OccupancyMapTest, BinaryAndFullFilesReadBackInOctoMap) {
   EXPECT_EQ(full->size(), binary.size());
 }
 
+// Both files as octomap-tools' convert_octree reads them (what octovis and octomap_server load):
+// it converts each to .ot, and the converted tree has the same nodes and the wall occupied.
+TEST(OccupancyMapTest, ConvertOctreeReadsBothFiles) {
+  std::string output;
+  ASSERT_EQ(testing::RunCommand("command -v convert_octree", &output), 0)
+      << "convert_octree not found: install Debian's octomap-tools (scripts/setup.sh does)";
+  testing::TempDir dir;
+  OccupancyMap map;
+  for (int k = 0; k < 2; ++k) map.InsertScan(Wall(), Eigen::Vector3f::Zero());
+  Eigen::Isometry3d turned = Eigen::Isometry3d::Identity();
+  turned.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()).matrix();
+  const OccupancyMap moved = map.Transformed(turned);
+  moved.WriteBinary(dir / "map.bt");
+  moved.WriteFull(dir / "map.ot");
+  for (const char* name : {"map.bt", "map.ot"}) {
+    const std::string converted = dir / (std::string(name) + ".converted.ot");
+    ASSERT_EQ(testing::RunCommand("convert_octree " + dir / name + " " + converted, &output), 0)
+        << output;
+    std::unique_ptr<octomap::AbstractOcTree> tree(octomap::AbstractOcTree::read(converted));
+    ASSERT_NE(tree, nullptr) << name;
+    auto* octree = dynamic_cast<octomap::OcTree*>(tree.get());
+    ASSERT_NE(octree, nullptr) << name;
+    EXPECT_EQ(octree->getNumLeafNodes(), moved.LeafCount()) << name;
+    const Eigen::Vector3d wall = turned * Eigen::Vector3d(0.1, -0.2, 2.025);
+    const octomap::OcTreeNode* hit = octree->search(wall.x(), wall.y(), wall.z());
+    ASSERT_NE(hit, nullptr) << name;
+    EXPECT_TRUE(octree->isNodeOccupied(hit)) << name;
+  }
+}
+
 TEST(OccupancyMapTest, ImpossibleOptionsAreRejected) {
   OccupancyMapOptions options;
   options.resolution = 0.0;

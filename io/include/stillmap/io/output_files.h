@@ -45,6 +45,10 @@ class OutputSet {
   void Commit();
   // Non-empty when the constructor restored an interrupted earlier run's outputs: what it did.
   const std::string& recovery_note() const { return recovery_note_; }
+  // The entries of the folder that are neither the set's names nor its hidden entries (files a
+  // user put there), sorted; they are never touched.
+  std::vector<std::string> ForeignNames() const;
+
   // Whether `filename` (inside an output folder) is one of the set's own hidden entries.
   static bool IsInternalName(const std::string& filename);
 
