@@ -223,6 +223,9 @@ int Run(int argc, char** argv) {
   app.set_version_flag("--version", std::string("stillmap ") + STILLMAP_VERSION);
   app.require_subcommand(1);
   BuildCommand build;
+  for (int i = 0; i < argc; ++i) {
+    build.request.command_line += (i > 0 ? " " : "") + std::string(argv[i]);
+  }
   EvalCommand eval;
   SynthCommand synth;
   ViewCommand view;

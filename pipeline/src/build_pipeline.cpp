@@ -2,7 +2,10 @@
 
 #include <sys/resource.h>
 
+#include <fmt/chrono.h>
+
 #include <algorithm>
+#include <ctime>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -140,6 +143,8 @@ BuildResult RunBuild(const BuildRequest& request) {
   CheckRequest(request);
   BuildResult result;
   result.sequence_dir = request.sequence_dir;
+  result.command_line = request.command_line;
+  result.started_utc = fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::time(nullptr)));
   result.poses = request.poses;
   result.threads = request.threads;
   const BuildInputs inputs = OpenInputs(request, &result);  // checked before anything is written

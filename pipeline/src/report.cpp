@@ -161,6 +161,17 @@ json MapFrameJson(const MapFrameFigures& frame, bool tracked) {
           {"poses_from_map", RowMajor(frame.poses_from_map)}};
 }
 
+// The files the build wrote, for report.html's links.
+json OutputsJson(const BuildResult& result, const BuildConfig& config) {
+  json files = {"map.ply", "map.pcd"};
+  if (config.mapping.occupancy.enabled) files.insert(files.end(), {"map.bt", "map.ot"});
+  files.insert(files.end(), {"trajectory.txt", "keyframes.txt"});
+  if (result.grid) files.insert(files.end(), {"grid.pgm", "grid.yaml"});
+  if (result.mesh) files.push_back(result.mesh->file);
+  files.insert(files.end(), {"config.yaml", "report.json"});
+  return files;
+}
+
 json GridJson(const OccupancyGrid& grid) {
   return {{"files", {"grid.pgm", "grid.yaml"}},
           {"width", grid.width},
@@ -351,6 +362,9 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   report["sequence"] = result.sequence_dir;
   report["poses"] = result.tracked() ? "tracking" : "groundtruth";
   report["map_frame"] = MapFrameJson(result.map_frame, result.tracked());
+  report["command"] = result.command_line.empty() ? json(nullptr) : json(result.command_line);
+  report["started_utc"] = result.started_utc;
+  report["outputs"] = OutputsJson(result, config);
   report["camera"] = CameraJson(result.camera);
   report["frames"] = FramesJson(result.frames);
   report["keyframes"] = KeyframesJson(result, config);

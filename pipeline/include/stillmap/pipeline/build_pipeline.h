@@ -21,6 +21,7 @@ struct BuildRequest {
   std::string models_dir;         // holds yolox_nano/ and deeplabv3_mnv2_voc/
   int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
   bool show_progress = false;  // a progress line on stderr
+  std::string command_line;    // as typed, for the report (empty: a library call)
 };
 
 // Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so

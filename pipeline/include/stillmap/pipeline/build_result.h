@@ -117,6 +117,8 @@ struct MapFrameFigures {
 
 struct BuildResult {
   std::string sequence_dir;
+  std::string command_line;  // BuildRequest::command_line
+  std::string started_utc;   // ISO 8601, when the build started
   PoseSource poses = PoseSource::kTracking;
   Camera camera;
   int threads = 1;
