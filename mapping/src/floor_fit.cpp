@@ -58,8 +58,8 @@ pcl::shared_ptr<Cloud> ThinnedCloud(const std::vector<VoxelPoint>& points, doubl
       const auto index = static_cast<std::int64_t>(std::floor(p.position[axis] / cell));
       key = (key << 21) | (static_cast<std::uint64_t>(index) & 0x1FFFFF);
     }
-    if (taken.insert(key).second) cloud->push_back(pcl::PointXYZ(p.position.x(), p.position.y(),
-                                                                  p.position.z()));
+    if (taken.insert(key).second)
+      cloud->push_back(pcl::PointXYZ(p.position.x(), p.position.y(), p.position.z()));
   }
   return cloud;
 }

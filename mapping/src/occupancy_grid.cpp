@@ -111,7 +111,9 @@ bool FitExtent(const OccupancyMap& map, const Eigen::Isometry3d& grid_from_world
   if (!(low.x() <= high.x())) return false;
   // Cells are centred on multiples of the resolution, so that the grid frame's origin (under the
   // first camera) is a cell's centre, not a corner shared by four.
-  auto index = [resolution](double v) { return static_cast<int>(std::floor(v / resolution + 0.5)); };
+  auto index = [resolution](double v) {
+    return static_cast<int>(std::floor(v / resolution + 0.5));
+  };
   const int i_min = index(low.x()), j_min = index(low.y());
   grid->width = index(high.x()) - i_min + 1;
   grid->height = index(high.y()) - j_min + 1;
@@ -147,10 +149,9 @@ std::vector<float> ClassifyCells(const OccupancyMap& map, const GridOptions& opt
         double strongest = -1.0;
         for (double dx : offsets) {
           for (double dy : offsets) {
-            const Eigen::Vector3d column = grid.world_from_grid *
-                                           Eigen::Vector3d(grid.origin.x() + i * resolution + dx,
-                                                           grid.origin.y() + j * resolution + dy,
-                                                           0.0);
+            const Eigen::Vector3d column =
+                grid.world_from_grid * Eigen::Vector3d(grid.origin.x() + i * resolution + dx,
+                                                       grid.origin.y() + j * resolution + dy, 0.0);
             const Eigen::Vector3d up = grid.world_from_grid.linear().col(2);
             for (double h : band) {
               const double p = map.Occupancy(column + h * up);
@@ -187,8 +188,8 @@ void RequireCloudSupport(const std::vector<VoxelPoint>& cloud, const GridOptions
     const int i = static_cast<int>(std::floor((g.x() - grid->origin.x()) / grid->resolution));
     const int j = static_cast<int>(std::floor((g.y() - grid->origin.y()) / grid->resolution));
     if (i < 0 || j < 0 || i >= grid->width || j >= grid->height) continue;
-    const size_t k = static_cast<size_t>(j) * static_cast<size_t>(grid->width) +
-                     static_cast<size_t>(i);
+    const size_t k =
+        static_cast<size_t>(j) * static_cast<size_t>(grid->width) + static_cast<size_t>(i);
     ++(g.z() >= options.min_height ? in_band[k] : on_floor[k]);
   }
   for (size_t k = 0; k < grid->cells.size(); ++k) {

@@ -1,10 +1,9 @@
 #include "build_evaluation.h"
 
-#include "map_frame.h"
-
 #include <chrono>
 #include <filesystem>
 
+#include "map_frame.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
 #include "stillmap/io/timing.h"

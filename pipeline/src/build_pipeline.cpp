@@ -1,12 +1,11 @@
 #include "stillmap/pipeline/build_pipeline.h"
 
+#include <fmt/chrono.h>
 #include <sys/resource.h>
 
-#include <fmt/chrono.h>
-
 #include <algorithm>
-#include <ctime>
 #include <chrono>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -158,8 +157,10 @@ BuildResult RunBuild(const BuildRequest& request) {
   if (!foreign.empty()) {
     std::string names;
     for (const std::string& name : foreign) names += (names.empty() ? "" : ", ") + name;
-    result.warnings.push_back("the output folder also holds files stillmap does not write, left "
-                              "as they are: " + names);
+    result.warnings.push_back(
+        "the output folder also holds files stillmap does not write, left "
+        "as they are: " +
+        names);
   }
 
   MapperOptions mapper_options = request.config.mapping;

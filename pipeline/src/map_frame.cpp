@@ -52,7 +52,7 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
     const std::optional<Eigen::Isometry3d> groundtruth_from_poses =
         request.poses == PoseSource::kGroundTruth
             ? std::optional<Eigen::Isometry3d>(Eigen::Isometry3d::Identity())
-                                                  : GroundTruthFromPoses(inputs, request, posed);
+            : GroundTruthFromPoses(inputs, request, posed);
     if (!groundtruth_from_poses) {
       throw std::runtime_error(
           "map.frame=groundtruth: the first tracked frame has no ground-truth pose to anchor the "
@@ -71,7 +71,8 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
 
 PosedFrames PosesInMap(const PosedFrames& posed, const Eigen::Isometry3d& map_from_poses) {
   auto moved = [&](std::vector<StampedPose> poses) {
-    for (StampedPose& pose : poses) pose.world_from_camera = map_from_poses * pose.world_from_camera;
+    for (StampedPose& pose : poses)
+      pose.world_from_camera = map_from_poses * pose.world_from_camera;
     return poses;
   };
   return {Trajectory(moved(posed.trajectory.poses())), moved(posed.fused_poses)};

@@ -82,8 +82,7 @@ bool IsIdentity(const Eigen::Isometry3d& transform) {
 }
 
 // The OctoMap files, in the map frame (resampled when it is not the poses' frame).
-void WriteOccupancyFiles(const FinishedMap& map, const MapFrameFigures& frame,
-                         OutputSet& outputs) {
+void WriteOccupancyFiles(const FinishedMap& map, const MapFrameFigures& frame, OutputSet& outputs) {
   if (!map.occupancy) return;
   const std::string bt = outputs.TemporaryPath("map.bt"), ot = outputs.TemporaryPath("map.ot");
   if (IsIdentity(frame.poses_from_map)) {
@@ -119,11 +118,10 @@ MeshFigures WriteMesh(const std::vector<VoxelPoint>& cloud, const MapMeshOptions
 void WriteTrajectoryFiles(const PosedFrames& posed, bool tracking, const std::string& frame,
                           OutputSet& outputs) {
   const std::string in_frame = "; map frame " + frame;
-  posed.trajectory.WriteTum(
-      outputs.TemporaryPath("trajectory.txt"),
-      (tracking ? "stillmap trajectory (camera-to-map, every tracked frame)"
-                : "stillmap trajectory (camera-to-map, ground-truth poses)") +
-          in_frame);
+  posed.trajectory.WriteTum(outputs.TemporaryPath("trajectory.txt"),
+                            (tracking ? "stillmap trajectory (camera-to-map, every tracked frame)"
+                                      : "stillmap trajectory (camera-to-map, ground-truth poses)") +
+                                in_frame);
   Trajectory(posed.fused_poses)
       .WriteTum(outputs.TemporaryPath("keyframes.txt"),
                 (tracking ? "stillmap keyframes fused into the map (camera-to-map, final poses)"
@@ -182,8 +180,9 @@ void AddMapWarnings(const MapFigures& map, const BuildConfig& config, BuildResul
         "cloud was not cleaned of voxels the cameras saw through");
   }
   if (!result->map_frame.floor_found && result->map_frame.name == "floor") {
-    result->warnings.push_back("no floor plane was found (report.json: map_frame.floor): the map "
-                               "frame's z is the cameras' mean up, gravity assumed");
+    result->warnings.push_back(
+        "no floor plane was found (report.json: map_frame.floor): the map "
+        "frame's z is the cameras' mean up, gravity assumed");
   }
 }
 
@@ -220,9 +219,8 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
   result->grid = WriteGridFiles(map, cloud, *posed, frame, config.grid, outputs);
   timings.grid_ms = floor_ms + MillisecondsSince(grid_start);
   const Eigen::Isometry3d map_from_poses = frame.poses_from_map.inverse();
-  std::future<void> octomap_job = std::async(Policy(request), [&] {
-    WriteOccupancyFiles(map, frame, outputs);
-  });
+  std::future<void> octomap_job =
+      std::async(Policy(request), [&] { WriteOccupancyFiles(map, frame, outputs); });
   MoveToMap(map_from_poses, &cloud);
   *posed = PosesInMap(*posed, map_from_poses);
   std::future<void> mesh_job;

@@ -190,9 +190,10 @@ json GridJson(const OccupancyGrid& grid) {
            "x, y in the floor plane, z up from the floor, origin on the floor under the first "
            "camera, x along its view (the map frame itself when map.frame=floor)"},
           {"world_from_map", RowMajor(grid.world_from_grid)},
-          {"floor", {{"source", grid.floor.source},
-                     {"tilt_to_cameras_up_deg", grid.floor.tilt_to_cameras_deg},
-                     {"plane_voxels", grid.floor.inliers}}}};
+          {"floor",
+           {{"source", grid.floor.source},
+            {"tilt_to_cameras_up_deg", grid.floor.tilt_to_cameras_deg},
+            {"plane_voxels", grid.floor.inliers}}}};
 }
 
 json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {

@@ -6,8 +6,8 @@
 
 #include <Eigen/Geometry>
 #include <functional>
-#include <optional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 

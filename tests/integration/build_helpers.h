@@ -8,7 +8,6 @@
 
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/mapping/occupancy_grid.h"
-
 #include "stillmap/pipeline/build_pipeline.h"
 #include "test_util.h"
 

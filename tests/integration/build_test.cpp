@@ -445,16 +445,16 @@ TEST(BuildTest, TheOtherMapFramesAreTheFirstCameraAndTheGroundTruth) {
         << output;
     const Trajectory written = Trajectory::ReadTum(out + "/trajectory.txt");
     const StampedPose& first = written.poses().front();
-    const Eigen::Isometry3d expected = frame == "camera" ? Eigen::Isometry3d::Identity()
-                                                         : *truth.Interpolate(first.time, 0.1);
+    const Eigen::Isometry3d expected =
+        frame == "camera" ? Eigen::Isometry3d::Identity() : *truth.Interpolate(first.time, 0.1);
     EXPECT_TRUE(first.world_from_camera.isApprox(expected, 1e-6)) << frame;
     // The last pose is where the truth has it, up to the tracking's drift.
     const StampedPose& last = written.poses().back();
     if (frame == "groundtruth") {
-      EXPECT_LT((last.world_from_camera.translation() -
-                 truth.Interpolate(last.time, 0.1)->translation())
-                    .norm(),
-                0.02);
+      EXPECT_LT(
+          (last.world_from_camera.translation() - truth.Interpolate(last.time, 0.1)->translation())
+              .norm(),
+          0.02);
     }
     const nlohmann::json report = nlohmann::json::parse(testing::ReadText(out + "/report.json"));
     EXPECT_EQ(report["map_frame"]["name"], frame);

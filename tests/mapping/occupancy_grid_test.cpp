@@ -287,8 +287,8 @@ TEST_F(OccupancyGridTest, TheStartCellIsFree) {
   const Eigen::Isometry3d world_from_room = room_from_world_.inverse();
   // Over the room's origin the floor is out of every view (the cameras look down 20 degrees).
   sources.start = world_from_room * Eigen::Vector3d(0.0, 0.0, 1.2);
-  sources.world_from_grid =
-      FloorFrame(sources.floor, *sources.start, world_from_room.linear() * Eigen::Vector3d::UnitY());
+  sources.world_from_grid = FloorFrame(sources.floor, *sources.start,
+                                       world_from_room.linear() * Eigen::Vector3d::UnitY());
   const OccupancyGrid without = ProjectToGrid(map_, sources.floor, options);
   EXPECT_EQ(CellAt(without, 0.0, 0.0), kGridUnknown);
   const OccupancyGrid grid = ProjectToGrid(sources, options);
@@ -370,10 +370,11 @@ TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
     }
   }
   auto pixel_of = [&](double x, double y) {  // a room point's pixel, through the YAML alone
-    const Eigen::Vector4d p = m.inverse() * (room_from_world_.inverse().matrix() *
-                                             Eigen::Vector4d(x, y, 0.0, 1.0));
-    return cv::Point(static_cast<int>(std::floor((p.x() - origin[0]) / resolution)),
-                     image.rows - 1 - static_cast<int>(std::floor((p.y() - origin[1]) / resolution)));
+    const Eigen::Vector4d p =
+        m.inverse() * (room_from_world_.inverse().matrix() * Eigen::Vector4d(x, y, 0.0, 1.0));
+    return cv::Point(
+        static_cast<int>(std::floor((p.x() - origin[0]) / resolution)),
+        image.rows - 1 - static_cast<int>(std::floor((p.y() - origin[1]) / resolution)));
   };
   const std::vector<cv::Point> path =
       testing::PlanPath(passable, image.cols, image.rows, pixel_of(0.2, 2.25), pixel_of(1.3, 2.25));
@@ -385,8 +386,8 @@ TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
         room_from_map * Eigen::Vector4d(origin[0] + (pixel.x + 0.5) * resolution,
                                         origin[1] + (image.rows - 1 - pixel.y + 0.5) * resolution,
                                         0.0, 1.0);
-    const bool on_box = centre.x() > 0.5 && centre.x() < 1.0 && centre.y() > 2.0 &&
-                        centre.y() < 2.5;
+    const bool on_box =
+        centre.x() > 0.5 && centre.x() < 1.0 && centre.y() > 2.0 && centre.y() < 2.5;
     EXPECT_FALSE(on_box) << centre.transpose();
   }
 }

@@ -62,7 +62,8 @@ TEST(OccupancyMapTest, TransformedMapHoldsTheSameSpace) {
       ASSERT_GT(moved.Occupancy(new_from_old * p), 0.5) << p.transpose();
     }
   }
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.0, 0.0, 1.0), Eigen::Vector3d(0.1, 0.2, 1.5)}) {
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0.0, 0.0, 1.0), Eigen::Vector3d(0.1, 0.2, 1.5)}) {
     EXPECT_LT(moved.Occupancy(new_from_old * p), 0.5) << p.transpose();
     EXPECT_GE(moved.Occupancy(new_from_old * p), 0.0) << p.transpose();
   }

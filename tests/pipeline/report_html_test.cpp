@@ -33,30 +33,31 @@ TEST(ReportHtmlTest, EveryLeafAppearsEscapedWithTheRenders) {
 // The page opens with the run at a glance, before any table: command, date, sequence, frames,
 // ATE and RPE, speed, map size, the map frame, the warnings and a link to every output.
 TEST(ReportHtmlTest, TheSummaryComesFirst) {
-  const nlohmann::json report = {
-      {"command", "stillmap build seq -o out"},
-      {"started_utc", "2026-11-23T21:00:00Z"},
-      {"sequence", "seq"},
-      {"poses", "tracking"},
-      {"frames", {{"pairs_used", 620}, {"tracked", 620}, {"fused", 37}}},
-      {"trajectory_error",
-       {{"ate_m", {{"rmse", 0.0172}}},
-        {"rpe_translation_m", {{"rmse", 0.0104}}},
-        {"rpe_rotation_deg", {{"rmse", 0.74}}},
-        {"rpe_delta_s", 1.0}}},
-      {"frames_per_second", 21.04},
-      {"wall_time_s", 29.5},
-      {"peak_memory_mib", 548.2},
-      {"map", {{"voxels_written", 1212376}, {"voxel_leaf_m", 0.01}}},
-      {"map_frame", {{"description", "floor: z up & level"}}},
-      {"warnings", {"the OctoMap is off"}},
-      {"outputs", {"map.ply", "grid.yaml"}}};
+  const nlohmann::json report = {{"command", "stillmap build seq -o out"},
+                                 {"started_utc", "2026-11-23T21:00:00Z"},
+                                 {"sequence", "seq"},
+                                 {"poses", "tracking"},
+                                 {"frames", {{"pairs_used", 620}, {"tracked", 620}, {"fused", 37}}},
+                                 {"trajectory_error",
+                                  {{"ate_m", {{"rmse", 0.0172}}},
+                                   {"rpe_translation_m", {{"rmse", 0.0104}}},
+                                   {"rpe_rotation_deg", {{"rmse", 0.74}}},
+                                   {"rpe_delta_s", 1.0}}},
+                                 {"frames_per_second", 21.04},
+                                 {"wall_time_s", 29.5},
+                                 {"peak_memory_mib", 548.2},
+                                 {"map", {{"voxels_written", 1212376}, {"voxel_leaf_m", 0.01}}},
+                                 {"map_frame", {{"description", "floor: z up & level"}}},
+                                 {"warnings", {"the OctoMap is off"}},
+                                 {"outputs", {"map.ply", "grid.yaml"}}};
   const std::string html = ReportHtml(report);
   const size_t first_table = html.find("<h2>");
   for (const char* expected :
-       {"<code>stillmap build seq -o out</code>", "2026-11-23T21:00:00Z", "620 used, 620 posed, 37 "
-        "fused", "ATE RMSE 17.2 mm, RPE RMSE 10.4 mm and 0.740 deg per 1 s", "21.0 frames/s",
-        "548 MiB", "1212376 points", "floor: z up &amp; level", "<li>the OctoMap is off</li>",
+       {"<code>stillmap build seq -o out</code>", "2026-11-23T21:00:00Z",
+        "620 used, 620 posed, 37 "
+        "fused",
+        "ATE RMSE 17.2 mm, RPE RMSE 10.4 mm and 0.740 deg per 1 s", "21.0 frames/s", "548 MiB",
+        "1212376 points", "floor: z up &amp; level", "<li>the OctoMap is off</li>",
         "<a href=\"map.ply\">map.ply</a>", "<a href=\"grid.yaml\">grid.yaml</a>"}) {
     const size_t at = html.find(expected);
     EXPECT_NE(at, std::string::npos) << expected;

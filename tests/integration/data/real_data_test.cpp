@@ -14,8 +14,8 @@
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
-#include "stillmap/mapping/occupancy_grid.h"
 #include "stillmap/mapping/back_projection.h"
+#include "stillmap/mapping/occupancy_grid.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -140,9 +140,9 @@ TEST(BuildTest, RealMapsStandOnTheFloorWithTrueObstacles) {
     for (const std::string poses : {"tracking", "groundtruth"}) {
       testing::TempDir dir;
       std::string output;
-      ASSERT_EQ(testing::RunStillmap("build " + *sequence + " -o " + dir / "out" + " --poses " +
-                                         poses + " --quiet",
-                                     &output),
+      ASSERT_EQ(testing::RunStillmap(
+                    "build " + *sequence + " -o " + dir / "out" + " --poses " + poses + " --quiet",
+                    &output),
                 0)
           << output;
       const std::vector<VoxelPoint> cloud = ReadCloud(dir / "out/map.ply");
