@@ -82,8 +82,12 @@ void GridOptions::Validate() const {
 
 std::optional<Eigen::Vector2i> OccupancyGrid::CellOf(const Eigen::Vector3d& point_in_world) const {
   const Eigen::Vector3d g = world_from_grid.inverse() * point_in_world;
-  const int i = static_cast<int>(std::floor((g.x() - origin.x()) / resolution));
-  const int j = static_cast<int>(std::floor((g.y() - origin.y()) / resolution));
+  return CellAtGridPoint(g.x(), g.y());
+}
+
+std::optional<Eigen::Vector2i> OccupancyGrid::CellAtGridPoint(double x, double y) const {
+  const int i = static_cast<int>(std::floor((x - origin.x()) / resolution));
+  const int j = static_cast<int>(std::floor((y - origin.y()) / resolution));
   if (i < 0 || j < 0 || i >= width || j >= height) return std::nullopt;
   return Eigen::Vector2i(i, j);
 }
@@ -139,6 +143,7 @@ std::vector<float> ClassifyCells(const OccupancyMap& map, const GridOptions& opt
   for (double h = floor_low; h < options.min_height; h += step) floor_band.push_back(h);
   for (int k = 0; k < samples; ++k) offsets.push_back((k + 0.5) * resolution / samples);
   std::vector<float> support(grid.cells.size(), -1.0f);
+  const Eigen::Vector3d up = grid.world_from_grid.linear().col(2);
   cv::parallel_for_(cv::Range(0, grid.height), [&](const cv::Range& rows) {
     for (int j = rows.start; j < rows.end; ++j) {
       for (int i = 0; i < grid.width; ++i) {
@@ -152,7 +157,6 @@ std::vector<float> ClassifyCells(const OccupancyMap& map, const GridOptions& opt
             const Eigen::Vector3d column =
                 grid.world_from_grid * Eigen::Vector3d(grid.origin.x() + i * resolution + dx,
                                                        grid.origin.y() + j * resolution + dy, 0.0);
-            const Eigen::Vector3d up = grid.world_from_grid.linear().col(2);
             for (double h : band) {
               const double p = map.Occupancy(column + h * up);
               strongest = std::max(strongest, p);
@@ -185,12 +189,9 @@ void RequireCloudSupport(const std::vector<VoxelPoint>& cloud, const GridOptions
   for (const VoxelPoint& point : cloud) {
     const Eigen::Vector3f g = grid_from_world * point.position;
     if (g.z() < floor_low || g.z() > options.max_height) continue;
-    const int i = static_cast<int>(std::floor((g.x() - grid->origin.x()) / grid->resolution));
-    const int j = static_cast<int>(std::floor((g.y() - grid->origin.y()) / grid->resolution));
-    if (i < 0 || j < 0 || i >= grid->width || j >= grid->height) continue;
-    const size_t k =
-        static_cast<size_t>(j) * static_cast<size_t>(grid->width) + static_cast<size_t>(i);
-    ++(g.z() >= options.min_height ? in_band[k] : on_floor[k]);
+    const std::optional<Eigen::Vector2i> cell = grid->CellAtGridPoint(g.x(), g.y());
+    if (!cell) continue;
+    ++(g.z() >= options.min_height ? in_band : on_floor)[grid->Index(*cell)];
   }
   for (size_t k = 0; k < grid->cells.size(); ++k) {
     if (grid->cells[k] != kGridOccupied || in_band[k] >= options.min_cloud_points) continue;
@@ -259,9 +260,8 @@ OccupancyGrid ProjectToGrid(const GridSources& sources, const GridOptions& optio
   }
   if (sources.start) {
     const std::optional<Eigen::Vector2i> cell = grid.CellOf(*sources.start);
-    if (cell && grid.At(cell->x(), cell->y()) == kGridUnknown) {
-      grid.cells[static_cast<size_t>(cell->y()) * static_cast<size_t>(grid.width) +
-                 static_cast<size_t>(cell->x())] = kGridFree;
+    if (cell && grid.cells[grid.Index(*cell)] == kGridUnknown) {
+      grid.cells[grid.Index(*cell)] = kGridFree;
       grid.start_made_free = true;
     }
   }
@@ -390,10 +390,8 @@ GridQuality EvaluateGrid(const OccupancyGrid& grid,
   for (const Eigen::Vector3d& point : static_points_in_world) {
     const Eigen::Vector3d g = grid_from_world * point;
     if (g.z() < grid.min_height || g.z() > grid.max_height) continue;
-    const int i = static_cast<int>(std::floor((g.x() - grid.origin.x()) / grid.resolution));
-    const int j = static_cast<int>(std::floor((g.y() - grid.origin.y()) / grid.resolution));
-    if (i < 0 || j < 0 || i >= grid.width || j >= grid.height) continue;
-    truth[static_cast<size_t>(j) * width + static_cast<size_t>(i)] = 1;
+    const std::optional<Eigen::Vector2i> cell = grid.CellAtGridPoint(g.x(), g.y());
+    if (cell) truth[grid.Index(*cell)] = 1;
   }
   // The moving objects' positions across the floor, in grid metres.
   std::vector<Eigen::Vector2d> paths;

@@ -79,7 +79,8 @@ namespace {
 // Sets the voxels of `to` whose centres lie in `leaf` of `from`, grown by `grow` on each side, to
 // the leaf's log-odds; with `keep_higher`, a voxel keeps a higher value it already has.
 void Resample(const octomap::OcTree::leaf_iterator& leaf, const Eigen::Isometry3d& new_from_old,
-              double grow, bool keep_higher, octomap::OcTree* to) {
+              const Eigen::Isometry3d& old_from_new, double grow, bool keep_higher,
+              octomap::OcTree* to) {
   const Eigen::Vector3d centre(leaf.getX(), leaf.getY(), leaf.getZ());
   const double half = leaf.getSize() / 2.0 + grow;
   // The new voxels whose centres may lie in the leaf: the rotated cube's bounding box.
@@ -90,7 +91,6 @@ void Resample(const octomap::OcTree::leaf_iterator& leaf, const Eigen::Isometry3
       !to->coordToKeyChecked(octomap::point3d(high.x(), high.y(), high.z()), last)) {
     return;
   }
-  const Eigen::Isometry3d old_from_new = new_from_old.inverse();
   const float log_odds = leaf->getLogOdds();
   for (int a = first[0]; a <= last[0]; ++a) {
     for (int b = first[1]; b <= last[1]; ++b) {
@@ -120,14 +120,15 @@ OccupancyMap OccupancyMap::Transformed(const Eigen::Isometry3d& new_from_old) co
   result.impl_->rejected = impl_->rejected;
   const octomap::OcTree& from = impl_->tree;
   octomap::OcTree& to = result.impl_->tree;
+  const Eigen::Isometry3d old_from_new = new_from_old.inverse();
   for (auto it = from.begin_leafs(); it != from.end_leafs(); ++it) {
-    if (!from.isNodeOccupied(*it)) Resample(it, new_from_old, 0.0, false, &to);
+    if (!from.isNodeOccupied(*it)) Resample(it, new_from_old, old_from_new, 0.0, false, &to);
   }
   // Occupied leaves grown by a quarter voxel: a one-voxel wall then holds a new voxel centre in
   // every column of the new lattice through it, so rays cannot slip through it.
   const double grow = from.getResolution() / 4.0;
   for (auto it = from.begin_leafs(); it != from.end_leafs(); ++it) {
-    if (from.isNodeOccupied(*it)) Resample(it, new_from_old, grow, true, &to);
+    if (from.isNodeOccupied(*it)) Resample(it, new_from_old, old_from_new, grow, true, &to);
   }
   to.updateInnerOccupancy();
   to.prune();

@@ -46,15 +46,14 @@ std::string EmptyMapMessage(const MapFigures& map, const MapperOptions& options,
   return message + ". Check the depth scale (camera.depth_factor), the depth range and the poses";
 }
 
-// The floor, fitted to the OctoMap's occupied voxels (refined on the cloud once it is clean)
-// or, without one, to the cloud thinned to grid cells and refined on it; checked against the
-// fused cameras' mean up direction (camera -y).
+// The floor fitted to the OctoMap's occupied voxels or, without one, to the cloud thinned to grid
+// cells (RefineFloor then moves it onto the clean cloud); checked against the fused cameras' mean
+// up direction (camera -y).
 FloorPlane MapFloor(const FinishedMap& map, const std::vector<VoxelPoint>* cloud,
                     const PosedFrames& posed, const GridOptions& options) {
   const Eigen::Vector3d cameras_up = MeanCameraUp(WorldFromCameras(posed.fused_poses));
   if (map.occupancy) return FindFloor(*map.occupancy, cameras_up, options);
-  return RefineFloor(FindFloor(*cloud, options.resolution, cameras_up, options), *cloud,
-                     2.0 * options.resolution);
+  return FindFloor(*cloud, options.resolution, cameras_up, options);
 }
 
 // The 2-D grid for planners, from the OctoMap (in the poses' frame) and the cleaned cloud, in
@@ -201,8 +200,8 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
     timings.map_cleaning_ms = MillisecondsSince(start);
   });
   const Clock::time_point floor_start = Clock::now();
-  std::optional<FloorPlane> floor;
-  if (map.occupancy) floor = MapFloor(map, nullptr, *posed, config.grid);  // beside the cleaning
+  std::optional<FloorPlane> fitted;
+  if (map.occupancy) fitted = MapFloor(map, nullptr, *posed, config.grid);  // beside the cleaning
   double floor_ms = MillisecondsSince(floor_start);
   clean_job.get();
   result->map = Figures(map, cleaning);
@@ -212,9 +211,11 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
     throw std::runtime_error(EmptyMapMessage(result->map, config.mapping, *result));
   }
   const Clock::time_point grid_start = Clock::now();
-  floor = floor ? RefineFloor(*floor, cloud, 2.0 * config.mapping.occupancy.resolution)
-                : MapFloor(map, &cloud, *posed, config.grid);
-  result->map_frame = ChooseMapFrame(*floor, inputs, request, *posed);
+  // Two of the fit's cells (OctoMap voxels, or grid cells without an OctoMap) either side.
+  const double band = 2.0 * (map.occupancy ? map.occupancy->resolution() : config.grid.resolution);
+  const FloorPlane floor =
+      RefineFloor(fitted ? *fitted : MapFloor(map, &cloud, *posed, config.grid), cloud, band);
+  result->map_frame = ChooseMapFrame(floor, inputs, request, *posed);
   const MapFrameFigures& frame = result->map_frame;
   result->grid = WriteGridFiles(map, cloud, *posed, frame, config.grid, outputs);
   timings.grid_ms = floor_ms + MillisecondsSince(grid_start);

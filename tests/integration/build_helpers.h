@@ -85,10 +85,8 @@ inline size_t PhantomCells(const OccupancyGrid& grid, const std::vector<VoxelPoi
   const Eigen::Isometry3d grid_from_map = grid.world_from_grid.inverse();
   for (const VoxelPoint& p : cloud) {
     const Eigen::Vector3d g = grid_from_map * p.position.cast<double>();
-    const int i = static_cast<int>(std::floor((g.x() - grid.origin.x()) / grid.resolution));
-    const int j = static_cast<int>(std::floor((g.y() - grid.origin.y()) / grid.resolution));
-    if (g.z() <= min_height || i < 0 || j < 0 || i >= grid.width || j >= grid.height) continue;
-    high[static_cast<size_t>(j) * static_cast<size_t>(grid.width) + static_cast<size_t>(i)] = true;
+    const std::optional<Eigen::Vector2i> cell = grid.CellAtGridPoint(g.x(), g.y());
+    if (g.z() > min_height && cell) high[grid.Index(*cell)] = true;
   }
   size_t phantoms = 0;
   for (size_t k = 0; k < grid.cells.size(); ++k) {

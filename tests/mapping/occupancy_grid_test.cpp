@@ -116,7 +116,7 @@ class OccupancyGridTest : public ::testing::Test {
     for (const Eigen::Vector3d& p : truth_) {
       const auto cell = grid.CellOf(p);
       if (cell && grid.floor.Height(p) > grid.min_height) {
-        high[static_cast<size_t>(cell->y() * grid.width + cell->x())] = true;
+        high[grid.Index(*cell)] = true;
       }
     }
     size_t phantoms = 0;

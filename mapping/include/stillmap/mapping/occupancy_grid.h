@@ -153,6 +153,13 @@ struct OccupancyGrid {
   }
   // The cell holding a world point's projection, or nothing outside the grid.
   std::optional<Eigen::Vector2i> CellOf(const Eigen::Vector3d& point_in_world) const;
+  // The cell holding a point given in the grid frame (x, y [m]), or nothing outside the grid.
+  std::optional<Eigen::Vector2i> CellAtGridPoint(double x, double y) const;
+  // Its index in `cells`.
+  size_t Index(const Eigen::Vector2i& cell) const {
+    return static_cast<size_t>(cell.y()) * static_cast<size_t>(width) +
+           static_cast<size_t>(cell.x());
+  }
   size_t Count(std::int8_t value) const;
 };
 
