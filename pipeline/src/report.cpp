@@ -134,7 +134,7 @@ json MeshJson(const std::optional<MeshFigures>& mesh, const MapMeshOptions& opti
 }
 
 std::vector<double> RowMajor(const Eigen::Isometry3d& transform) {
-  const Eigen::Matrix4d m = transform.matrix();
+  const Eigen::Matrix4d& m = transform.matrix();
   std::vector<double> values;
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) values.push_back(m(r, c));

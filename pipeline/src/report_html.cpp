@@ -128,7 +128,8 @@ std::vector<std::pair<std::string, std::string>> SummaryRows(const nlohmann::jso
   if (outputs.is_array()) {
     for (const nlohmann::json& file : outputs) {
       const std::string name = Escape(Value(file));
-      links += (links.empty() ? "" : " &middot; ") + ("<a href=\"" + name + "\">" + name + "</a>");
+      if (!links.empty()) links += " &middot; ";
+      links.append("<a href=\"").append(name).append("\">").append(name).append("</a>");
     }
   }
   rows.emplace_back("outputs", links);
