@@ -37,6 +37,7 @@ TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
   ApplySetArgument(&request.config,
                    "sequence.first_frame=5");  // frames 0-4 precede the ground truth
   ApplySetArgument(&request.config, "sequence.max_frames=40");
+  ApplySetArgument(&request.config, "map.frame=groundtruth");  // the held-out frames' frame
   const BuildResult summary = RunBuild(request);
   EXPECT_EQ(summary.frames.fused, 40u);
   for (const char* name : kOutputs) EXPECT_TRUE(fs::exists(dir / "out/" + name)) << name;
