@@ -12,6 +12,7 @@
 #include "stillmap/io/error.h"
 #include "stillmap/pipeline/build_pipeline.h"
 #include "stillmap/pipeline/commands.h"
+#include "stillmap/pipeline/library_messages.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report.h"
 #include "stillmap/synth/synthetic.h"
@@ -37,13 +38,15 @@ struct BuildCommand {
   std::vector<std::string> set_arguments;
   std::string poses;
   bool quiet = false;
+  bool verbose = false;
   CLI::App* command = nullptr;
 
   void Add(CLI::App& app) {
     command = app.add_subcommand(
         "build",
-        "Build the maps of a TUM-layout sequence (map.ply, map.pcd, map.bt, map.ot, "
-        "trajectory.txt, keyframes.txt, report.json, config.yaml).");
+        "Build the maps of a TUM-layout sequence: map.ply, map.pcd, map.bt, map.ot, grid.pgm + "
+        "grid.yaml, mesh.glb, trajectory.txt, keyframes.txt, renders/, report.json, report.html, "
+        "config.yaml; the 3-D outputs in one z-up map frame (map.frame).");
     command->add_option("SEQUENCE_DIR", request.sequence_dir, "TUM-layout sequence folder")
         ->required();
     command
@@ -71,7 +74,13 @@ struct BuildCommand {
         ->add_option("--threads", request.threads,
                      "threads (1: no read-ahead, bundle adjustment inline, OpenCV single-threaded)")
         ->check(CLI::Range(1, 64));
-    command->add_flag("--quiet", quiet, "no progress line, warnings only");
+    CLI::Option* quiet_flag =
+        command->add_flag("--quiet", quiet, "no progress line, warnings only");
+    command
+        ->add_flag("--verbose", verbose,
+                   "also the libraries' own messages (PCL, OpenCV, Ceres), which are off by "
+                   "default")
+        ->excludes(quiet_flag);
     command->footer(ConfigKeysHelp());
   }
 
@@ -249,6 +258,7 @@ int Run(int argc, char** argv) {
     return 2;
   }
 
+  stillmap::SetLibraryMessages(build.verbose);
   try {
     if (*build.command) build.Run();
     if (*eval.command) eval.Run();

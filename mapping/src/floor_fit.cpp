@@ -1,6 +1,5 @@
 // The floor under an occupancy map (FindFloor, occupancy_grid.h): given, fitted with PCL's RANSAC
 // to the occupied voxels, or, without a horizontal plane, a low percentile of their heights.
-#include <pcl/console/print.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -30,21 +29,6 @@ struct FloorCandidate {
   double offset;
   size_t inliers;
   double mean_height;  // along the hint
-};
-
-// PCL's RANSAC prints a line for every degenerate sample ("Sample points too similar or
-// collinear!"), even under --quiet; the fit's outcome is reported instead (report.json grid).
-class QuietPcl {
- public:
-  QuietPcl() : level_(pcl::console::getVerbosityLevel()) {
-    pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  }
-  ~QuietPcl() { pcl::console::setVerbosityLevel(level_); }
-  QuietPcl(const QuietPcl&) = delete;
-  QuietPcl& operator=(const QuietPcl&) = delete;
-
- private:
-  pcl::console::VERBOSITY_LEVEL level_;
 };
 
 // One point of the cloud per `cell` voxel (the first in it).
@@ -82,7 +66,6 @@ std::vector<FloorCandidate> FitPlanes(const pcl::shared_ptr<Cloud>& cloud,
   std::vector<FloorCandidate> candidates;
   std::vector<int> remaining(cloud->size());
   for (size_t i = 0; i < remaining.size(); ++i) remaining[i] = static_cast<int>(i);
-  const QuietPcl quiet;
   const auto min_points = static_cast<size_t>(options.floor_min_points);
   const size_t min_inliers = std::max(
       min_points, cloud->size() * static_cast<size_t>(options.floor_min_inliers_per_mille) / 1000);

@@ -24,6 +24,14 @@ std::int64_t Key(int x, int y, int z) {
          ((static_cast<std::int64_t>(y) & kMask) << 21) | (static_cast<std::int64_t>(z) & kMask);
 }
 
+// The rotation from a z-up frame to glTF's y-up one: (x, y, z) -> (x, z, -y).
+aiMatrix4x4 GltfFromMap() {
+  return aiMatrix4x4(1, 0, 0, 0,  //
+                     0, 0, 1, 0,  //
+                     0, -1, 0, 0,  //
+                     0, 0, 0, 1);
+}
+
 }  // namespace
 
 void MapMeshOptions::Validate() const {
@@ -160,6 +168,10 @@ void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const st
   }
   scene.mRootNode->mMeshes = new unsigned[1]{0};
   scene.mRootNode->mNumMeshes = 1;
+  // glTF is y up (glTF 2.0, "Coordinate System and Units"): the root node turns the map frame's
+  // z up into it, so glTF viewers and Blender's importer show the room upright; the vertices
+  // keep the map frame's coordinates. OBJ and PLY have no convention: they hold the map frame.
+  if (format == "glb") scene.mRootNode->mTransformation = GltfFromMap();
 
   const char* id = format == "glb" ? "glb2" : format == "obj" ? "obj" : "ply";
   Assimp::Exporter exporter;

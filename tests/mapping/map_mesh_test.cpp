@@ -118,6 +118,33 @@ TEST(MapMeshTest, GltfColoursAreLinearPlyColoursAsCaptured) {
                   .isApprox(Eigen::Vector3f(0, 1, 0.04f / 12.92f), 1e-6f));
 }
 
+// glTF is y up: read as glTF viewers and Blender place it (the root node applied), the block
+// that stands 0.3 m tall along the map's z stands 0.3 m tall along glTF's y, and the map's y
+// (0.2 m deep) runs along glTF's -z. OBJ keeps the map frame's coordinates as they are.
+TEST(MapMeshTest, GltfStandsUpOnItsYAxis) {
+  MapMeshOptions options;
+  options.voxel = 0.1;
+  const ColoredMesh mesh = VoxelSurfaceMesh(Block(4, 2, 3, 0.1f), options);
+  testing::TempDir dir;
+  for (const std::string format : {"glb", "obj"}) {
+    const std::string path = dir / ("mesh." + format);
+    WriteColoredMesh(path, mesh, format);
+    Assimp::Importer importer;
+    const aiScene* scene = importer.ReadFile(path, aiProcess_PreTransformVertices);
+    ASSERT_TRUE(scene != nullptr && scene->mNumMeshes == 1) << path;
+    Eigen::AlignedBox3f box;
+    const aiMesh* read = scene->mMeshes[0];
+    for (unsigned i = 0; i < read->mNumVertices; ++i) {
+      box.extend(Eigen::Vector3f(read->mVertices[i].x, read->mVertices[i].y, read->mVertices[i].z));
+    }
+    const Eigen::Vector3f min = format == "glb" ? Eigen::Vector3f(0, 0, -0.2f) : Eigen::Vector3f(0, 0, 0);
+    const Eigen::Vector3f max = format == "glb" ? Eigen::Vector3f(0.4f, 0.3f, 0) : Eigen::Vector3f(0.4f, 0.2f, 0.3f);
+    EXPECT_TRUE((box.min() - min).norm() < 1e-5f)
+        << format << ": " << box.min().transpose();
+    EXPECT_TRUE((box.max() - max).norm() < 1e-5f) << format << ": " << box.max().transpose();
+  }
+}
+
 // assimp cannot export a mesh without faces (its exporter frees the scene's copy twice): the
 // writer refuses it before assimp sees it.
 TEST(MapMeshTest, AnEmptyMeshIsRefusedNotExported) {

@@ -52,7 +52,8 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
 // Linear RGB of sRGB-encoded colour channels in [0, 1] (the camera's colours are sRGB).
 Eigen::Vector3f LinearFromSrgb(const Eigen::Vector3f& srgb);
 
-// Writes the mesh with assimp's exporter (format "glb", "obj" or "ply"; PLY is ASCII: Debian's
+// Writes the mesh with assimp's exporter (format "glb", "obj" or "ply"; the glb's root node turns
+// z up into glTF's y up, the vertices stay as given; PLY is ASCII: Debian's
 // assimp 5.2 crashed reading back the binary PLY it wrote, in map_mesh_test). Throws
 // std::invalid_argument for a mesh without faces, std::runtime_error naming the file and
 // assimp's message when it cannot be written.
