@@ -26,8 +26,8 @@ std::int64_t Key(int x, int y, int z) {
 
 // The rotation from a z-up frame to glTF's y-up one: (x, y, z) -> (x, z, -y).
 aiMatrix4x4 GltfFromMap() {
-  return aiMatrix4x4(1, 0, 0, 0,  //
-                     0, 0, 1, 0,  //
+  return aiMatrix4x4(1, 0, 0, 0,   //
+                     0, 0, 1, 0,   //
                      0, -1, 0, 0,  //
                      0, 0, 0, 1);
 }

@@ -137,10 +137,11 @@ TEST(MapMeshTest, GltfStandsUpOnItsYAxis) {
     for (unsigned i = 0; i < read->mNumVertices; ++i) {
       box.extend(Eigen::Vector3f(read->mVertices[i].x, read->mVertices[i].y, read->mVertices[i].z));
     }
-    const Eigen::Vector3f min = format == "glb" ? Eigen::Vector3f(0, 0, -0.2f) : Eigen::Vector3f(0, 0, 0);
-    const Eigen::Vector3f max = format == "glb" ? Eigen::Vector3f(0.4f, 0.3f, 0) : Eigen::Vector3f(0.4f, 0.2f, 0.3f);
-    EXPECT_TRUE((box.min() - min).norm() < 1e-5f)
-        << format << ": " << box.min().transpose();
+    const Eigen::Vector3f min =
+        format == "glb" ? Eigen::Vector3f(0, 0, -0.2f) : Eigen::Vector3f(0, 0, 0);
+    const Eigen::Vector3f max =
+        format == "glb" ? Eigen::Vector3f(0.4f, 0.3f, 0) : Eigen::Vector3f(0.4f, 0.2f, 0.3f);
+    EXPECT_TRUE((box.min() - min).norm() < 1e-5f) << format << ": " << box.min().transpose();
     EXPECT_TRUE((box.max() - max).norm() < 1e-5f) << format << ": " << box.max().transpose();
   }
 }

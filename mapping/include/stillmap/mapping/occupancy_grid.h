@@ -64,10 +64,11 @@ struct GridOptions {
     visit("resolution", self.resolution, "grid cell edge [m] (independent of octomap.resolution)");
     visit("min_cloud_points", self.min_cloud_points,
           "voxel-cloud points in the band a cell needs to be occupied (0: OctoMap alone)");
-    visit("floor", self.floor,
-          "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 [m] in the "
-          "poses' frame (the first camera's when tracking, groundtruth.txt's world with --poses "
-          "groundtruth), (a, b, c) pointing up");
+    visit(
+        "floor", self.floor,
+        "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 [m] in the "
+        "poses' frame (the first camera's when tracking, groundtruth.txt's world with --poses "
+        "groundtruth), (a, b, c) pointing up");
     visit("occupied_probability", self.occupied_probability,
           "a voxel blocks its grid cell above this occupancy probability");
     visit("confirm_probability", self.confirm_probability,
