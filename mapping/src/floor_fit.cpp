@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "stillmap/mapping/occupancy_grid.h"
+#include "voxel_key.h"
 
 namespace stillmap {
 namespace {
@@ -34,15 +35,15 @@ struct FloorCandidate {
 // One point of the cloud per `cell` voxel (the first in it).
 pcl::shared_ptr<Cloud> ThinnedCloud(const std::vector<VoxelPoint>& points, double cell) {
   auto cloud = pcl::make_shared<Cloud>();
-  std::unordered_set<std::uint64_t> taken;
+  std::unordered_set<std::int64_t> taken;
   taken.reserve(points.size() / 8);
   for (const VoxelPoint& p : points) {
-    std::uint64_t key = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-      const auto index = static_cast<std::int64_t>(std::floor(p.position[axis] / cell));
-      key = (key << 21) | (static_cast<std::uint64_t>(index) & 0x1FFFFF);
-    }
-    if (taken.insert(key).second)
+    const Eigen::Vector3d index = (p.position.cast<double>() / cell).array().floor();
+    if (taken
+            .insert(VoxelKey(static_cast<std::int64_t>(index.x()),
+                             static_cast<std::int64_t>(index.y()),
+                             static_cast<std::int64_t>(index.z())))
+            .second)
       cloud->push_back(pcl::PointXYZ(p.position.x(), p.position.y(), p.position.z()));
   }
   return cloud;

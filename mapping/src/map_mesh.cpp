@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "stillmap/io/error.h"
+#include "voxel_key.h"
 
 namespace stillmap {
 
@@ -17,12 +18,6 @@ struct Cell {
   Eigen::Vector3f color_sum = Eigen::Vector3f::Zero();
   std::uint32_t points = 0;
 };
-
-std::int64_t Key(int x, int y, int z) {
-  constexpr std::int64_t kMask = (1 << 21) - 1;  // 21 bits per axis: +-1e6 voxels
-  return ((static_cast<std::int64_t>(x) & kMask) << 42) |
-         ((static_cast<std::int64_t>(y) & kMask) << 21) | (static_cast<std::int64_t>(z) & kMask);
-}
 
 // The rotation from a z-up frame to glTF's y-up one: (x, y, z) -> (x, z, -y).
 aiMatrix4x4 GltfFromMap() {
@@ -50,7 +45,7 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
   cells.reserve(points.size() / 4);
   for (const VoxelPoint& point : points) {
     const Eigen::Vector3i v = (point.position / edge).array().floor().cast<int>();
-    const std::int64_t key = Key(v.x(), v.y(), v.z());
+    const std::int64_t key = VoxelKey(v.x(), v.y(), v.z());
     Cell& cell = cells[key];
     if (cell.points == 0) index.emplace(key, v);
     cell.color_sum +=
@@ -58,7 +53,7 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
     cell.points += point.count;
   }
   auto occupied = [&](int x, int y, int z) {
-    const auto it = cells.find(Key(x, y, z));
+    const auto it = cells.find(VoxelKey(x, y, z));
     return it != cells.end() && it->second.points >= static_cast<std::uint32_t>(options.min_points);
   };
   // The six faces: outward normal axis and sign, and the four corners (unit cube), ordered
@@ -84,7 +79,7 @@ ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMes
   std::unordered_map<std::int64_t, int> corner_vertex;
   std::vector<int> corner_faces;
   auto vertex_at = [&](const Eigen::Vector3i& corner, const Eigen::Vector3f& color) {
-    const auto [it, added] = corner_vertex.emplace(Key(corner.x(), corner.y(), corner.z()),
+    const auto [it, added] = corner_vertex.emplace(VoxelKey(corner.x(), corner.y(), corner.z()),
                                                    static_cast<int>(mesh.vertices.size()));
     if (added) {
       mesh.vertices.push_back(corner.cast<float>() * edge);
