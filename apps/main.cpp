@@ -4,12 +4,15 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <charconv>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/output_files.h"
 #include "stillmap/pipeline/build_pipeline.h"
 #include "stillmap/pipeline/commands.h"
 #include "stillmap/pipeline/library_messages.h"
@@ -20,6 +23,20 @@
 #include "stillmap/viewer/view_window.h"
 
 namespace {
+
+// CLI11 converts "-5" to an unsigned option by wrapping around and clamps what overflows: this
+// validator lets through only whole numbers that fit in 64 bits unsigned.
+const CLI::Validator kWholeNumber(
+    [](std::string& text) -> std::string {
+      std::uint64_t value = 0;
+      const char* end = text.data() + text.size();
+      const auto [stop, error] = std::from_chars(text.data(), end, value);
+      if (text.empty() || error != std::errc() || stop != end) {
+        return "'" + text + "' is not a whole number from 0 to 18446744073709551615";
+      }
+      return "";
+    },
+    "UINT");
 
 std::string ConfigKeysHelp() {
   std::string text =
@@ -33,6 +50,14 @@ std::string ConfigKeysHelp() {
 
 // Each subcommand: its options (Add) and the library call they become (Run).
 struct BuildCommand {
+  // A build killed while swapping its outputs in is completed first, even when this one is then
+  // refused for a bad option.
+  void RecoverEarlierSwap() const {
+    if (request.output_dir.empty()) return;
+    const std::string recovered = stillmap::RecoverOutputFolder(request.output_dir, "build");
+    if (!recovered.empty()) spdlog::warn("{}: {}", request.output_dir, recovered);
+  }
+
   stillmap::BuildRequest request;
   std::string config_file;
   std::vector<std::string> set_arguments;
@@ -85,10 +110,18 @@ struct BuildCommand {
   }
 
   void Run() {
-    if (!config_file.empty()) stillmap::ApplyConfigFile(&request.config, config_file);
-    for (const std::string& argument : set_arguments) {
-      stillmap::ApplySetArgument(&request.config, argument);
+    // --config is read before anything in the output folder is touched (it may be
+    // OUT/config.yaml).
+    try {
+      if (!config_file.empty()) stillmap::ApplyConfigFile(&request.config, config_file);
+      for (const std::string& argument : set_arguments) {
+        stillmap::ApplySetArgument(&request.config, argument);
+      }
+    } catch (...) {
+      RecoverEarlierSwap();
+      throw;
     }
+    RecoverEarlierSwap();
     // run.* (from --config or --set) decides unless the option itself was given.
     stillmap::RunSettings& run = request.config.run;
     if (command->count("--poses") > 0) run.poses = poses;
@@ -160,8 +193,10 @@ struct SynthCommand {
     command->add_option("OUT_DIR", out_dir, "output folder (new, or an earlier synth output)")
         ->required();
     command->add_option("--scenario", options.scenario, "one of:" + scenarios)->required();
-    command->add_option("--frames", options.frames, "frames at 30 Hz (default 300)");
-    command->add_option("--seed", options.seed, "textures, colors and noise (default 1)");
+    command->add_option("--frames", options.frames, "frames at 30 Hz (default 300)")
+        ->check(kWholeNumber);
+    command->add_option("--seed", options.seed, "textures, colors and noise (default 1)")
+        ->check(kWholeNumber);
     command->add_flag("--motion-blur", options.motion_blur, "blur color over a 16 ms exposure");
     command->add_flag("--no-noise", no_noise, "exact depth and color (no sensor model)");
     command->add_option("--threads", options.threads, "frames rendered in parallel (default 2)");
@@ -170,6 +205,7 @@ struct SynthCommand {
   void Run() {
     options.depth_noise = options.color_noise = !no_noise;
     const stillmap::SynthSummary summary = stillmap::WriteSyntheticSequence(out_dir, options);
+    for (const std::string& warning : summary.warnings) spdlog::warn("{}", warning);
     spdlog::info(
         "{} frames of '{}' in {:.1f} s; {} static ground-truth points; {:.1f} % of "
         "pixels dynamic; written to {}",
@@ -197,6 +233,9 @@ struct ViewCommand {
   }
 
   void Run() const {
+    // A build killed while swapping its outputs in is completed before anything is read.
+    const std::string recovered = stillmap::RecoverOutputFolder(out_dir, "build");
+    if (!recovered.empty()) spdlog::warn("{}: {}", out_dir, recovered);
     if (png) {
       for (const std::string& path : stillmap::RenderBuildFolder(out_dir)) {
         spdlog::info("wrote {}", path);
@@ -255,6 +294,7 @@ int Run(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
     app.exit(e);
+    if (*build.command) build.RecoverEarlierSwap();
     return 2;
   }
 

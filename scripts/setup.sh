@@ -11,7 +11,7 @@ packages=(
   # tests: the cloud files are converted by pcl-tools, as users do
   pcl-tools
   libceres-dev libflann-dev libassimp-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
-  libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev libjpeg-dev
+  libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev libjpeg-dev libpng-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)
   xvfb xauth

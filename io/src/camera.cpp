@@ -10,7 +10,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
-#include "stillmap/io/input_files.h"
+#include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
 
@@ -222,15 +222,7 @@ std::vector<double> ReadList(const YAML::Node& root, const std::string& key,
 }  // namespace
 
 Camera LoadCameraYaml(const std::string& path) {
-  CheckInputFile(path, "camera file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw InputError(path + ": cannot open the camera file");
-  } catch (const YAML::Exception& e) {
-    throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " + e.msg);
-  }
+  const YAML::Node root = LoadYamlFile(path, "camera file");
   if (!root.IsMap()) throw InputError(path + ": expected a YAML map of camera keys");
   const std::set<std::string> known = {
       "width",      "height",       "fx",

@@ -6,6 +6,7 @@
 #include <pcl/point_types.h>
 
 #include <cstdint>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -110,11 +111,45 @@ void WritePly(const std::string& path, const std::vector<VoxelPoint>& points) {
   writer.Finish();
 }
 
+namespace {
+
+// The point count a PLY ("element vertex N") or PCD ("POINTS N") header declares, checked against
+// the file's size before PCL allocates for it: every point takes at least 3 bytes (three
+// coordinates of one byte, or one character each in ASCII), so a larger count is a damaged header.
+void CheckDeclaredPoints(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
+  std::string line;
+  for (int lines = 0; lines < 200 && std::getline(in, line); ++lines) {
+    std::istringstream fields(line);
+    std::string first, second;
+    fields >> first;
+    unsigned long long count = 0;
+    const bool ply = first == "element" && (fields >> second) && second == "vertex";
+    if (!(ply || first == "POINTS") || !(fields >> count)) continue;
+    if (error || count > size / 3) {
+      throw InputError(path + ": the header declares " + std::to_string(count) +
+                       " points but the file holds " + std::to_string(size) +
+                       " bytes (a damaged or cut-short point cloud)");
+    }
+    return;
+  }
+}
+
+}  // namespace
+
 std::vector<VoxelPoint> ReadCloud(const std::string& path) {
   CheckInputFile(path, "point cloud");
+  CheckDeclaredPoints(path);
   pcl::PointCloud<pcl::PointXYZRGB> cloud;
   const bool is_pcd = path.size() >= 4 && path.compare(path.size() - 4, 4, ".pcd") == 0;
-  const int status = is_pcd ? pcl::io::loadPCDFile(path, cloud) : pcl::io::loadPLYFile(path, cloud);
+  int status = -1;
+  try {
+    status = is_pcd ? pcl::io::loadPCDFile(path, cloud) : pcl::io::loadPLYFile(path, cloud);
+  } catch (const std::bad_alloc&) {
+    throw InputError(path + ": the point cloud's header asks for more memory than there is");
+  }
   if (status != 0) throw InputError(path + ": could not read the point cloud");
   std::vector<VoxelPoint> points(cloud.size());
   for (size_t i = 0; i < cloud.size(); ++i) {

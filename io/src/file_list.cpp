@@ -37,14 +37,37 @@ bool ParseFiniteDouble(const std::string& text, double* value) {
   return true;
 }
 
+std::vector<std::string> ReadTextLines(const std::string& path, const std::string& what) {
+  CheckInputFile(path, what);
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  if (!in) throw InputError(path + ": cannot read the " + what);
+  std::vector<std::string> lines(1);
+  const std::string bytes = text.str();
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    const char c = bytes[i];
+    if (c == '\n' || c == '\r') {
+      if (c == '\r' && i + 1 < bytes.size() && bytes[i + 1] == '\n') ++i;  // CRLF
+      lines.emplace_back();
+    } else if (c == '\0' || (static_cast<unsigned char>(c) < 0x20 && c != '\t')) {
+      throw InputError(WhereInFile(path, static_cast<int>(lines.size())) + ": the " + what +
+                       " holds a control byte (" + Quoted(std::string(1, c)) +
+                       ") and is not a text file; is it damaged or a binary file?");
+    } else {
+      lines.back() += c;
+    }
+  }
+  if (lines.back().empty()) lines.pop_back();
+  return lines;
+}
+
 std::vector<StampedPath> ReadFileList(const std::string& path) {
-  CheckInputFile(path, "file list (does the sequence have it?)");
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the file list (does the sequence have it?)");
+  const std::vector<std::string> lines =
+      ReadTextLines(path, "file list (does the sequence have it?)");
   std::vector<StampedPath> entries;
-  std::string line;
   int line_number = 0;
-  while (std::getline(in, line)) {
+  for (const std::string& line : lines) {
     ++line_number;
     const std::vector<std::string> fields = SplitFields(line);
     if (fields.empty() || fields[0][0] == '#') continue;
@@ -52,8 +75,8 @@ std::vector<StampedPath> ReadFileList(const std::string& path) {
     entry.line = line_number;
     if (fields.size() != 2 || !ParseFiniteDouble(fields[0], &entry.time)) {
       throw InputError(WhereInFile(path, line_number) +
-                       ": expected 'timestamp path' (a number and a file name), got '" + line +
-                       "'");
+                       ": expected 'timestamp path' (a number and a file name), got '" +
+                       Quoted(line) + "'");
     }
     entry.path = fields[1];
     if (!entries.empty() && entry.time <= entries.back().time) {

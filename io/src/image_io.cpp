@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "jpeg_decoder.h"
+#include "png_decoder.h"
 #include "stillmap/io/camera.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
@@ -81,12 +82,15 @@ void CheckSize(const std::string& path, const std::vector<unsigned char>& bytes)
 
 }  // namespace
 
-cv::Mat ReadColorImage(const std::string& path) {
+cv::Mat ReadImageAsStored(const std::string& path) {
   const std::vector<unsigned char> bytes = ReadBytes(path);
   CheckComplete(path, bytes);
   CheckSize(path, bytes);
-  cv::Mat image = IsJpeg(bytes) ? DecodeJpeg(path, bytes, Camera::kMaxImageSide)
-                                : cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  return IsJpeg(bytes) ? DecodeJpeg(path, bytes, Camera::kMaxImageSide) : DecodePng(path, bytes);
+}
+
+cv::Mat ReadColorImage(const std::string& path) {
+  cv::Mat image = ReadImageAsStored(path);
   if (image.empty()) throw InputError(path + ": the image could not be decoded (corrupt file?)");
   if (image.depth() != CV_8U) {
     throw InputError(path + ": color image must have 8 bits per channel");
@@ -106,7 +110,7 @@ cv::Mat ReadDepthImage(const std::string& path, double depth_factor) {
     throw InputError(path + ": depth must be a 16-bit PNG (JPEG cannot hold depth)");
   }
   CheckSize(path, bytes);
-  const cv::Mat raw = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  const cv::Mat raw = DecodePng(path, bytes);
   if (raw.empty()) throw InputError(path + ": the depth PNG could not be decoded (corrupt file?)");
   if (raw.channels() != 1 || raw.depth() != CV_16U) {
     throw InputError(path + ": depth must be a 1-channel 16-bit PNG, got " +
@@ -134,7 +138,7 @@ void WriteImage(const std::string& path, const cv::Mat& image, const std::string
   }
 }
 
-void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
+void CheckImageOutputPath(const std::string& path, bool png_only) {
   const std::filesystem::path target(path);
   std::string extension = target.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
@@ -144,10 +148,35 @@ void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
     throw InputError(path + ": is a folder; give the image's file name (e.g. " +
                      (target / "plot.png").string() + ")");
   }
-  if (extension != ".png" && extension != ".jpg" && extension != ".jpeg") {
-    throw InputError(path + ": an image file name must end in .png or .jpg");
+  const bool png = extension == ".png";
+  if (!png && (png_only || (extension != ".jpg" && extension != ".jpeg"))) {
+    throw InputError(path + ": an image file name must end in " +
+                     (png_only ? ".png" : ".png or .jpg"));
   }
+  const std::filesystem::path folder =
+      target.has_parent_path() ? target.parent_path() : std::filesystem::path(".");
+  if (!std::filesystem::is_directory(folder, error)) {
+    throw InputError(path + ": the folder " + folder.string() +
+                     " does not exist; create it first or name another");
+  }
+  if (std::filesystem::exists(target, error)) {
+    std::vector<unsigned char> head(8, 0);
+    std::ifstream in(path, std::ios::binary);
+    in.read(reinterpret_cast<char*>(head.data()), 8);
+    if (!std::filesystem::is_regular_file(target, error) || !(png ? IsPng(head) : IsJpeg(head))) {
+      throw InputError(path + ": exists and is not a " + (png ? "PNG" : "JPEG") +
+                       " image; stillmap does not overwrite it (name another file)");
+    }
+  }
+}
+
+void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
+  CheckImageOutputPath(path, false);
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   const std::string temp = TemporaryPathFor(path);
+  std::remove(temp.c_str());  // never write through what is left at that name
   WriteImage(temp, image, extension);
   CommitTemporary(temp, path);
 }

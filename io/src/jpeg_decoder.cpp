@@ -36,7 +36,7 @@ enum class Outcome { kDecoded, kError, kTooLarge };
 // The libjpeg calls, with no object whose destructor a longjmp could skip: `image` lives in the
 // caller. Returns the outcome and leaves libjpeg's message in `error`.
 Outcome Decode(const std::vector<unsigned char>& bytes, int max_side, ErrorManager* error,
-               cv::Mat* image, long* warnings) {
+               cv::Mat* image, long* warnings, bool* inverted_cmyk) {
   jpeg_decompress_struct info{};
   info.err = jpeg_std_error(&error->manager);
   error->manager.error_exit = OnError;
@@ -55,10 +55,12 @@ Outcome Decode(const std::vector<unsigned char>& bytes, int max_side, ErrorManag
     return Outcome::kTooLarge;
   }
   const bool gray = info.num_components == 1;
-  info.out_color_space = gray ? JCS_GRAYSCALE : JCS_EXT_BGR;
+  const bool cmyk = info.jpeg_color_space == JCS_CMYK || info.jpeg_color_space == JCS_YCCK;
+  info.out_color_space = gray ? JCS_GRAYSCALE : cmyk ? JCS_CMYK : JCS_EXT_BGR;
   jpeg_start_decompress(&info);
   image->create(static_cast<int>(info.output_height), static_cast<int>(info.output_width),
-                gray ? CV_8UC1 : CV_8UC3);
+                gray ? CV_8UC1 : cmyk ? CV_8UC4 : CV_8UC3);
+  *inverted_cmyk = cmyk && info.saw_Adobe_marker;
   while (info.output_scanline < info.output_height) {
     JSAMPROW row = image->ptr<unsigned char>(static_cast<int>(info.output_scanline));
     jpeg_read_scanlines(&info, &row, 1);
@@ -69,13 +71,32 @@ Outcome Decode(const std::vector<unsigned char>& bytes, int max_side, ErrorManag
   return Outcome::kDecoded;
 }
 
+// CMYK (4 channels) to BGR, ink removed from white: R = (1 - C)(1 - K). Adobe's writers (the
+// usual source of CMYK JPEGs, marked by their APP14 segment) store the channels inverted.
+cv::Mat CmykToBgr(const cv::Mat& cmyk, bool inverted) {
+  cv::Mat bgr(cmyk.size(), CV_8UC3);
+  for (int r = 0; r < cmyk.rows; ++r) {
+    const unsigned char* in = cmyk.ptr<unsigned char>(r);
+    unsigned char* out = bgr.ptr<unsigned char>(r);
+    for (int c = 0; c < cmyk.cols; ++c, in += 4, out += 3) {
+      const int k = inverted ? in[3] : 255 - in[3];
+      for (int channel = 0; channel < 3; ++channel) {
+        const int ink_free = inverted ? in[channel] : 255 - in[channel];  // 1 - C, 1 - M, 1 - Y
+        out[2 - channel] = static_cast<unsigned char>((ink_free * k + 127) / 255);
+      }
+    }
+  }
+  return bgr;
+}
+
 }  // namespace
 
 cv::Mat DecodeJpeg(const std::string& path, const std::vector<unsigned char>& bytes, int max_side) {
   ErrorManager error{};
   cv::Mat image;
   long warnings = 0;
-  const Outcome outcome = Decode(bytes, max_side, &error, &image, &warnings);
+  bool inverted_cmyk = false;
+  const Outcome outcome = Decode(bytes, max_side, &error, &image, &warnings, &inverted_cmyk);
   if (outcome == Outcome::kTooLarge) {
     throw InputError(path + ": the JPEG is larger than " + std::to_string(max_side) +
                      " pixels a side");
@@ -84,7 +105,7 @@ cv::Mat DecodeJpeg(const std::string& path, const std::vector<unsigned char>& by
     throw InputError(path + ": corrupt JPEG (libjpeg: " + error.message +
                      "); re-extract or re-encode the file");
   }
-  return image;
+  return image.channels() == 4 ? CmykToBgr(image, inverted_cmyk) : image;
 }
 
 }  // namespace stillmap

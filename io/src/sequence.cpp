@@ -1,5 +1,7 @@
 #include "stillmap/io/sequence.h"
 
+#include <algorithm>
+
 #include <filesystem>
 
 #include "stillmap/io/error.h"
@@ -78,7 +80,16 @@ Sequence Sequence::Open(const std::string& dir, const Camera& camera,
                      " s (compare the timestamps of rgb.txt and depth.txt)");
   }
   const fs::path groundtruth = fs::path(dir) / "groundtruth.txt";
+  const auto holds_a_pose = [](const std::string& line) {
+    const std::vector<std::string> fields = SplitFields(line);
+    return !fields.empty() && fields[0][0] != '#';
+  };
   if (PathExists(groundtruth.string())) {
+    const std::vector<std::string> lines = ReadTextLines(groundtruth.string(), "ground truth");
+    if (std::none_of(lines.begin(), lines.end(), holds_a_pose)) {
+      sequence.groundtruth_note_ = groundtruth.string() + " holds no poses";
+      return sequence;
+    }
     Trajectory trajectory = Trajectory::ReadTum(groundtruth.string());
     if (camera.groundtruth_body_from_camera) {
       trajectory = trajectory.RightMultiplied(*camera.groundtruth_body_from_camera);

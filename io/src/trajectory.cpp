@@ -44,14 +44,10 @@ Trajectory::Trajectory(std::vector<StampedPose> poses) : poses_(std::move(poses)
 }
 
 Trajectory Trajectory::ReadTum(const std::string& path) {
-  CheckInputFile(path, "trajectory file");
-  std::ifstream in(path);
-  if (!in) throw InputError(path + ": cannot open the trajectory file");
   std::vector<StampedPose> poses;
   std::vector<int> lines;
-  std::string line;
   int line_number = 0;
-  while (std::getline(in, line)) {
+  for (const std::string& line : ReadTextLines(path, "trajectory file")) {
     ++line_number;
     const std::vector<std::string> fields = SplitFields(line);
     if (fields.empty() || fields[0][0] == '#') continue;
@@ -63,7 +59,7 @@ Trajectory Trajectory::ReadTum(const std::string& path) {
     double v[8];
     for (int i = 0; i < 8; ++i) {
       if (!ParseFiniteDouble(fields[i], &v[i])) {
-        throw InputError(where + ": field " + std::to_string(i + 1) + " '" + fields[i] +
+        throw InputError(where + ": field " + std::to_string(i + 1) + " '" + Quoted(fields[i]) +
                          "' is not a finite number (NaN and inf are not poses)");
       }
     }

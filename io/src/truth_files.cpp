@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/image_io.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/input_files.h"
 #include "stillmap/io/trajectory.h"
@@ -27,20 +28,17 @@ cv::Mat TruthMasks::Get(double time) const {
   if (times_.empty()) return cv::Mat();
   const size_t i = FindClosestIndex(times_, time);
   if (std::abs(times_[i] - time) > 1e-3) return cv::Mat();
-  CheckInputFile(paths_[i], "mask listed in masks.txt");
-  cv::Mat mask = cv::imread(paths_[i], cv::IMREAD_UNCHANGED);
-  if (mask.empty() || mask.type() != CV_8UC1) {
+  const cv::Mat mask = ReadImageAsStored(paths_[i]);
+  if (mask.type() != CV_8UC1) {
     throw InputError(paths_[i] + ": not a readable 8-bit mask PNG (listed in masks.txt)");
   }
   return mask;
 }
 
 std::vector<ObjectPose> ReadObjectPoses(const std::string& path) {
-  CheckInputFile(path, "object list");
-  std::ifstream in(path);
   std::vector<ObjectPose> poses;
   int line_number = 0;
-  for (std::string line; std::getline(in, line);) {
+  for (const std::string& line : ReadTextLines(path, "object list")) {
     ++line_number;
     const std::vector<std::string> fields = SplitFields(line);
     if (fields.empty() || fields[0][0] == '#') continue;
@@ -54,7 +52,7 @@ std::vector<ObjectPose> ReadObjectPoses(const std::string& path) {
       std::string message = where;
       message += ": expected 'timestamp object_id name tx ty tz qx qy qz qw' with finite numbers, ";
       message += "got '";
-      message += line;
+      message += Quoted(line);
       message += "'";
       throw InputError(message);
     }

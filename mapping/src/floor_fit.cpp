@@ -10,10 +10,12 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
+#include <string>
 #include <optional>
 #include <unordered_set>
 #include <vector>
 
+#include "stillmap/io/error.h"
 #include "stillmap/mapping/occupancy_grid.h"
 #include "voxel_key.h"
 
@@ -170,15 +172,26 @@ Eigen::Vector3d Hint(const Eigen::Vector3d& cameras_up) {
   return cameras_up.norm() > 0.0 ? cameras_up.normalized() : Eigen::Vector3d(0, -1, 0);
 }
 
-// The floor given as grid.floor, if it is.
+// The floor given as grid.floor, if it is; its normal turned to point up. Throws InputError when
+// the plane is farther from level than a fitted floor may be (a wall, or the axes mixed up).
 std::optional<FloorPlane> GivenFloor(const Eigen::Vector3d& hint, const GridOptions& options) {
   if (!options.floor) return std::nullopt;
   FloorPlane floor;
   const double norm = options.floor->head<3>().norm();
   floor.up = options.floor->head<3>() / norm;
   floor.offset = (*options.floor)[3] / norm;
+  if (floor.up.dot(hint) < 0.0) floor.up = -floor.up, floor.offset = -floor.offset;
   floor.source = "given (grid.floor)";
   floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
+  if (floor.tilt_to_cameras_deg > options.max_floor_tilt_deg) {
+    throw InputError("grid.floor: the plane's normal lies " +
+                     std::to_string(static_cast<int>(std::lround(floor.tilt_to_cameras_deg))) +
+                     " deg from the cameras' up direction, more than grid.max_floor_tilt_deg (" +
+                     std::to_string(options.max_floor_tilt_deg) +
+                     "): not a floor; give 'a b c d' with (a, b, c) the floor's normal in the poses' "
+                     "frame (when tracking, the first camera's: x right, y down, z forward, "
+                     "e.g. '0 -1 0 1.2')");
+  }
   return floor;
 }
 

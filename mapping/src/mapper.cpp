@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/cloud_files.h"
+#include "stillmap/io/error.h"
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
@@ -19,6 +20,7 @@ void MapperOptions::Validate() const {
   voxel.Validate();
   occupancy.Validate();
   cleaning.Validate();
+  if (min_map_points < 1) throw InputError("mapping.min_map_points must be at least 1");
 }
 
 Mapper::Mapper(const Camera& camera, const MapperOptions& options)

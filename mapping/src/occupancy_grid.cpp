@@ -13,7 +13,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
-#include "stillmap/io/input_files.h"
+#include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
 
@@ -324,13 +324,7 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
 }
 
 OccupancyGrid ReadGrid(const std::string& yaml_path) {
-  CheckInputFile(yaml_path, "grid description");
-  YAML::Node yaml;
-  try {
-    yaml = YAML::LoadFile(yaml_path);
-  } catch (const YAML::Exception& e) {
-    throw InputError(yaml_path + ": cannot read the grid description (" + e.what() + ")");
-  }
+  const YAML::Node yaml = LoadYamlFile(yaml_path, "grid description");
   auto need = [&](const char* key) {
     if (!yaml[key]) throw InputError(yaml_path + ": missing key '" + key + "'");
     return yaml[key];

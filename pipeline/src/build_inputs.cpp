@@ -61,9 +61,13 @@ BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result) {
   const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
   BuildInputs inputs{camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};
   const bool tracking = request.poses == PoseSource::kTracking;
+  const std::string& no_poses = inputs.sequence.groundtruth_note();
   if (!tracking && !inputs.sequence.groundtruth()) {
-    throw InputError(request.sequence_dir +
-                     ": no groundtruth.txt; --poses groundtruth needs the sequence's ground truth");
+    throw InputError((no_poses.empty() ? request.sequence_dir + ": no groundtruth.txt" : no_poses) +
+                     "; --poses groundtruth needs the sequence's ground truth");
+  }
+  if (!no_poses.empty() && config.map.frame != "groundtruth") {
+    result->warnings.push_back(no_poses + ": the map is built without ATE and RPE");
   }
   if (config.map.frame == "groundtruth" && !inputs.sequence.groundtruth()) {
     throw InputError(request.sequence_dir +

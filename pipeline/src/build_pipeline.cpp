@@ -2,6 +2,7 @@
 
 #include <fmt/chrono.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <chrono>
@@ -49,11 +50,27 @@ void CheckOutputOutsideSequence(const BuildRequest& request) {
   if (error || sequence.empty()) return;  // the inputs' own checks name the problem
   const auto [at_sequence_end, at_output] =
       std::mismatch(sequence.begin(), sequence.end(), output.begin(), output.end());
-  if (at_sequence_end == sequence.end()) {
-    throw InputError(
-        "-o " + request.output_dir + ": the output folder is " +
-        (at_output == output.end() ? "the sequence folder" : "inside the sequence folder") + " " +
-        request.sequence_dir + "; write the outputs elsewhere");
+  bool same = at_sequence_end == sequence.end() && at_output == output.end();
+  bool inside = at_sequence_end == sequence.end() && !same;
+  // The same folder reached by another path (a bind mount, a hard-linked mount point): compare
+  // device and inode of the output folder and each existing folder above it with the sequence's.
+  struct stat sequence_info {};
+  if (!inside && !same && ::stat(sequence.c_str(), &sequence_info) == 0) {
+    for (fs::path at = output; !at.empty(); at = at.parent_path()) {
+      struct stat info {};
+      if (::stat(at.c_str(), &info) == 0 && info.st_dev == sequence_info.st_dev &&
+          info.st_ino == sequence_info.st_ino) {
+        (at == output ? same : inside) = true;
+        break;
+      }
+      if (at == at.root_path()) break;
+    }
+  }
+  if (same || inside) {
+    throw InputError("-o " + request.output_dir + ": the output folder is " +
+                     (same ? "the sequence folder" : "inside the sequence folder") + " " +
+                     request.sequence_dir +
+                     " (perhaps through a mount or link); write the outputs elsewhere");
   }
 }
 
@@ -115,6 +132,9 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
   progress.Finish();
   result->timings.load_wait_ms = reader.wait_ms();
   result->timings.flow_ms = reader.flow_ms();
+  for (std::string& warning : reader.checks().Warnings(inputs.camera.depth_factor)) {
+    result->warnings.push_back(std::move(warning));
+  }
   result->masking.statistics = masks.statistics();
   return posed;
 }
@@ -123,6 +143,16 @@ void WriteText(const std::string& path, const std::string& text, const char* nam
   std::ofstream out(path);
   out << text;
   if (!out.flush()) throw std::runtime_error(std::string("could not write ") + name);
+}
+
+// Names each file in the output folder that a run of ours did not write and that this run's
+// output of the same name will replace: Commit() keeps it beside, renamed.
+void WarnOfSetAside(const OutputSet& outputs, BuildResult* result) {
+  for (const OutputSet::SetAside& entry : outputs.PlanSetAside({"report.json", "report.html"})) {
+    result->warnings.push_back(outputs.FinalPath(entry.name) +
+                               " was not written by stillmap; it is kept as " +
+                               outputs.FinalPath(entry.kept_as));
+  }
 }
 
 }  // namespace
@@ -151,14 +181,14 @@ BuildResult RunBuild(const BuildRequest& request) {
   const std::unique_ptr<MaskStage> masks = MakeMaskStage(request, inputs.camera, &result);
 
   // Locks the output folder and stages the outputs aside until all are written.
-  OutputSet outputs(request.output_dir, BuildOutputNames());
+  OutputSet outputs(request.output_dir, "build", BuildOutputNames());
   if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
   const std::vector<std::string> foreign = outputs.ForeignNames();
   if (!foreign.empty()) {
     std::string names;
     for (const std::string& name : foreign) names += (names.empty() ? "" : ", ") + name;
     result.warnings.push_back(
-        "the output folder also holds files stillmap does not write, left "
+        "the output folder also holds files stillmap did not write, left "
         "as they are: " +
         names);
   }
@@ -178,6 +208,7 @@ BuildResult RunBuild(const BuildRequest& request) {
 
   EvaluateBuild(inputs, request, posed, cloud, &result);  // not counted in the speed above
   WriteRenders(std::move(cloud), posed, request, outputs, &result);
+  WarnOfSetAside(outputs, &result);
   const nlohmann::json report = ReportJson(result, request.config);
   WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n", "report.json");
   WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report), "report.html");

@@ -10,8 +10,8 @@
 
 #include "config_values.h"
 #include "stillmap/io/error.h"
-#include "stillmap/io/input_files.h"
 #include "stillmap/io/option_fields.h"
+#include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
 namespace {
@@ -225,15 +225,7 @@ void ApplySetArgument(BuildConfig* config, const std::string& argument) {
 }
 
 void ApplyConfigFile(BuildConfig* config, const std::string& path) {
-  CheckInputFile(path, "configuration file");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw InputError(path + ": cannot open the configuration file");
-  } catch (const YAML::Exception& e) {
-    throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " + e.msg);
-  }
+  const YAML::Node root = LoadYamlFile(path, "configuration file");
   if (root.IsNull()) return;
   if (!root.IsMap()) throw InputError(path + ": expected a YAML map of configuration keys");
   std::vector<std::pair<std::string, YAML::Node>> entries;

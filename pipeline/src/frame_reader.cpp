@@ -28,6 +28,7 @@ PreparedFrame FrameReader::Get(size_t k) {
 PreparedFrame FrameReader::Prepare(size_t index) {
   PreparedFrame prepared;
   prepared.frame = sequence_.LoadFrame(index);
+  checks_.Add(prepared.frame);
   cv::cvtColor(prepared.frame.color, prepared.gray, cv::COLOR_BGR2GRAY);
   if (flow_) prepared.flow = flow_->Next(prepared.gray);
   return prepared;

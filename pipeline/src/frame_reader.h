@@ -7,6 +7,7 @@
 
 #include "stillmap/io/sequence.h"
 #include "stillmap/tracking/flow_check.h"
+#include "stream_checks.h"
 
 namespace stillmap {
 
@@ -33,6 +34,8 @@ class FrameReader {
   PreparedFrame Get(size_t k);
   double wait_ms() const { return wait_ms_; }  // waiting for frames in total
   const std::vector<double>& flow_ms() const { return flow_ms_; }
+  // What the frames read so far show of the streams' plausibility (call between Get calls).
+  const StreamChecks& checks() const { return checks_; }
 
  private:
   PreparedFrame Prepare(size_t index);
@@ -45,6 +48,7 @@ class FrameReader {
   std::future<PreparedFrame> next_;
   double wait_ms_ = 0.0;
   std::vector<double> flow_ms_;
+  StreamChecks checks_;  // updated by Prepare, frames in order
 };
 
 }  // namespace stillmap

@@ -23,13 +23,16 @@ std::launch Policy(const BuildRequest& request) {
   return request.threads > 1 ? std::launch::async : std::launch::deferred;
 }
 
-// Why a build ends without a map, from the figures that explain it: an empty map is a failed run
-// (exit 1, nothing written), not a set of empty files that look like a result.
-std::string EmptyMapMessage(const MapFigures& map, const MapperOptions& options,
+// Why a build ends without a map, from the figures that explain it: an empty or nearly empty map
+// (`points` in all) is a failed run (exit 1, nothing written), not files that look like a result.
+std::string EmptyMapMessage(size_t points, const MapFigures& map, const MapperOptions& options,
                             const BuildResult& result) {
   std::string message = fmt::format(
-      "the map is empty: {} frames fused, {} depth readings within [{}, {}] m (mapping.min_depth, "
+      "the map is {}: {} frames fused, {} depth readings within [{}, {}] m (mapping.min_depth, "
       "mapping.max_depth) outside the masks",
+      points == 0 ? "empty"
+                  : fmt::format("nearly empty ({} points, fewer than mapping.min_map_points={})",
+                                points, options.min_map_points),
       map.statistics.frames, map.statistics.points, options.back_projection.min_depth,
       options.back_projection.max_depth);
   if (map.voxels_out_of_range > 0) {
@@ -175,7 +178,7 @@ void AddMapWarnings(const MapFigures& map, const BuildConfig& config, BuildResul
   }
   if (!options.occupancy.enabled) {
     result->warnings.push_back(
-        "the OctoMap is off (mapping.octomap.enabled=false): no map.bt, map.ot or grid, and the "
+        "the OctoMap is off (octomap.enabled=false): no map.bt, map.ot or grid, and the "
         "cloud was not cleaned of voxels the cameras saw through");
   }
   if (!result->map_frame.floor_found && result->map_frame.name == "floor") {
@@ -207,8 +210,8 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
   result->map = Figures(map, cleaning);
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
   std::vector<VoxelPoint> cloud = map.cloud.Points();
-  if (cloud.empty()) {
-    throw std::runtime_error(EmptyMapMessage(result->map, config.mapping, *result));
+  if (cloud.size() < static_cast<size_t>(config.mapping.min_map_points)) {
+    throw std::runtime_error(EmptyMapMessage(cloud.size(), result->map, config.mapping, *result));
   }
   const Clock::time_point grid_start = Clock::now();
   // Two of the fit's cells (OctoMap voxels, or grid cells without an OctoMap) either side.

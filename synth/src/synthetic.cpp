@@ -207,18 +207,19 @@ Camera SynthCamera() {
 namespace {
 
 // Refuses to write into anything but a new or empty folder or an earlier synthetic sequence (it
-// has synth.json); in the latter, only what synth writes is replaced.
+// holds synth's record of the files it wrote: a synth.json alone does not count); in the latter,
+// only the files the earlier run wrote are replaced or removed.
 void CheckSynthFolder(const std::string& out_dir) {
   std::error_code error;
   if (!fs::is_directory(out_dir, error) ||
-      PathExists((fs::path(out_dir) / "synth.json").string())) {
+      PathExists((fs::path(out_dir) / ".stillmap-synth-outputs").string())) {
     return;
   }
   for (const fs::directory_entry& entry : fs::directory_iterator(out_dir, error)) {
     if (OutputSet::IsInternalName(entry.path().filename().string())) continue;
     throw InputError(out_dir +
-                     ": exists and is not an earlier stillmap synth output; choose an "
-                     "empty or new folder");
+                     ": exists and is not an earlier stillmap synth output (it holds no record "
+                     "of one); choose an empty or new folder");
   }
 }
 
@@ -370,7 +371,7 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   options.Validate();
   CheckSynthFolder(out_dir);
   OutputSet outputs(
-      out_dir, {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt",
+      out_dir, "synth", {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt",
                 "objects.txt", "groundtruth.txt", "camera.yaml", "static_gt.ply", "synth.json"});
   const fs::path work = outputs.staging_dir();
   for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
@@ -408,6 +409,11 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   for (double share : dynamic_share) summary.dynamic_pixel_share += share / options.frames;
   summary.seconds = SecondsSince(start);
   WriteSynthInfo(options, summary, scene.movers.size(), work);
+  for (const OutputSet::SetAside& entry : outputs.PlanSetAside()) {
+    summary.warnings.push_back(outputs.FinalPath(entry.name) +
+                               " was not written by stillmap synth; it is kept as " +
+                               outputs.FinalPath(entry.kept_as));
+  }
   // Replace an earlier output only now that this one is complete.
   outputs.Commit();
   return summary;

@@ -21,6 +21,7 @@
 #include <random>
 #include <sstream>
 
+#include "hostile_corpus.h"
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/pipeline/config.h"
 #include "test_util.h"
@@ -34,44 +35,6 @@ using testing::RunStillmap;
 using testing::TempDir;
 using testing::WriteText;
 
-// Settings of the generator and of each run.
-size_t EnvCount(const char* name, size_t fallback) {
-  const char* value = std::getenv(name);
-  return value != nullptr && *value != '\0' ? std::stoul(value) : fallback;
-}
-const size_t kSeed = EnvCount("STILLMAP_HOSTILE_SEED", 1);
-const size_t kVariants = EnvCount("STILLMAP_HOSTILE_VARIANTS", 60);
-constexpr int kTimeLimitS = 120;  // a run that takes longer hangs (the clean ones take ~1 s)
-
-// The base sequence: 12 frames of people walking past a moving camera, rendered by
-// `stillmap synth` and scaled to 160x120 so that a run takes about a second.
-const std::string& BaseSequence() {
-  static TempDir dir;
-  static const std::string path = [] {
-    const std::string sequence = dir / "base";
-    std::string output;
-    const int status = RunStillmap(
-        "synth " + sequence + " --scenario walking_xyz --frames 12 --seed 3 --threads 1", &output);
-    if (status != 0) throw std::runtime_error("synth failed: " + output);
-    const double scale = 0.25;
-    for (const char* folder : {"rgb", "depth", "masks"}) {
-      for (const fs::directory_entry& entry : fs::directory_iterator(sequence + "/" + folder)) {
-        cv::Mat image = cv::imread(entry.path().string(), cv::IMREAD_UNCHANGED);
-        cv::resize(image, image, cv::Size(), scale, scale,
-                   std::string(folder) == "rgb" ? cv::INTER_AREA : cv::INTER_NEAREST);
-        cv::imwrite(entry.path().string(), image);
-      }
-    }
-    Camera camera = LoadCameraYaml(sequence + "/camera.yaml");
-    camera.width = 160, camera.height = 120;
-    camera.fx *= scale, camera.fy *= scale;
-    camera.cx = (camera.cx + 0.5) * scale - 0.5, camera.cy = (camera.cy + 0.5) * scale - 0.5;
-    WriteCameraYaml(sequence + "/camera.yaml", camera, "hostile-input base, 1/4 scale");
-    return sequence;
-  }();
-  return path;
-}
-
 // One variant: a description, what it does to its copy of the sequence (and output folder), and
 // the command line after "stillmap".
 struct Variant {
@@ -79,19 +42,6 @@ struct Variant {
   std::function<void(const std::string& sequence, const std::string& out)> mutate;
   std::string arguments;  // appended to "build SEQUENCE -o OUT --quiet ..."
 };
-
-std::vector<std::string> Lines(const std::string& text) {
-  std::vector<std::string> lines;
-  std::istringstream in(text);
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
-  return lines;
-}
-
-std::string Join(const std::vector<std::string>& lines) {
-  std::string text;
-  for (const std::string& line : lines) text += line + "\n";
-  return text;
-}
 
 // Hostile replacements for a number.
 const std::vector<std::string>& HostileNumbers() {
@@ -101,22 +51,6 @@ const std::vector<std::string>& HostileNumbers() {
       "1e4", "999999999",  "-0.0001", "NaN",   "Infinity", "1e+",  "--1",   "3.40282e+39"};
   return kNumbers;
 }
-
-class Generator {
- public:
-  explicit Generator(size_t family) : rng_(kSeed * 7919 + family) {}
-  size_t Below(size_t n) {
-    return n == 0 ? 0 : std::uniform_int_distribution<size_t>(0, n - 1)(rng_);
-  }
-  template <typename T>
-  const T& Pick(const std::vector<T>& values) {
-    return values[Below(values.size())];
-  }
-  std::mt19937_64& rng() { return rng_; }
-
- private:
-  std::mt19937_64 rng_;
-};
 
 // The files a sequence lists: "rgb" or "depth" images.
 std::vector<std::string> ListedImages(const std::string& sequence, const std::string& list) {
@@ -403,25 +337,6 @@ const std::vector<std::string> kAlwaysWritten = {"map.ply",       "map.pcd",    
                                                  "keyframes.txt", "report.json", "report.html",
                                                  "config.yaml"};
 
-// Library messages that must not reach the user as the reason a run failed.
-const std::vector<std::string> kInternalMarkers = {"basic_",
-                                                   "std::",
-                                                   "bad_alloc",
-                                                   "filesystem error",
-                                                   "vector::",
-                                                   "substr",
-                                                   "stoi",
-                                                   "stod",
-                                                   "OpenCV(",
-                                                   "Assertion",
-                                                   "yaml-cpp",
-                                                   "bad conversion",
-                                                   "terminate called",
-                                                   "nlohmann",
-                                                   "AddressSanitizer",
-                                                   "runtime error:",
-                                                   "out of OcTree bounds"};
-
 class HostileInputTest : public ::testing::Test {
  protected:
   // Runs one variant in a fresh copy of the base sequence and checks the contract.
@@ -446,7 +361,7 @@ class HostileInputTest : public ::testing::Test {
                               "); rerun with STILLMAP_HOSTILE_SEED=" + std::to_string(kSeed) +
                               "\n  stillmap " + arguments + "\n";
     std::string output;
-    const int status = RunStillmap(arguments, &output, Prefix());
+    const int status = RunStillmap(arguments, &output, HostilePrefix());
     ASSERT_TRUE(status == 0 || status == 1 || status == 2)
         << where << "exit status " << status << " (a signal, a hang or a sanitizer)\n"
         << output;
@@ -481,22 +396,13 @@ class HostileInputTest : public ::testing::Test {
     }
     // The other commands read the same files.
     const std::string info = "info " + sequence;
-    const int info_status = RunStillmap(info, &output, Prefix());
+    const int info_status = RunStillmap(info, &output, HostilePrefix());
     EXPECT_TRUE(info_status == 0 || info_status == 2) << where << info << ": " << output;
     const std::string eval = "eval " + sequence + "/groundtruth.txt " + sequence +
                              "/groundtruth.txt --plot " + (dir / "plot.png");
-    const int eval_status = RunStillmap(eval, &output, Prefix());
+    const int eval_status = RunStillmap(eval, &output, HostilePrefix());
     EXPECT_TRUE(eval_status == 0 || eval_status == 1 || eval_status == 2)
         << where << eval << ": " << output;
-  }
-
-  // Each run has a time limit (a hang fails, not blocks), and sanitizer reports end the run
-  // with a signal instead of exit status 1.
-  static std::string Prefix() {
-    return "ASAN_OPTIONS=abort_on_error=1:detect_leaks=0 "
-           "UBSAN_OPTIONS=halt_on_error=1:abort_on_error=1:print_stacktrace=1 "
-           "timeout -s KILL " +
-           std::to_string(kTimeLimitS);
   }
 
   void RunFamily(size_t family, const std::function<Variant(Generator&)>& make) {

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/file_list.h"
 #include "stillmap/io/input_files.h"
 
 namespace stillmap {
@@ -64,15 +65,52 @@ namespace {
 namespace fs = std::filesystem;
 
 std::vector<std::string> ReadNames(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(path.string() + ": cannot open the class names file");
   std::vector<std::string> names;
-  std::string line;
-  while (std::getline(in, line)) {
-    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  for (std::string line : ReadTextLines(path.string(), "class names file")) {
+    while (!line.empty() && line.back() == ' ') line.pop_back();
     if (!line.empty()) names.push_back(line);
   }
   return names;
+}
+
+// Where the right files come from, for the messages about wrong ones.
+std::string ModelAdvice(const fs::path& dir) {
+  return "the right files are in ../shared/models/" + dir.filename().string() +
+         "/ (see its PROVENANCE.txt); pass that folder's parent with --models";
+}
+
+cv::dnn::Net LoadOnnx(const fs::path& model, const fs::path& dir) {
+  try {
+    return cv::dnn::readNetFromONNX(model.string());
+  } catch (const cv::Exception& e) {
+    throw InputError(model.string() + ": OpenCV cannot read this file as an ONNX model (" +
+                     Quoted(e.err, 120) + "); it is damaged or another kind of file; " +
+                     ModelAdvice(dir));
+  }
+}
+
+// Runs the network once on a blank input of the shape the decoder feeds it and returns the
+// output, so that a model of another kind (another input size, another head) is named at load
+// instead of failing inside OpenCV mid-run. Throws InputError naming `model`.
+cv::Mat ForwardBlank(cv::dnn::Net* net, const cv::Mat& blob, const fs::path& model,
+                     const fs::path& dir) {
+  try {
+    net->setInput(blob);
+    return net->forward().clone();
+  } catch (const cv::Exception&) {
+    throw InputError(model.string() + ": the model does not take the input " + dir.filename().string() +
+                     " needs (is it another model, or the files swapped?); " + ModelAdvice(dir));
+  }
+}
+
+// The class count of the model's output against the names file's lines.
+void CheckNames(const std::vector<std::string>& names, int classes, const fs::path& names_path,
+                const fs::path& dir) {
+  if (static_cast<int>(names.size()) != classes) {
+    throw InputError(names_path.string() + ": holds " + std::to_string(names.size()) +
+                     " class names but the model gives " + std::to_string(classes) +
+                     " classes (one name per line, in the model's order); " + ModelAdvice(dir));
+  }
 }
 
 // YOLOX decoding (PROVENANCE.txt): rows [cx cy w h obj cls...] on the grids of strides 8, 16
@@ -90,17 +128,21 @@ class YoloxDetector : public Detector {
       throw InputError("the YOLOX input size must be a positive multiple of 32");
     }
     names_ = ReadNames(dir / "coco.names");
-    try {
-      net_ = cv::dnn::readNetFromONNX(model.string());
-    } catch (const cv::Exception& e) {
-      throw InputError(model.string() + ": OpenCV cannot load the model: " + e.what());
-    }
+    net_ = LoadOnnx(model, dir);
     for (int stride : {8, 16, 32}) {
       const int columns = options.input_width / stride, rows = options.input_height / stride;
       for (int y = 0; y < rows; ++y) {
         for (int x = 0; x < columns; ++x) grid_.push_back({x, y, stride});
       }
     }
+    const int input_shape[] = {1, 3, options.input_height, options.input_width};
+    const cv::Mat out = ForwardBlank(&net_, cv::Mat(4, input_shape, CV_32F, cv::Scalar(114)),
+                                     model, dir);
+    if (out.dims != 3 || out.size[1] != static_cast<int>(grid_.size()) || out.size[2] < 6) {
+      throw InputError(model.string() + ": the model's output is not YOLOX's (rows of box, " +
+                       "objectness and class scores on the 8/16/32 grids); " + ModelAdvice(dir));
+    }
+    CheckNames(names_, out.size[2] - 5, dir / "coco.names", dir);
   }
 
   std::string name() const override { return "yolox"; }
@@ -196,11 +238,16 @@ class DeeplabDetector : public Detector {
     CheckInputFile(model.string(),
                    "DeepLabV3 model (pass --models DIR holding deeplabv3_mnv2_voc/)");
     names_ = ReadNames(dir / "voc.names");
-    try {
-      net_ = cv::dnn::readNetFromONNX(model.string());
-    } catch (const cv::Exception& e) {
-      throw InputError(model.string() + ": OpenCV cannot load the model: " + e.what());
+    net_ = LoadOnnx(model, dir);
+    const int input_shape[] = {1, kInputSize, kInputSize, 3};
+    const cv::Mat out =
+        ForwardBlank(&net_, cv::Mat(4, input_shape, CV_32F, cv::Scalar(0)), model, dir);
+    if (out.dims != 4 || out.size[1] != kInputSize || out.size[2] != kInputSize ||
+        out.size[3] < 2) {
+      throw InputError(model.string() + ": the model's output is not DeepLab's (per-pixel " +
+                       "class scores, 257x257); " + ModelAdvice(dir));
     }
+    CheckNames(names_, out.size[3], dir / "voc.names", dir);
   }
 
   std::string name() const override { return "deeplab"; }

@@ -8,12 +8,15 @@
 #include <vtkLogger.h>
 #include <vtkObject.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <limits>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/image_io.h"
 #include "stillmap/io/input_files.h"
+#include "stillmap/io/output_files.h"
 #include "stillmap/viewer/build_folder.h"
 
 namespace stillmap {
@@ -79,9 +82,13 @@ class Window {
     ResetView();
   }
 
+  // VTK writes the PNG itself: to a temporary name first, renamed when whole.
   void Screenshot(const std::string& path) {
     viewer_.spinOnce(200, true);
-    viewer_.saveScreenshot(path);
+    const std::string temporary = TemporaryPathFor(path) + ".png";
+    std::remove(temporary.c_str());
+    viewer_.saveScreenshot(temporary);
+    CommitTemporary(temporary, path);
   }
   void Run() {
     while (!viewer_.wasStopped()) viewer_.spinOnce(50);
@@ -158,6 +165,7 @@ class Window {
 }  // namespace
 
 void RunViewWindow(const std::string& out_dir, const std::string& screenshot_path) {
+  if (!screenshot_path.empty()) CheckImageOutputPath(screenshot_path, true);
   const char* display = std::getenv("DISPLAY");
   if (display == nullptr || *display == '\0') {
     throw std::runtime_error(

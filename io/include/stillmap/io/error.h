@@ -16,4 +16,8 @@ class InputError : public std::runtime_error {
 // Formats "FILE:LINE: what" (LINE omitted when 0), the prefix every format error uses.
 std::string WhereInFile(const std::string& path, int line);
 
+// `text` as a message may quote it: control and non-ASCII bytes as \xNN, cut after `max_chars`
+// with "...", so that a binary file's bytes never reach the terminal raw.
+std::string Quoted(const std::string& text, size_t max_chars = 80);
+
 }  // namespace stillmap

@@ -31,6 +31,11 @@ std::vector<std::pair<size_t, size_t>> AssociateTimestamps(const std::vector<dou
 // Index of the element of the sorted, non-empty `times` nearest to `time`.
 size_t FindClosestIndex(const std::vector<double>& times, double time);
 
+// The lines of a text file (`what` names it in messages), ended by LF, CRLF or a lone CR. Throws
+// InputError naming the file and line when it is missing or holds a NUL or other control byte (a
+// binary or damaged file), so that no caller echoes raw bytes.
+std::vector<std::string> ReadTextLines(const std::string& path, const std::string& what);
+
 // Splits a line on spaces, tabs and commas (the TUM tools accept all three).
 std::vector<std::string> SplitFields(const std::string& line);
 

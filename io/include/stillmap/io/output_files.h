@@ -1,7 +1,7 @@
 // Outputs are all-or-nothing: a set of files is written into a staging folder beside them and
-// swapped in whole when complete, so that a failed or interrupted run never leaves a file that
-// looks finished, and a rerun replaces the whole earlier set. The output folder is locked while a
-// run writes into it.
+// swapped in when complete, so that a failed or interrupted run never leaves a file that looks
+// finished. A rerun replaces exactly the files the last run recorded writing, and nothing a user
+// put in the folder is deleted or overwritten. The output folder is locked while a run writes.
 #pragma once
 
 #include <string>
@@ -15,22 +15,37 @@ std::string TemporaryPathFor(const std::string& path);
 // Renames `temporary` to `final_path`; throws std::runtime_error naming both on failure.
 void CommitTemporary(const std::string& temporary, const std::string& final_path);
 
+// Completes a swap that a killed run of `kind` left half-done in `dir` (see OutputSet), unless
+// another run holds the folder. Returns what it did ("" when nothing). Never throws; commands
+// that read an output folder call it first.
+std::string RecoverOutputFolder(const std::string& dir, const std::string& kind);
+
 // A set of outputs written together into one folder.
 //
-// The constructor creates the folder when needed, locks it (a second run into it is refused),
-// restores what an interrupted earlier run left (its staging folder is removed; a swap stopped
-// half-way is rolled back to the earlier set) and creates an empty staging folder. Files are
-// written to TemporaryPath(name); Commit() moves every earlier file of `owned_names` aside, moves
-// the staged files in, and only then deletes the earlier ones (rolled back on any failure).
-// Destroying the set without Commit() removes the staging folder, and the output folder itself
-// when this run created it.
+// The folder keeps a record of the files the last committed run of this kind wrote
+// (".stillmap-<kind>-outputs"). The constructor creates the folder when needed, locks it (a
+// second run into it is refused), completes a swap an earlier run was killed in, and creates an
+// empty staging folder. Files are written to TemporaryPath(name); Commit() first writes a journal
+// of the swap, then moves each staged file over its final name (one atomic rename per file; a
+// file there that no run recorded writing is first renamed aside, see SetAside), removes the
+// recorded files of the last run that this one did not write, and writes the new record. A run
+// killed at any point after the journal is rolled forward by the next command that opens the
+// folder, so no output is ever missing. Destroying the set without Commit() removes the staging
+// folder, and the output folder itself when this run created it.
 class OutputSet {
  public:
-  // `owned_names`: every top-level name (file or folder, folders with a trailing '/') a run of
-  // this kind may write; earlier outputs of these names are replaced, nothing else is touched.
-  // Throws InputError naming the folder when it cannot be created or written, is locked by another
-  // run, or holds a folder where an output file goes (or the reverse).
-  OutputSet(std::string dir, std::vector<std::string> owned_names);
+  // A file of the folder that shares an output's name but was not written by a stillmap run of
+  // this kind: Commit() keeps it under `kept_as` (both relative to the folder).
+  struct SetAside {
+    std::string name;
+    std::string kept_as;
+  };
+
+  // `kind`: "build" or "synth" (names the record). `owned_names`: every top-level name (folders
+  // with a trailing '/') a run of this kind may write. Throws InputError naming the folder when
+  // it cannot be created or written, is locked by another run, holds a folder where an output
+  // file goes (or the reverse), or holds a symbolic link where stillmap keeps its own files.
+  OutputSet(std::string dir, std::string kind, std::vector<std::string> owned_names);
   ~OutputSet();
   OutputSet(const OutputSet&) = delete;
   OutputSet& operator=(const OutputSet&) = delete;
@@ -41,23 +56,30 @@ class OutputSet {
   std::string FinalPath(const std::string& name) const;
   // The staging folder (files written there by other means are committed too).
   const std::string& staging_dir() const { return staging_; }
-  // Swaps the staged set in. Throws std::runtime_error (after rolling back) when a rename fails.
+  // The files Commit() will rename aside: those staged so far plus `also_staged` (names still to
+  // be written) that exist in the folder but are not in the last run's record.
+  std::vector<SetAside> PlanSetAside(const std::vector<std::string>& also_staged = {}) const;
+  // Swaps the staged set in. Throws std::runtime_error when the journal cannot be written (the
+  // earlier outputs are then unchanged) or a rename fails (the next run completes the swap).
   void Commit();
-  // Non-empty when the constructor restored an interrupted earlier run's outputs: what it did.
+  // Non-empty when the constructor completed an interrupted earlier run's swap: what it did.
   const std::string& recovery_note() const { return recovery_note_; }
-  // The entries of the folder that are neither the set's names nor its hidden entries (files a
-  // user put there), sorted; they are never touched.
+  // Entries of the folder that no run of this kind wrote: top-level names that are not outputs,
+  // and files inside the output folders (renders/ ...) that are not in the record, sorted. They
+  // are never deleted.
   std::vector<std::string> ForeignNames() const;
 
-  // Whether `filename` (inside an output folder) is one of the set's own hidden entries.
+  // Whether `filename` (inside an output folder) is one of stillmap's own hidden entries.
   static bool IsInternalName(const std::string& filename);
 
  private:
-  void Recover();  // see the constructor
   void Release();  // unlocks; removes the folder when this run created it and committed nothing
+  std::vector<std::string> StagedNames() const;
 
   std::string dir_;
+  std::string kind_;
   std::vector<std::string> owned_names_;
+  std::vector<std::string> record_;  // what the last committed run wrote, sorted
   std::string staging_;
   std::string recovery_note_;
   int lock_fd_ = -1;

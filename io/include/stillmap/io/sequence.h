@@ -98,6 +98,9 @@ class Sequence {
   // The camera's ground-truth trajectory (groundtruth_body_from_camera applied), when the
   // sequence has groundtruth.txt.
   const std::optional<Trajectory>& groundtruth() const { return groundtruth_; }
+  // Non-empty when groundtruth.txt is there but holds no poses (groundtruth() is then empty):
+  // what to tell the user.
+  const std::string& groundtruth_note() const { return groundtruth_note_; }
 
  private:
   std::string dir_;
@@ -107,6 +110,7 @@ class Sequence {
   size_t color_count_ = 0;
   size_t depth_count_ = 0;
   std::optional<Trajectory> groundtruth_;
+  std::string groundtruth_note_;
 };
 
 }  // namespace stillmap

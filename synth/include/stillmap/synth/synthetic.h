@@ -40,6 +40,7 @@ struct SynthSummary {
   size_t static_gt_points = 0;
   double dynamic_pixel_share = 0.0;  // mean share of mask pixels per frame
   double seconds = 0.0;
+  std::vector<std::string> warnings;  // files of the folder kept aside, renamed (not ours)
 };
 
 // Writes a TUM-layout sequence to `out_dir`: rgb/, depth/, rgb.txt, depth.txt, groundtruth.txt,
