@@ -293,8 +293,9 @@ int Run(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    // One sentence of ours, like every other refusal, naming the option CLI11 found wrong.
     if (*build.command) build.RecoverEarlierSwap();
+    std::fprintf(stderr, "stillmap: error: %s (--help lists the options)\n", e.what());
     return 2;
   }
 

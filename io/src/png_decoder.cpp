@@ -79,7 +79,7 @@ cv::Mat DecodePng(const std::string& path, const std::vector<unsigned char>& byt
   Reader reader{bytes};
   cv::Mat image;
   if (!Decode(&reader, &image)) {
-    throw InputError(path + ": corrupt PNG (libpng: " + Quoted(reader.message) +
+    throw InputError(path + ": corrupt PNG (" + Quoted(reader.message) +
                      "); re-extract or re-encode the file");
   }
   return image;

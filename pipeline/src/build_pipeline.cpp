@@ -132,7 +132,11 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
   progress.Finish();
   result->timings.load_wait_ms = reader.wait_ms();
   result->timings.flow_ms = reader.flow_ms();
-  for (std::string& warning : reader.checks().Warnings(inputs.camera.depth_factor)) {
+  const StreamChecks& checks = reader.checks();
+  result->frames.depth_median_m = checks.DepthQuantile(0.5);
+  result->frames.depth_95th_percentile_m = checks.DepthQuantile(0.95);
+  result->frames.frozen_colour = checks.frozen_colour_frames();
+  for (std::string& warning : checks.Warnings(inputs.camera.depth_factor)) {
     result->warnings.push_back(std::move(warning));
   }
   result->masking.statistics = masks.statistics();

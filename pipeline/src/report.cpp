@@ -53,7 +53,10 @@ json FramesJson(const FrameCounts& frames) {
           {"pairs_used", frames.pairs_used},
           {"without_pose", frames.without_pose},
           {"tracked", frames.tracked},
-          {"fused", frames.fused}};
+          {"fused", frames.fused},
+          {"depth_median_m", frames.depth_median_m},
+          {"depth_95th_percentile_m", frames.depth_95th_percentile_m},
+          {"frozen_colour", frames.frozen_colour}};
 }
 
 json KeyframesJson(const BuildResult& result, const BuildConfig& config) {

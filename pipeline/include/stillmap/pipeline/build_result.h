@@ -32,6 +32,11 @@ struct FrameCounts {
   size_t without_pose = 0;       // outside the ground truth (or across a gap in it)
   size_t tracked = 0;            // frames with a pose in trajectory.txt
   size_t fused = 0;              // frames back-projected into the map
+  // The streams' plausibility (pipeline/src/stream_checks.h): depth quantiles of all readings
+  // and colour frames equal to the one before.
+  double depth_median_m = 0.0;
+  double depth_95th_percentile_m = 0.0;
+  size_t frozen_colour = 0;
 };
 
 // Per-frame tracking figures (tracked runs).
