@@ -59,7 +59,9 @@ Outcome Decode(const std::vector<unsigned char>& bytes, int max_side, ErrorManag
   info.out_color_space = gray ? JCS_GRAYSCALE : cmyk ? JCS_CMYK : JCS_EXT_BGR;
   jpeg_start_decompress(&info);
   image->create(static_cast<int>(info.output_height), static_cast<int>(info.output_width),
-                gray ? CV_8UC1 : cmyk ? CV_8UC4 : CV_8UC3);
+                gray   ? CV_8UC1
+                : cmyk ? CV_8UC4
+                       : CV_8UC3);
   *inverted_cmyk = cmyk && info.saw_Adobe_marker;
   while (info.output_scanline < info.output_height) {
     JSAMPROW row = image->ptr<unsigned char>(static_cast<int>(info.output_scanline));

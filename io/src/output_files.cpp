@@ -80,15 +80,16 @@ std::vector<std::string> ReadLines(const fs::path& path) {
 void WriteAtomically(const fs::path& path, const std::string& text) {
   const fs::path temporary = path.string() + ".tmp";
   ::unlink(temporary.c_str());
-  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC,
-                        0644);
+  const int fd =
+      ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
   bool ok = fd >= 0 && ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
   ok = fd >= 0 && ::fsync(fd) == 0 && ok;
   if (fd >= 0) ::close(fd);
   if (!ok || ::rename(temporary.c_str(), path.c_str()) != 0) {
     const int saved = errno != 0 ? errno : EIO;
     ::unlink(temporary.c_str());
-    throw fs::filesystem_error("cannot write", path, std::error_code(saved, std::generic_category()));
+    throw fs::filesystem_error("cannot write", path,
+                               std::error_code(saved, std::generic_category()));
   }
 }
 
@@ -331,9 +332,8 @@ bool OutputSet::IsInternalName(const std::string& filename) {
            filename.compare(filename.size() - suffix.size(), suffix.size(), suffix) == 0;
   };
   return filename == kLockName || filename == kStagingName ||
-         (filename.rfind(prefix, 0) == 0 &&
-          (ends_with("-outputs") || ends_with("-swap") || ends_with("-outputs.tmp") ||
-           ends_with("-swap.tmp")));
+         (filename.rfind(prefix, 0) == 0 && (ends_with("-outputs") || ends_with("-swap") ||
+                                             ends_with("-outputs.tmp") || ends_with("-swap.tmp")));
 }
 
 std::vector<std::string> OutputSet::ForeignNames() const {
@@ -341,10 +341,10 @@ std::vector<std::string> OutputSet::ForeignNames() const {
   std::error_code error;
   for (const fs::directory_entry& entry : fs::directory_iterator(dir_, error)) {
     const std::string name = entry.path().filename().string();
-    const bool file = std::find(owned_names_.begin(), owned_names_.end(), name) !=
-                      owned_names_.end();
-    const bool folder = std::find(owned_names_.begin(), owned_names_.end(), name + "/") !=
-                        owned_names_.end();
+    const bool file =
+        std::find(owned_names_.begin(), owned_names_.end(), name) != owned_names_.end();
+    const bool folder =
+        std::find(owned_names_.begin(), owned_names_.end(), name + "/") != owned_names_.end();
     if (folder && IsRealFolder(entry.path())) {
       for (const fs::directory_entry& inner : fs::recursive_directory_iterator(entry, error)) {
         const std::string relative = fs::relative(inner.path(), dir_, error).string();

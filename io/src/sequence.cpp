@@ -1,7 +1,6 @@
 #include "stillmap/io/sequence.h"
 
 #include <algorithm>
-
 #include <filesystem>
 
 #include "stillmap/io/error.h"

@@ -6,8 +6,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/io/error.h"
-#include "stillmap/io/image_io.h"
 #include "stillmap/io/file_list.h"
+#include "stillmap/io/image_io.h"
 #include "stillmap/io/input_files.h"
 #include "stillmap/io/trajectory.h"
 

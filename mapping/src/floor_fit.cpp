@@ -10,8 +10,8 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
-#include <string>
 #include <optional>
+#include <string>
 #include <unordered_set>
 #include <vector>
 
@@ -184,13 +184,14 @@ std::optional<FloorPlane> GivenFloor(const Eigen::Vector3d& hint, const GridOpti
   floor.source = "given (grid.floor)";
   floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
   if (floor.tilt_to_cameras_deg > options.max_floor_tilt_deg) {
-    throw InputError("grid.floor: the plane's normal lies " +
-                     std::to_string(static_cast<int>(std::lround(floor.tilt_to_cameras_deg))) +
-                     " deg from the cameras' up direction, more than grid.max_floor_tilt_deg (" +
-                     std::to_string(options.max_floor_tilt_deg) +
-                     "): not a floor; give 'a b c d' with (a, b, c) the floor's normal in the poses' "
-                     "frame (when tracking, the first camera's: x right, y down, z forward, "
-                     "e.g. '0 -1 0 1.2')");
+    throw InputError(
+        "grid.floor: the plane's normal lies " +
+        std::to_string(static_cast<int>(std::lround(floor.tilt_to_cameras_deg))) +
+        " deg from the cameras' up direction, more than grid.max_floor_tilt_deg (" +
+        std::to_string(options.max_floor_tilt_deg) +
+        "): not a floor; give 'a b c d' with (a, b, c) the floor's normal in the poses' "
+        "frame (when tracking, the first camera's: x right, y down, z forward, "
+        "e.g. '0 -1 0 1.2')");
   }
   return floor;
 }

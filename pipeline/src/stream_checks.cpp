@@ -56,8 +56,8 @@ std::vector<std::string> StreamChecks::Warnings(double depth_factor) const {
         "the depth readings look {} than a room's: half nearer than {:.2f} m, 95 % nearer than "
         "{:.2f} m (indoor RGB-D recordings read a median below {:.0f} m and some readings beyond "
         "{:.1f} m); check the depth scale, camera.depth_factor = {} per metre",
-        median > kMaxMedianM ? "farther" : "nearer", median, far, kMaxMedianM,
-        kMin95thPercentileM, depth_factor));
+        median > kMaxMedianM ? "farther" : "nearer", median, far, kMaxMedianM, kMin95thPercentileM,
+        depth_factor));
   }
   return warnings;
 }

@@ -371,8 +371,9 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   options.Validate();
   CheckSynthFolder(out_dir);
   OutputSet outputs(
-      out_dir, "synth", {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt",
-                "objects.txt", "groundtruth.txt", "camera.yaml", "static_gt.ply", "synth.json"});
+      out_dir, "synth",
+      {"rgb/", "depth/", "masks/", "scene/", "rgb.txt", "depth.txt", "masks.txt", "objects.txt",
+       "groundtruth.txt", "camera.yaml", "static_gt.ply", "synth.json"});
   const fs::path work = outputs.staging_dir();
   for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
   synth::Scene scene = synth::BuildScene(options.scenario, options.seed);

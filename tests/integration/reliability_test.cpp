@@ -94,7 +94,7 @@ TEST_F(ReliabilityTest, ARerunReplacesTheWholeSet) {
   }
   EXPECT_EQ(ReadText(output_ + "/notes.txt"), "mine");
   // The user's file is named, and what the OctoMap's absence leaves out is said.
-  EXPECT_NE(output.find("files stillmap does not write, left as they are: notes.txt"),
+  EXPECT_NE(output.find("files stillmap did not write, left as they are: notes.txt"),
             std::string::npos)
       << output;
   EXPECT_NE(output.find("the OctoMap is off"), std::string::npos) << output;

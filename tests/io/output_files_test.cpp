@@ -21,7 +21,8 @@ using testing::WriteText;
 const std::vector<std::string> kNames = {"a.txt", "b.txt", "sub/"};
 
 // One committed run of kind "test" that writes `files` (name, text).
-void CommitRun(const std::string& out, const std::vector<std::pair<std::string, std::string>>& files) {
+void CommitRun(const std::string& out,
+               const std::vector<std::pair<std::string, std::string>>& files) {
   OutputSet set(out, "test", kNames);
   for (const auto& [name, text] : files) WriteText(set.TemporaryPath(name), text);
   set.Commit();
@@ -41,7 +42,8 @@ TEST(OutputSetTest, NothingAppearsBeforeCommitAndEverythingAfter) {
   EXPECT_EQ(ReadText(out + "/a.txt"), "new a");
   EXPECT_EQ(ReadText(out + "/sub/x.png"), "new x");
   EXPECT_FALSE(fs::exists(out + "/.stillmap-staging"));
-  EXPECT_EQ(ReadText(out + "/.stillmap-test-outputs").substr(ReadText(out + "/.stillmap-test-outputs").find('\n') + 1),
+  EXPECT_EQ(ReadText(out + "/.stillmap-test-outputs")
+                .substr(ReadText(out + "/.stillmap-test-outputs").find('\n') + 1),
             "a.txt\nsub/x.png\n");
 }
 
@@ -159,7 +161,8 @@ TEST(OutputSetTest, AnInterruptedSwapIsCompletedByTheNextCommand) {
     const std::string out = dir / "out";
     {
       OutputSet set(out, "test", names);
-      for (const char* name : {"a.txt", "b.txt", "c.txt"}) WriteText(set.TemporaryPath(name), "old");
+      for (const char* name : {"a.txt", "b.txt", "c.txt"})
+        WriteText(set.TemporaryPath(name), "old");
       set.Commit();
     }
     fs::create_directories(out + "/.stillmap-staging");

@@ -98,7 +98,8 @@ cv::Mat ForwardBlank(cv::dnn::Net* net, const cv::Mat& blob, const fs::path& mod
     net->setInput(blob);
     return net->forward().clone();
   } catch (const cv::Exception&) {
-    throw InputError(model.string() + ": the model does not take the input " + dir.filename().string() +
+    throw InputError(model.string() + ": the model does not take the input " +
+                     dir.filename().string() +
                      " needs (is it another model, or the files swapped?); " + ModelAdvice(dir));
   }
 }
@@ -136,8 +137,8 @@ class YoloxDetector : public Detector {
       }
     }
     const int input_shape[] = {1, 3, options.input_height, options.input_width};
-    const cv::Mat out = ForwardBlank(&net_, cv::Mat(4, input_shape, CV_32F, cv::Scalar(114)),
-                                     model, dir);
+    const cv::Mat out =
+        ForwardBlank(&net_, cv::Mat(4, input_shape, CV_32F, cv::Scalar(114)), model, dir);
     if (out.dims != 3 || out.size[1] != static_cast<int>(grid_.size()) || out.size[2] < 6) {
       throw InputError(model.string() + ": the model's output is not YOLOX's (rows of box, " +
                        "objectness and class scores on the 8/16/32 grids); " + ModelAdvice(dir));

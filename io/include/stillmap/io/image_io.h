@@ -30,8 +30,8 @@ void WriteImage(const std::string& path, const cv::Mat& image, const std::string
 // of that format (a user's text file is never overwritten). Throws InputError naming `path`.
 void CheckImageOutputPath(const std::string& path, bool png_only);
 
-// Writes an image under a temporary name and renames it. Throws InputError when CheckImageOutputPath
-// refuses `path`, std::runtime_error when it cannot be written.
+// Writes an image under a temporary name and renames it. Throws InputError when
+// CheckImageOutputPath refuses `path`, std::runtime_error when it cannot be written.
 void WriteImageAtomically(const std::string& path, const cv::Mat& image);
 
 }  // namespace stillmap
