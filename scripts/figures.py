@@ -66,8 +66,8 @@ def figures(stillmap, sequence, out, extra):
         "completeness": quality.get("completeness"),
         "agreement": grid.get("agreement"),
         "false_occupied": grid.get("occupied_without_static_truth"),
-        "fps": report["frames_per_second"],
-        "memory": report["peak_memory_mib"],
+        "fps": report["timing"]["frames_per_second"],
+        "memory": report["timing"]["peak_memory_mib"],
     }
 
 

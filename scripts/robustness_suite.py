@@ -55,7 +55,7 @@ def build(stillmap, sequence, first, frames, extra, out):
         "relocalized": tracking["relocalized"],
         "new_maps": tracking["new_maps"],
         "masked_share": report["masking"].get("mean_masked_share", 0.0),
-        "fps": report["frames_per_second"],
+        "fps": report["timing"]["frames_per_second"],
     }
 
 

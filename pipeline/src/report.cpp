@@ -208,7 +208,6 @@ json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& opti
           {"coefficients", {p[0], p[1], p[2], p[3], p[4]}},
           {"fits_accepted", t.depth_calibrations},
           {"fits_refused", t.depth_calibrations_refused},
-          {"time_ms_total", t.depth_calibration_ms},
           {"last_fit",
            {{"accepted", last.ok},
             {"pairs", last.pairs},
@@ -228,7 +227,6 @@ json ShareJson(std::vector<double> shares) {
 
 json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options) {
   const TrackerStatistics& t = tracking.statistics;
-  const double median_track_ms = Median(tracking.total_ms);
   return {{"frames", t.frames},
           {"tracked", t.tracked},
           {"lost", t.lost},
@@ -247,7 +245,6 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
           {"landmarks_culled", t.landmarks_culled},
           {"bundle_adjustments", t.bundle_adjustments},
           {"bundle_adjustment_observations_rejected", t.observations_rejected},
-          {"tracking_frames_per_second_median", median_track_ms > 0 ? 1000.0 / median_track_ms : 0},
           {"depth_self_calibration", DepthCalibrationJson(t, options)},
           {"bundle_adjustment_thread", tracking.bundle_adjustment_thread}};
 }
@@ -343,8 +340,7 @@ void AddMapQuality(const BuildResult& result, json* report) {
       {"accuracy_mean_m", quality.accuracy_mean},
       {"accuracy_median_m", quality.accuracy_median},
       {"completeness", quality.completeness},
-      {"ghost_share", quality.ghost_share},
-      {"evaluation_s", evaluation.map_evaluation_s}};
+      {"ghost_share", quality.ghost_share}};
   if (!evaluation.grid_quality) return;
   const GridQuality& grid = *evaluation.grid_quality;
   (*report)["grid_quality"] = {
@@ -358,6 +354,28 @@ void AddMapQuality(const BuildResult& result, json* report) {
       {"free_where_truth_occupied", grid.missed_occupied}};
 }
 
+// Everything that depends on the machine and the moment rather than on the input and options,
+// under one key, so that two runs compare equal once it is left out.
+json RunTimingJson(const BuildResult& result) {
+  json timing = {{"started_utc", result.started_utc},
+                 {"wall_time_s", result.wall_time_s},
+                 {"frames_per_second", result.frames_per_second},
+                 {"peak_memory_mib", result.peak_memory_mib},
+                 {"stages_ms", TimingsJson(result)},
+                 {"map_evaluation_s", result.evaluation.map_evaluation_s}};
+  if (result.tracking) {
+    const TrackerStatistics& t = result.tracking->statistics;
+    const double median_track_ms = Median(result.tracking->total_ms);
+    timing["tracking_frames_per_second_median"] =
+        median_track_ms > 0 ? 1000.0 / median_track_ms : 0.0;
+    timing["depth_self_calibration_ms_total"] = t.depth_calibration_ms;
+    // A slow or busy machine shows as waits here, never as other poses.
+    timing["bundle_adjustment_waits"] = t.bundle_adjustment_waits;
+    timing["bundle_adjustment_wait_ms_total"] = t.bundle_adjustment_wait_ms;
+  }
+  return timing;
+}
+
 }  // namespace
 
 json ReportJson(const BuildResult& result, const BuildConfig& config) {
@@ -367,7 +385,6 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   report["poses"] = result.tracked() ? "tracking" : "groundtruth";
   report["map_frame"] = MapFrameJson(result.map_frame, result.tracked());
   report["command"] = result.command_line.empty() ? json(nullptr) : json(result.command_line);
-  report["started_utc"] = result.started_utc;
   report["outputs"] = OutputsJson(result, config);
   report["camera"] = CameraJson(result.camera);
   report["frames"] = FramesJson(result.frames);
@@ -392,12 +409,9 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
                                               : "not written: grid.enabled=false";
   }
   if (result.tracking) report["tracking"] = TrackingJson(*result.tracking, config.tracking);
-  report["timing_ms"] = TimingsJson(result);
   report["warnings"] = result.warnings;
-  report["wall_time_s"] = result.wall_time_s;
-  report["frames_per_second"] = result.frames_per_second;
-  report["peak_memory_mib"] = result.peak_memory_mib;
   report["threads"] = result.threads;
+  report["timing"] = RunTimingJson(result);
   if (!result.tracked()) {
     report["trajectory_error"] = nullptr;
     report["trajectory_error_note"] = result.evaluation.trajectory_note;

@@ -103,7 +103,7 @@ std::vector<std::pair<std::string, std::string>> SummaryRows(const nlohmann::jso
   std::vector<std::pair<std::string, std::string>> rows;
   auto text = [&](const nlohmann::json& value) { return Escape(Value(value)); };
   rows.emplace_back("command", "<code>" + text(At(report, {"command"})) + "</code>");
-  rows.emplace_back("started (UTC)", text(At(report, {"started_utc"})));
+  rows.emplace_back("started (UTC)", text(At(report, {"timing", "started_utc"})));
   rows.emplace_back("sequence", "<code>" + text(At(report, {"sequence"})) + "</code>, poses " +
                                     text(At(report, {"poses"})));
   rows.emplace_back("frames", text(At(report, {"frames", "pairs_used"})) + " used, " +
@@ -111,9 +111,9 @@ std::vector<std::pair<std::string, std::string>> SummaryRows(const nlohmann::jso
                                   text(At(report, {"frames", "fused"})) + " fused into the map");
   rows.emplace_back("trajectory", Escape(TrajectoryLine(report)));
   rows.emplace_back("speed",
-                    Number(At(report, {"frames_per_second"}), 1.0, "{:.1f}") + " frames/s, " +
-                        Number(At(report, {"wall_time_s"}), 1.0, "{:.1f}") + " s, peak memory " +
-                        Number(At(report, {"peak_memory_mib"}), 1.0, "{:.0f}") + " MiB");
+                    Number(At(report, {"timing", "frames_per_second"}), 1.0, "{:.1f}") + " frames/s, " +
+                        Number(At(report, {"timing", "wall_time_s"}), 1.0, "{:.1f}") + " s, peak memory " +
+                        Number(At(report, {"timing", "peak_memory_mib"}), 1.0, "{:.0f}") + " MiB");
   rows.emplace_back("map", text(At(report, {"map", "voxels_written"})) + " points of " +
                                text(At(report, {"map", "voxel_leaf_m"})) + " m voxels");
   rows.emplace_back("map frame", text(At(report, {"map_frame", "description"})));
@@ -166,7 +166,7 @@ std::string ReportHtml(const nlohmann::json& report) {
   }
   const std::vector<std::string> first = {"frames",  "trajectory_error", "keyframes", "tracking",
                                           "masking", "mask_quality",     "map",       "map_quality",
-                                          "grid",    "grid_quality",     "mesh",      "timing_ms"};
+                                          "grid",    "grid_quality",     "mesh",      "timing"};
   std::vector<std::string> order = first;
   for (const auto& [key, value] : report.items()) {
     if (std::find(order.begin(), order.end(), key) == order.end() && key != "renders") {

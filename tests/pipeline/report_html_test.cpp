@@ -34,7 +34,6 @@ TEST(ReportHtmlTest, EveryLeafAppearsEscapedWithTheRenders) {
 // ATE and RPE, speed, map size, the map frame, the warnings and a link to every output.
 TEST(ReportHtmlTest, TheSummaryComesFirst) {
   const nlohmann::json report = {{"command", "stillmap build seq -o out"},
-                                 {"started_utc", "2026-11-23T21:00:00Z"},
                                  {"sequence", "seq"},
                                  {"poses", "tracking"},
                                  {"frames", {{"pairs_used", 620}, {"tracked", 620}, {"fused", 37}}},
@@ -43,9 +42,11 @@ TEST(ReportHtmlTest, TheSummaryComesFirst) {
                                    {"rpe_translation_m", {{"rmse", 0.0104}}},
                                    {"rpe_rotation_deg", {{"rmse", 0.74}}},
                                    {"rpe_delta_s", 1.0}}},
-                                 {"frames_per_second", 21.04},
-                                 {"wall_time_s", 29.5},
-                                 {"peak_memory_mib", 548.2},
+                                 {"timing",
+                                  {{"started_utc", "2026-11-23T21:00:00Z"},
+                                   {"frames_per_second", 21.04},
+                                   {"wall_time_s", 29.5},
+                                   {"peak_memory_mib", 548.2}}},
                                  {"map", {{"voxels_written", 1212376}, {"voxel_leaf_m", 0.01}}},
                                  {"map_frame", {{"description", "floor: z up & level"}}},
                                  {"warnings", {"the OctoMap is off"}},

@@ -63,6 +63,8 @@ void TrackerOptions::Validate() const {
           "tracking.cull_single_view_age");
   require(local_window >= 2 && local_map_keyframes >= 1,
           "tracking.local_window must be at least 2 and tracking.local_map_keyframes at least 1");
+  require(bundle_adjustment_handover_frames >= 0 && bundle_adjustment_handover_frames <= 1000,
+          "tracking.bundle_adjustment_handover_frames must be 0..1000");
   require(weak_tracking_inliers >= 0, "tracking.weak_tracking_inliers must not be negative");
   require(close_depth > 0.0, "tracking.close_depth must be positive");
   require(pnp.max_reprojection_error > 0.0 && pnp.refine_reprojection_error > 0.0,
@@ -186,9 +188,9 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   result.timings.extract_ms = MillisecondsSince(start);
 
   std::unique_lock<std::mutex> lock(mutex);
-  RethrowWorkerError();
   ++frame_serial;
   ++stats.frames;
+  if (pending && frame_serial >= pending->handover_serial) TakeAdjustment(lock);
   int with_depth = 0;
   for (float depth : frame.features().depth_m) with_depth += UsableDepth(depth) ? 1 : 0;
 
@@ -370,7 +372,6 @@ std::optional<Eigen::Isometry3d> Tracker::PredictedPose() const {
 
 std::vector<FinalKeyframe> Tracker::TakeFinalKeyframes() {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
-  impl_->RethrowWorkerError();
   std::vector<FinalKeyframe> out;
   out.swap(impl_->final_queue);
   return out;
@@ -378,9 +379,9 @@ std::vector<FinalKeyframe> Tracker::TakeFinalKeyframes() {
 
 void Tracker::Finish() {
   std::unique_lock<std::mutex> lock(impl_->mutex);
-  impl_->ba_done.wait(lock, [this] { return !impl_->ba_requested && !impl_->ba_running; });
-  impl_->RethrowWorkerError();
-  if (impl_->map_keyframes.size() >= 2) impl_->RunBundleAdjustment(lock);
+  impl_->TakeAdjustment(lock);
+  impl_->RequestAdjustment();  // a last one over the final window
+  impl_->TakeAdjustment(lock);
   impl_->UpdateFinal(true);
 }
 

@@ -17,6 +17,7 @@
 #include <exception>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <unordered_map>
 #include <utility>
@@ -229,10 +230,39 @@ struct Tracker::Impl {
   void UpdateFinal(bool all = false);
 
   // ---- The local bundle adjustment and its worker thread (tracker_worker.cpp)
+  // An adjustment is requested at each keyframe with the window as it stands then, solved on the
+  // worker (or at once without one), and its result taken at a point fixed by the data: before
+  // the frame bundle_adjustment_handover_frames after the request, or the next keyframe, a new
+  // map or Finish, whichever comes first. The tracker waits there when the solve is late, so the
+  // poses never depend on how fast the worker was.
+  struct ObservationRef {
+    int keyframe_id, feature, landmark_id;
+  };
+  struct SolvedWindow {
+    BundleAdjustmentResult result;
+    std::exception_ptr error;
+    double ms = 0.0;
+  };
+  struct WindowAdjustment {
+    BundleAdjustmentProblem problem;  // moved to the solver
+    std::vector<int> keyframe_ids, landmark_ids;
+    std::vector<ObservationRef> refs;  // per observation of the problem
+    std::vector<bool> fixed;           // per keyframe of the problem
+    bool calibrating = false;          // the depth correction is estimated jointly
+    int window_first = INT_MAX;        // first keyframe id of the window
+    size_t handover_serial = 0;        // taken before the frame with this frame_serial
+    std::optional<SolvedWindow> solved;
+  };
   void WorkerLoop();
-  // Called with the lock held; releases it while Ceres solves.
-  void RunBundleAdjustment(std::unique_lock<std::mutex>& lock);
-  void RethrowWorkerError();
+  SolvedWindow Solve(BundleAdjustmentProblem problem) const;
+  // The current window's problem; nothing when the map has fewer than two keyframes.
+  std::optional<WindowAdjustment> PrepareAdjustment() const;
+  // Prepares an adjustment and hands it to the worker (or solves it at once without one).
+  void RequestAdjustment();
+  // Takes the pending adjustment's result (waiting for it when needed) and writes it back.
+  void TakeAdjustment(std::unique_lock<std::mutex>& lock);
+  void ApplyAdjustment(const WindowAdjustment& adjustment);
+  void RejectObservation(const ObservationRef& ref);
 
   // ---- Depth self-calibration (tracker_depth_calibration.cpp)
   // Refits the depth correction from every pair of consecutive observations with depth of the
@@ -279,12 +309,12 @@ struct Tracker::Impl {
 
   std::thread worker;
   std::condition_variable wake;     // the worker waits for a request
-  std::condition_variable ba_done;  // StartMap and Finish wait for the worker
-  bool ba_requested = false;
+  std::condition_variable ba_done;  // TakeAdjustment waits for the worker
+  bool ba_requested = false;        // the pending adjustment waits for the worker
   bool ba_running = false;
   bool stopping = false;
-  int running_window_first = INT_MAX;  // first keyframe id of the running adjustment's window
-  std::exception_ptr worker_error;
+  std::optional<WindowAdjustment> pending;  // requested, not taken yet
+  int running_window_first = INT_MAX;       // first keyframe id of the pending one's window
 };
 
 }  // namespace stillmap

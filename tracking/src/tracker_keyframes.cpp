@@ -34,6 +34,7 @@ bool Tracker::Impl::NeedKeyframe(const FrameData& frame, const Association& asso
 int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, FrameData& frame,
                                   const Association& association, size_t frame_index, double time,
                                   std::unique_lock<std::mutex>& lock) {
+  TakeAdjustment(lock);  // the last keyframe's adjustment first, whatever the frame count
   Keyframe keyframe;
   keyframe.id = next_keyframe++;
   keyframe.frame_index = frame_index;
@@ -76,14 +77,7 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
       map_keyframes.size() % static_cast<size_t>(options.depth_calibration_interval) == 0) {
     CalibrateDepth();
   }
-  if (map_keyframes.size() >= 2) {
-    if (options.background_bundle_adjustment) {
-      ba_requested = true;
-      wake.notify_one();
-    } else {
-      RunBundleAdjustment(lock);
-    }
-  }
+  RequestAdjustment();
   UpdateFinal();
   return id;
 }

@@ -2,6 +2,8 @@
 
 namespace stillmap {
 
+// The worker solves the pending adjustment's problem and nothing else: it reads and writes no
+// other state, so what the tracker sees does not depend on when the solve ends.
 void Tracker::Impl::WorkerLoop() {
   std::unique_lock<std::mutex> lock(mutex);
   while (true) {
@@ -9,125 +11,155 @@ void Tracker::Impl::WorkerLoop() {
     if (stopping) break;
     ba_requested = false;
     ba_running = true;
-    try {
-      RunBundleAdjustment(lock);
-    } catch (...) {
-      worker_error = std::current_exception();
-    }
+    BundleAdjustmentProblem problem = std::move(pending->problem);
+    lock.unlock();
+    SolvedWindow solved = Solve(std::move(problem));
+    lock.lock();
+    pending->solved = std::move(solved);
     ba_running = false;
-    UpdateFinal();
     ba_done.notify_all();
   }
   ba_running = false;
   ba_done.notify_all();
 }
 
-void Tracker::Impl::RunBundleAdjustment(std::unique_lock<std::mutex>& lock) {
+Tracker::Impl::SolvedWindow Tracker::Impl::Solve(BundleAdjustmentProblem problem) const {
+  SolvedWindow solved;
+  const Clock::time_point start = Clock::now();
+  try {
+    solved.result = SolveWindow(std::move(problem));
+  } catch (...) {
+    solved.error = std::current_exception();
+  }
+  solved.ms = MillisecondsSince(start);
+  return solved;
+}
+
+std::optional<Tracker::Impl::WindowAdjustment> Tracker::Impl::PrepareAdjustment() const {
   const size_t count = map_keyframes.size();
-  if (count < 2) return;
+  if (count < 2) return std::nullopt;
   const size_t window_first = count > static_cast<size_t>(options.local_window)
                                   ? count - static_cast<size_t>(options.local_window)
                                   : 0;
-  BundleAdjustmentProblem problem;
-  const bool calibrating =
+  WindowAdjustment adjustment;
+  BundleAdjustmentProblem& problem = adjustment.problem;
+  adjustment.calibrating =
       options.depth_self_calibration && options.depth_calibration_in_bundle_adjustment &&
       count >= static_cast<size_t>(options.depth_calibration.joint_min_keyframes);
-  if (calibrating) {
+  if (adjustment.calibrating) {
     problem.depth_correction = stats.depth_correction;
     problem.depth_correction_sigma = options.depth_calibration.coefficient_sigma;
   }
-  std::vector<int> keyframe_ids, landmark_ids;
   std::unordered_map<int, int> keyframe_index, landmark_index;
-  struct ObservationRef {
-    int keyframe_id, feature, landmark_id;
-  };
-  std::vector<ObservationRef> refs;
   for (size_t k = window_first; k < count; ++k) {
     const int id = map_keyframes[k];
     keyframe_index[id] = static_cast<int>(problem.keyframes.size());
-    keyframe_ids.push_back(id);
+    adjustment.keyframe_ids.push_back(id);
     problem.keyframes.push_back({keyframes.at(id).camera_from_world, false});
   }
   for (size_t k = window_first; k < count; ++k) {
     for (int id : keyframes.at(map_keyframes[k]).landmark_of_feature) {
       if (id < 0 || landmark_index.count(id) > 0) continue;
       landmark_index[id] = static_cast<int>(problem.landmarks.size());
-      landmark_ids.push_back(id);
+      adjustment.landmark_ids.push_back(id);
       problem.landmarks.push_back(landmarks.at(id).position);
     }
   }
   bool any_fixed = false;
-  for (size_t l = 0; l < landmark_ids.size(); ++l) {
-    for (const auto& [keyframe_id, feature] : landmarks.at(landmark_ids[l]).observations) {
+  for (size_t l = 0; l < adjustment.landmark_ids.size(); ++l) {
+    for (const auto& [keyframe_id, feature] : landmarks.at(adjustment.landmark_ids[l]).observations) {
       auto it = keyframe_index.find(keyframe_id);
       if (it == keyframe_index.end()) {
         it = keyframe_index.emplace(keyframe_id, static_cast<int>(problem.keyframes.size())).first;
-        keyframe_ids.push_back(keyframe_id);
+        adjustment.keyframe_ids.push_back(keyframe_id);
         problem.keyframes.push_back({keyframes.at(keyframe_id).camera_from_world, true});
         any_fixed = true;
       }
       const Keyframe& keyframe = keyframes.at(keyframe_id);
       problem.observations.push_back(
           {it->second, static_cast<int>(l),
-           Observation(keyframe.features, static_cast<size_t>(feature), calibrating)});
-      refs.push_back({keyframe_id, feature, landmark_ids[l]});
+           Observation(keyframe.features, static_cast<size_t>(feature), adjustment.calibrating)});
+      adjustment.refs.push_back({keyframe_id, feature, adjustment.landmark_ids[l]});
     }
   }
   if (!any_fixed) problem.keyframes[0].fixed = true;  // the gauge
-  running_window_first = map_keyframes[window_first];
-  std::vector<bool> fixed;
-  for (const BundleAdjustmentKeyframe& keyframe : problem.keyframes)
-    fixed.push_back(keyframe.fixed);
-
-  lock.unlock();
-  const Clock::time_point start = Clock::now();
-  BundleAdjustmentResult result;
-  try {
-    result = SolveWindow(std::move(problem));
-  } catch (...) {
-    lock.lock();
-    running_window_first = INT_MAX;
-    throw;
+  adjustment.window_first = map_keyframes[window_first];
+  for (const BundleAdjustmentKeyframe& keyframe : problem.keyframes) {
+    adjustment.fixed.push_back(keyframe.fixed);
   }
-  const double elapsed_ms = MillisecondsSince(start);
-  lock.lock();
-  running_window_first = INT_MAX;
+  return adjustment;
+}
 
+void Tracker::Impl::RequestAdjustment() {
+  std::optional<WindowAdjustment> adjustment = PrepareAdjustment();
+  if (!adjustment) return;
+  adjustment->handover_serial =
+      frame_serial + static_cast<size_t>(options.bundle_adjustment_handover_frames);
+  running_window_first = adjustment->window_first;
+  pending = std::move(adjustment);
+  if (worker.joinable()) {
+    ba_requested = true;
+    wake.notify_one();
+  } else {
+    pending->solved = Solve(std::move(pending->problem));
+  }
+}
+
+void Tracker::Impl::TakeAdjustment(std::unique_lock<std::mutex>& lock) {
+  if (!pending) return;
+  if (!pending->solved) {
+    const Clock::time_point start = Clock::now();
+    ba_done.wait(lock, [this] { return pending->solved.has_value(); });
+    ++stats.bundle_adjustment_waits;
+    stats.bundle_adjustment_wait_ms += MillisecondsSince(start);
+  }
+  WindowAdjustment adjustment = std::move(*pending);
+  pending.reset();
+  running_window_first = INT_MAX;
+  if (adjustment.solved->error) std::rethrow_exception(adjustment.solved->error);
+  ApplyAdjustment(adjustment);
+  UpdateFinal();
+}
+
+void Tracker::Impl::ApplyAdjustment(const WindowAdjustment& adjustment) {
+  const BundleAdjustmentResult& result = adjustment.solved->result;
   if (result.depth_correction) {
     stats.depth_correction = *result.depth_correction;
     ++stats.depth_calibrations;
-  } else if (calibrating) {
+  } else if (adjustment.calibrating) {
     ++stats.depth_calibrations_refused;
   }
-  // Write back what still exists (tracking may have culled landmarks meanwhile).
-  for (size_t k = 0; k < keyframe_ids.size(); ++k) {
-    if (fixed[k]) continue;
-    const auto it = keyframes.find(keyframe_ids[k]);
+  // Write back what still exists (tracking may have culled landmarks since the request).
+  for (size_t k = 0; k < adjustment.keyframe_ids.size(); ++k) {
+    if (adjustment.fixed[k]) continue;
+    const auto it = keyframes.find(adjustment.keyframe_ids[k]);
     if (it != keyframes.end()) it->second.camera_from_world = result.camera_from_world[k];
   }
-  for (size_t l = 0; l < landmark_ids.size(); ++l) {
-    const auto it = landmarks.find(landmark_ids[l]);
+  for (size_t l = 0; l < adjustment.landmark_ids.size(); ++l) {
+    const auto it = landmarks.find(adjustment.landmark_ids[l]);
     if (it != landmarks.end()) it->second.position = result.landmarks[l];
   }
-  for (size_t o = 0; o < refs.size(); ++o) {
-    if (!result.outlier[o]) continue;
-    const ObservationRef& ref = refs[o];
-    const auto landmark = landmarks.find(ref.landmark_id);
-    if (landmark == landmarks.end()) continue;
-    auto& observations = landmark->second.observations;
-    observations.erase(std::remove(observations.begin(), observations.end(),
-                                   std::make_pair(ref.keyframe_id, ref.feature)),
-                       observations.end());
-    const auto keyframe = keyframes.find(ref.keyframe_id);
-    if (keyframe != keyframes.end()) {
-      int& slot = keyframe->second.landmark_of_feature[static_cast<size_t>(ref.feature)];
-      if (slot == ref.landmark_id) slot = -1;
-    }
-    ++stats.observations_rejected;
-    if (observations.empty()) EraseLandmark(ref.landmark_id);
+  for (size_t o = 0; o < adjustment.refs.size(); ++o) {
+    if (result.outlier[o]) RejectObservation(adjustment.refs[o]);
   }
   ++stats.bundle_adjustments;
-  stats.bundle_adjustment_ms += elapsed_ms;
+  stats.bundle_adjustment_ms += adjustment.solved->ms;
+}
+
+void Tracker::Impl::RejectObservation(const ObservationRef& ref) {
+  const auto landmark = landmarks.find(ref.landmark_id);
+  if (landmark == landmarks.end()) return;
+  auto& observations = landmark->second.observations;
+  observations.erase(std::remove(observations.begin(), observations.end(),
+                                 std::make_pair(ref.keyframe_id, ref.feature)),
+                     observations.end());
+  const auto keyframe = keyframes.find(ref.keyframe_id);
+  if (keyframe != keyframes.end()) {
+    int& slot = keyframe->second.landmark_of_feature[static_cast<size_t>(ref.feature)];
+    if (slot == ref.landmark_id) slot = -1;
+  }
+  ++stats.observations_rejected;
+  if (observations.empty()) EraseLandmark(ref.landmark_id);
 }
 
 BundleAdjustmentResult Tracker::Impl::SolveWindow(BundleAdjustmentProblem problem) const {
@@ -149,14 +181,6 @@ BundleAdjustmentResult Tracker::Impl::SolveWindow(BundleAdjustmentProblem proble
   }
   problem.depth_correction.reset();
   return SolveBundleAdjustment(problem, options.bundle_adjustment);
-}
-
-void Tracker::Impl::RethrowWorkerError() {
-  if (worker_error) {
-    std::exception_ptr error = worker_error;
-    worker_error = nullptr;
-    std::rethrow_exception(error);
-  }
 }
 
 }  // namespace stillmap

@@ -104,7 +104,11 @@ struct TrackerOptions {
 
   int local_map_keyframes = 25;  // keyframes whose landmarks are searched for in each frame
   int local_window = 8;          // keyframes optimized by the local bundle adjustment
-  bool background_bundle_adjustment = true;  // false: run it inline (deterministic)
+  bool background_bundle_adjustment = true;  // false: solve it inline (same result, slower)
+  // Frames after its request when a local bundle adjustment's result is taken (sooner at the
+  // next keyframe): a point fixed by the data, so runs repeat exactly. The solve takes about 3
+  // frames of tracking on two cores (bonn_crowd_a), so at 4 the tracker rarely waits for it.
+  int bundle_adjustment_handover_frames = 4;
 
   int min_tracked = 20;      // inliers for a frame to count as tracked
   int min_relocalized = 30;  // inliers for a relocalization to be accepted
@@ -188,7 +192,10 @@ struct TrackerOptions {
           "keyframes whose landmarks are searched for per frame");
     visit("local_window", self.local_window, "keyframes optimized by the local bundle adjustment");
     visit("background_bundle_adjustment", self.background_bundle_adjustment,
-          "run the local bundle adjustment on its own thread (false: inline, deterministic)");
+          "solve the local bundle adjustment on its own thread (false: inline; same result)");
+    visit("bundle_adjustment_handover_frames", self.bundle_adjustment_handover_frames,
+          "frames after its request when the local bundle adjustment's result is taken (sooner "
+          "at the next keyframe); fixed by the data, so runs repeat exactly");
     visit("min_tracked", self.min_tracked, "inliers for a frame to count as tracked");
     visit("min_relocalized", self.min_relocalized, "inliers for a relocalization to be accepted");
     visit("relocalization_keyframes", self.relocalization_keyframes,
@@ -263,6 +270,10 @@ struct TrackerStatistics {
   size_t landmarks_culled = 0;
   size_t bundle_adjustments = 0;
   double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
+  // Results the tracker had to wait for at their handover point, and the time it waited: a slow
+  // or busy machine shows here, not in the poses.
+  size_t bundle_adjustment_waits = 0;
+  double bundle_adjustment_wait_ms = 0.0;
   size_t observations_rejected = 0;   // by the bundle adjustment's chi-square test
   // Depth self-calibration: the correction in use and the last fit.
   DepthCorrection depth_correction;
