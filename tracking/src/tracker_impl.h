@@ -251,7 +251,8 @@ struct Tracker::Impl {
     bool calibrating = false;          // the depth correction is estimated jointly
     int window_first = INT_MAX;        // first keyframe id of the window
     size_t handover_serial = 0;        // taken before the frame with this frame_serial
-    std::optional<SolvedWindow> solved;
+    bool is_solved = false;
+    SolvedWindow solved;
   };
   void WorkerLoop();
   SolvedWindow Solve(BundleAdjustmentProblem problem) const;

@@ -16,6 +16,7 @@ void Tracker::Impl::WorkerLoop() {
     SolvedWindow solved = Solve(std::move(problem));
     lock.lock();
     pending->solved = std::move(solved);
+    pending->is_solved = true;
     ba_running = false;
     ba_done.notify_all();
   }
@@ -102,27 +103,28 @@ void Tracker::Impl::RequestAdjustment() {
     wake.notify_one();
   } else {
     pending->solved = Solve(std::move(pending->problem));
+    pending->is_solved = true;
   }
 }
 
 void Tracker::Impl::TakeAdjustment(std::unique_lock<std::mutex>& lock) {
   if (!pending) return;
-  if (!pending->solved) {
+  if (!pending->is_solved) {
     const Clock::time_point start = Clock::now();
-    ba_done.wait(lock, [this] { return pending->solved.has_value(); });
+    ba_done.wait(lock, [this] { return pending->is_solved; });
     ++stats.bundle_adjustment_waits;
     stats.bundle_adjustment_wait_ms += MillisecondsSince(start);
   }
   WindowAdjustment adjustment = std::move(*pending);
   pending.reset();
   running_window_first = INT_MAX;
-  if (adjustment.solved->error) std::rethrow_exception(adjustment.solved->error);
+  if (adjustment.solved.error) std::rethrow_exception(adjustment.solved.error);
   ApplyAdjustment(adjustment);
   UpdateFinal();
 }
 
 void Tracker::Impl::ApplyAdjustment(const WindowAdjustment& adjustment) {
-  const BundleAdjustmentResult& result = adjustment.solved->result;
+  const BundleAdjustmentResult& result = adjustment.solved.result;
   if (result.depth_correction) {
     stats.depth_correction = *result.depth_correction;
     ++stats.depth_calibrations;
@@ -143,7 +145,7 @@ void Tracker::Impl::ApplyAdjustment(const WindowAdjustment& adjustment) {
     if (result.outlier[o]) RejectObservation(adjustment.refs[o]);
   }
   ++stats.bundle_adjustments;
-  stats.bundle_adjustment_ms += adjustment.solved->ms;
+  stats.bundle_adjustment_ms += adjustment.solved.ms;
 }
 
 void Tracker::Impl::RejectObservation(const ObservationRef& ref) {
