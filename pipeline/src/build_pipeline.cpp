@@ -108,9 +108,10 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
           "map (pass --models DIR holding yolox_nano/, or --detector none to silence this)");
     }
   }
-  const bool background = config.masking.detector_in_background && request.threads > 1;
-  auto masks = std::make_unique<MaskStage>(camera, config.masking, config.masking_enabled,
-                                           std::move(detector), background, request.sequence_dir);
+  // One thread runs the same schedule (the detector when its result is due): the same masks.
+  auto masks = std::make_unique<MaskStage>(
+      camera, config.masking, config.masking_enabled, std::move(detector),
+      config.masking.detector_in_background, request.sequence_dir, request.threads > 1);
   result->masking.enabled = masks->enabled();
   result->masking.detector = masks->detector_name();
   result->masking.semantics = masks->semantics();

@@ -19,13 +19,16 @@ DetectorRun Run(Detector& detector, const cv::Mat& bgr) {
 }  // namespace
 
 DetectionSchedule::DetectionSchedule(std::unique_ptr<Detector> detector, int interval,
-                                     bool background)
-    : detector_(std::move(detector)), interval_(interval), background_(background) {
+                                     bool background, bool own_thread)
+    : detector_(std::move(detector)),
+      interval_(interval),
+      background_(background),
+      own_thread_(own_thread) {
   CV_Assert(detector_ != nullptr && interval_ >= 1);
 }
 
 DetectionSchedule::~DetectionSchedule() {
-  if (run_.valid()) run_.wait();
+  if (run_.valid() && own_thread_) run_.wait();  // a deferred run is dropped unrun
 }
 
 std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const FlowStep* flow) {
@@ -49,7 +52,7 @@ std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const Flo
   }
   if (detect_here) {
     // The image is copied: the caller's frame goes on to the mapper while the detector reads it.
-    run_ = std::async(std::launch::async,
+    run_ = std::async(own_thread_ ? std::launch::async : std::launch::deferred,
                       [this, image = bgr.clone()] { return Run(*detector_, image); });
     run_frame_ = frame;
   }

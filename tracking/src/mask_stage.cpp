@@ -36,14 +36,14 @@ std::set<long long> StillFrames(const std::string& sequence_dir) {
 
 MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
                      std::unique_ptr<Detector> detector, bool detector_in_background,
-                     const std::string& sequence_dir)
+                     const std::string& sequence_dir, bool detector_thread)
     : enabled_(enabled), options_(options), truth_(sequence_dir) {
   if (!enabled_) return;
   if (truth_.available()) still_frames_us_ = StillFrames(sequence_dir);
   if (detector != nullptr && options_.semantics) {
     detections_ = std::make_unique<DetectionSchedule>(
-        std::move(detector), options_.detector_interval, detector_in_background);
-    statistics_.detector_in_background = detector_in_background;
+        std::move(detector), options_.detector_interval, detector_in_background, detector_thread);
+    statistics_.detector_in_background = detector_in_background && detector_thread;
   }
   masker_ = std::make_unique<DynamicMasker>(camera, options_);
 }

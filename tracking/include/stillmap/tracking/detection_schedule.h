@@ -24,9 +24,12 @@ struct DetectorRun {
 
 class DetectionSchedule {
  public:
-  // `interval`: the detector runs on every interval-th frame (>= 1). `background`: on its own
-  // thread, its detections used `interval` frames later; otherwise in place.
-  DetectionSchedule(std::unique_ptr<Detector> detector, int interval, bool background);
+  // `interval`: the detector runs on every interval-th frame (>= 1). `background`: its detections
+  // are used `interval` frames later, the run on its own thread when `own_thread` (else when its
+  // result is due, on the caller's thread: the same detections, so one thread repeats many);
+  // otherwise in place.
+  DetectionSchedule(std::unique_ptr<Detector> detector, int interval, bool background,
+                    bool own_thread = true);
   DetectionSchedule(const DetectionSchedule&) = delete;
   DetectionSchedule& operator=(const DetectionSchedule&) = delete;
   ~DetectionSchedule();  // waits for a run in flight
@@ -45,6 +48,7 @@ class DetectionSchedule {
   std::unique_ptr<Detector> detector_;
   int interval_;
   bool background_;
+  bool own_thread_;
   size_t frame_ = 0;              // frames seen
   std::future<DetectorRun> run_;  // the background run in flight, if any
   size_t run_frame_ = 0;          // the frame it runs on

@@ -44,12 +44,13 @@ struct MaskingStatistics {
 class MaskStage {
  public:
   // `enabled` false: Compute returns empty masks and nothing runs. `detector` may be null
-  // (geometry only); `detector_in_background`: it runs on its own thread, its detections used
-  // options.detector_interval frames later. Ground-truth masks are read from SEQUENCE/masks.txt
-  // when it exists.
+  // (geometry only); `detector_in_background`: its detections are used
+  // options.detector_interval frames later, computed on its own thread when `detector_thread`
+  // (else when due, on the caller's: the same detections). Ground-truth masks are read from
+  // SEQUENCE/masks.txt when it exists.
   MaskStage(const Camera& camera, const DynamicMaskOptions& options, bool enabled,
             std::unique_ptr<Detector> detector, bool detector_in_background,
-            const std::string& sequence_dir);
+            const std::string& sequence_dir, bool detector_thread = true);
 
   bool enabled() const { return enabled_; }
   const DynamicMaskOptions& options() const { return options_; }

@@ -274,7 +274,7 @@ struct TrackerStatistics {
   // or busy machine shows here, not in the poses.
   size_t bundle_adjustment_waits = 0;
   double bundle_adjustment_wait_ms = 0.0;
-  size_t observations_rejected = 0;   // by the bundle adjustment's chi-square test
+  size_t observations_rejected = 0;  // by the bundle adjustment's chi-square test
   // Depth self-calibration: the correction in use and the last fit.
   DepthCorrection depth_correction;
   size_t depth_calibrations = 0;  // fits accepted
