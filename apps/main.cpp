@@ -96,8 +96,9 @@ struct BuildCommand {
                         "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: "
                         "$STILLMAP_MODELS, else ../shared/models when present)");
     command
-        ->add_option("--threads", request.threads,
-                     "threads (1: no read-ahead, bundle adjustment inline, OpenCV single-threaded)")
+        ->add_option(
+            "--threads", request.threads,
+            "threads (1: everything on one thread, slower; the outputs are the same bytes)")
         ->check(CLI::Range(1, 64));
     CLI::Option* quiet_flag =
         command->add_flag("--quiet", quiet, "no progress line, warnings only");
