@@ -80,6 +80,14 @@ void CheckSize(const std::string& path, const std::vector<unsigned char>& bytes)
   }
 }
 
+// ".PNG" -> ".png": the extension that picks the format.
+std::string LowerExtension(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension;
+}
+
 }  // namespace
 
 cv::Mat ReadImageAsStored(const std::string& path) {
@@ -140,9 +148,7 @@ void WriteImage(const std::string& path, const cv::Mat& image, const std::string
 
 void CheckImageOutputPath(const std::string& path, bool png_only) {
   const std::filesystem::path target(path);
-  std::string extension = target.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string extension = LowerExtension(path);
   std::error_code error;
   if (std::filesystem::is_directory(target, error)) {
     throw InputError(path + ": is a folder; give the image's file name (e.g. " +
@@ -172,9 +178,7 @@ void CheckImageOutputPath(const std::string& path, bool png_only) {
 
 void WriteImageAtomically(const std::string& path, const cv::Mat& image) {
   CheckImageOutputPath(path, false);
-  std::string extension = std::filesystem::path(path).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string extension = LowerExtension(path);
   const std::string temp = TemporaryPathFor(path);
   std::remove(temp.c_str());  // never write through what is left at that name
   WriteImage(temp, image, extension);

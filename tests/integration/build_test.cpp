@@ -309,7 +309,9 @@ TEST(BuildTest, DynamicRejectionMasksWalkingPeopleAndKeepsTheirGhostsOut) {
   EXPECT_GT(redundant, 0U);
   EXPECT_EQ(Trajectory::ReadTum(dir / "masked/keyframes.txt").size(), fused);
   EXPECT_EQ(unmasked.at("masking").at("enabled"), false);
-  EXPECT_GT(masked.at("timing").at("stages_ms").at("masking_ms").at("mask").at("median").get<double>(), 0.0);
+  EXPECT_GT(
+      masked.at("timing").at("stages_ms").at("masking_ms").at("mask").at("median").get<double>(),
+      0.0);
 }
 
 // Tracking (issue 4), the default of `stillmap build`, through the binary: a synthetic static room

@@ -112,6 +112,17 @@ std::string RandomBytes(Generator& g, size_t size) {
   return bytes;
 }
 
+// The files of `folder`, sorted (directory order differs between file systems; the generator's
+// picks must not).
+std::vector<std::string> FilesIn(const std::string& folder) {
+  std::vector<std::string> paths;
+  for (const fs::directory_entry& e : fs::directory_iterator(folder)) {
+    paths.push_back(e.path().string());
+  }
+  std::sort(paths.begin(), paths.end());
+  return paths;
+}
+
 const std::vector<std::string>& ConfigSections() {
   static const std::vector<std::string> sections = [] {
     std::set<std::string> unique;
@@ -432,13 +443,7 @@ TEST(HostileUserDataTest, ImplausibleRecordingsAreNamed) {
     Case c;
     std::string output;
     const size_t kind = g.Below(3);
-    const std::vector<std::string> depths = [&] {
-      std::vector<std::string> paths;
-      for (const fs::directory_entry& e : fs::directory_iterator(c.sequence + "/depth")) {
-        paths.push_back(e.path().string());
-      }
-      return paths;
-    }();
+    const std::vector<std::string> depths = FilesIn(c.sequence + "/depth");
     if (kind == 0) {
       for (const std::string& path : depths) {
         cv::Mat depth = cv::imread(path, cv::IMREAD_UNCHANGED);
@@ -464,9 +469,7 @@ TEST(HostileUserDataTest, ImplausibleRecordingsAreNamed) {
     } else {
       const cv::Mat noise(120, 160, CV_8UC3);
       cv::randu(noise, 0, 255);
-      for (const fs::directory_entry& e : fs::directory_iterator(c.sequence + "/rgb")) {
-        cv::imwrite(e.path().string(), noise);
-      }
+      for (const std::string& path : FilesIn(c.sequence + "/rgb")) cv::imwrite(path, noise);
       EXPECT_EQ(c.Build("", &output), 0) << output;
       EXPECT_NE(output.find("frozen"), std::string::npos) << output;
     }
@@ -565,11 +568,7 @@ TEST(HostileUserDataTest, DamagedFilesGetOurSentence) {
       EXPECT_EQ(c.Build("", &output), 0) << output;
     } else if (kind == 3) {  // a broken CRC in a PNG: our sentence, not libpng's
       const std::string folder = g.Below(2) == 0 ? "/rgb" : "/depth";
-      std::vector<std::string> paths;
-      for (const fs::directory_entry& e : fs::directory_iterator(c.sequence + folder)) {
-        paths.push_back(e.path().string());
-      }
-      std::sort(paths.begin(), paths.end());
+      const std::vector<std::string> paths = FilesIn(c.sequence + folder);
       const std::string path = paths[g.Below(paths.size())];
       std::string bytes = ReadText(path);
       const size_t idat = bytes.find("IDAT");

@@ -68,7 +68,8 @@ std::optional<Tracker::Impl::WindowAdjustment> Tracker::Impl::PrepareAdjustment(
   }
   bool any_fixed = false;
   for (size_t l = 0; l < adjustment.landmark_ids.size(); ++l) {
-    for (const auto& [keyframe_id, feature] : landmarks.at(adjustment.landmark_ids[l]).observations) {
+    for (const auto& [keyframe_id, feature] :
+         landmarks.at(adjustment.landmark_ids[l]).observations) {
       auto it = keyframe_index.find(keyframe_id);
       if (it == keyframe_index.end()) {
         it = keyframe_index.emplace(keyframe_id, static_cast<int>(problem.keyframes.size())).first;
