@@ -1,0 +1,88 @@
+// Place recognition without a trained vocabulary: an index over the keyframes' ORB descriptors,
+// built while the sequence runs, that answers "which keyframes saw this view?" with keyframes
+// ranked by votes. Candidates are only candidates: the tracker verifies each geometrically.
+//
+// Locality-sensitive hashing by bit sampling (Gionis, Indyk and Motwani; the scheme of FLANN's
+// LshIndex): each of `tables` hash tables keys a descriptor by `key_bits` of its 256 bits, so
+// descriptors within a small Hamming distance share a bucket in at least one table with high
+// probability. Written here rather than taken from FLANN (a design-card package): FLANN 1.9's
+// LshTable draws its bit masks from std::random_device, so two runs would index differently and a
+// build would not repeat (issue 33); here the masks come from a generator seeded by run.seed.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <opencv2/core.hpp>
+#include <unordered_map>
+#include <vector>
+
+namespace stillmap {
+
+struct PlaceIndexOptions {
+  int tables = 8;         // hash tables
+  int key_bits = 16;      // bits of a descriptor that make a key
+  int max_distance = 50;  // a query descriptor votes for keyframes holding one this close
+                          // (Hamming, of 256 bits; ORB-SLAM2's TH_LOW)
+
+  // Throws InputError naming the key (tracking.place_*) of the first impossible value.
+  void Validate() const;
+
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("tables", self.tables, "hash tables of the place index (bit-sampling LSH)");
+    visit("key_bits", self.key_bits, "descriptor bits per hash key of the place index");
+    visit("max_distance", self.max_distance,
+          "a descriptor votes for keyframes holding one within this Hamming distance (of 256)");
+  }
+};
+
+struct PlaceCandidate {
+  int keyframe_id = 0;
+  int votes = 0;  // query descriptors with a close descriptor in the keyframe
+};
+
+class PlaceIndex {
+ public:
+  PlaceIndex(const PlaceIndexOptions& options, std::uint64_t seed);
+
+  // Indexes a keyframe's descriptors (CV_8U rows of 32 bytes); a keyframe id is added once.
+  void Add(int keyframe_id, const cv::Mat& descriptors);
+  // Forgets a keyframe (its entries are skipped, and dropped at the next compaction).
+  void Remove(int keyframe_id);
+
+  // The keyframes with votes from `descriptors`, most votes first (ties: lower id first), at
+  // most `max_candidates`; keyframes for which `skip` returns true are left out.
+  template <typename Skip>
+  std::vector<PlaceCandidate> Query(const cv::Mat& descriptors, size_t max_candidates,
+                                    Skip&& skip) const {
+    std::vector<PlaceCandidate> out;
+    for (const auto& [id, votes] : Votes(descriptors)) {
+      if (!skip(id)) out.push_back({id, votes});
+    }
+    return Ranked(std::move(out), max_candidates);
+  }
+
+  size_t keyframes() const { return keyframe_count_; }
+  size_t entries() const { return descriptors_.size() - removed_entries_; }  // live ones
+  size_t MemoryBytes() const;
+
+ private:
+  using Bits = std::array<std::uint64_t, 4>;
+  std::uint32_t Key(const Bits& bits, size_t table) const;
+  // Votes per keyframe id (std::map: the order does not depend on addresses).
+  std::map<int, int> Votes(const cv::Mat& descriptors) const;
+  static std::vector<PlaceCandidate> Ranked(std::vector<PlaceCandidate> candidates, size_t count);
+  void Compact();
+
+  PlaceIndexOptions options_;
+  std::vector<std::vector<int>> key_bit_positions_;  // per table
+  std::vector<std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>> buckets_;
+  std::vector<Bits> descriptors_;
+  std::vector<int> owner_;       // keyframe id per descriptor, -1 once removed
+  std::map<int, bool> indexed_;  // keyframe id -> still indexed
+  size_t keyframe_count_ = 0;
+  size_t removed_entries_ = 0;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,140 @@
+#include "stillmap/tracking/place_index.h"
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <random>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+void PlaceIndexOptions::Validate() const {
+  if (tables < 1 || tables > 64) throw InputError("tracking.place_tables must be 1..64");
+  if (key_bits < 4 || key_bits > 32) throw InputError("tracking.place_key_bits must be 4..32");
+  if (max_distance < 0 || max_distance > 256) {
+    throw InputError("tracking.place_max_distance must be 0..256");
+  }
+}
+
+PlaceIndex::PlaceIndex(const PlaceIndexOptions& options, std::uint64_t seed)
+    : options_(options), buckets_(static_cast<size_t>(options.tables)) {
+  options_.Validate();
+  std::mt19937_64 generator(seed);
+  std::vector<int> positions(256);
+  for (int t = 0; t < options_.tables; ++t) {
+    std::iota(positions.begin(), positions.end(), 0);
+    // A Fisher-Yates shuffle written out: std::shuffle's use of the generator is not specified,
+    // so the masks would differ between standard libraries.
+    for (size_t i = positions.size() - 1; i > 0; --i) {
+      std::swap(positions[i], positions[generator() % (i + 1)]);
+    }
+    key_bit_positions_.emplace_back(positions.begin(), positions.begin() + options_.key_bits);
+  }
+}
+
+std::uint32_t PlaceIndex::Key(const Bits& bits, size_t table) const {
+  std::uint32_t key = 0;
+  for (const int position : key_bit_positions_[table]) {
+    const auto p = static_cast<unsigned>(position);
+    key = (key << 1U) | static_cast<std::uint32_t>((bits[p / 64U] >> (p % 64U)) & 1U);
+  }
+  return key;
+}
+
+void PlaceIndex::Add(int keyframe_id, const cv::Mat& descriptors) {
+  if (indexed_.count(keyframe_id) > 0) return;
+  indexed_[keyframe_id] = true;
+  ++keyframe_count_;
+  for (int row = 0; row < descriptors.rows; ++row) {
+    Bits bits;
+    std::memcpy(bits.data(), descriptors.ptr<std::uint8_t>(row), sizeof(bits));
+    const auto index = static_cast<std::uint32_t>(descriptors_.size());
+    descriptors_.push_back(bits);
+    owner_.push_back(keyframe_id);
+    for (size_t t = 0; t < buckets_.size(); ++t) buckets_[t][Key(bits, t)].push_back(index);
+  }
+}
+
+void PlaceIndex::Remove(int keyframe_id) {
+  const auto it = indexed_.find(keyframe_id);
+  if (it == indexed_.end() || !it->second) return;
+  it->second = false;
+  --keyframe_count_;
+  for (int& owner : owner_) {
+    if (owner == keyframe_id) {
+      owner = -1;
+      ++removed_entries_;
+    }
+  }
+  if (removed_entries_ * 2 > owner_.size()) Compact();
+}
+
+void PlaceIndex::Compact() {
+  std::vector<Bits> descriptors;
+  std::vector<int> owner;
+  for (size_t i = 0; i < owner_.size(); ++i) {
+    if (owner_[i] < 0) continue;
+    descriptors.push_back(descriptors_[i]);
+    owner.push_back(owner_[i]);
+  }
+  descriptors_.swap(descriptors);
+  owner_.swap(owner);
+  removed_entries_ = 0;
+  for (auto& table : buckets_) table.clear();
+  for (size_t i = 0; i < descriptors_.size(); ++i) {
+    for (size_t t = 0; t < buckets_.size(); ++t) {
+      buckets_[t][Key(descriptors_[i], t)].push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+}
+
+std::map<int, int> PlaceIndex::Votes(const cv::Mat& descriptors) const {
+  std::map<int, int> votes;
+  std::vector<std::pair<int, int>> hits;  // (keyframe id, distance) of one query descriptor
+  for (int row = 0; row < descriptors.rows; ++row) {
+    Bits query;
+    std::memcpy(query.data(), descriptors.ptr<std::uint8_t>(row), sizeof(query));
+    hits.clear();
+    for (size_t t = 0; t < buckets_.size(); ++t) {
+      const auto bucket = buckets_[t].find(Key(query, t));
+      if (bucket == buckets_[t].end()) continue;
+      for (const std::uint32_t index : bucket->second) {
+        const int owner = owner_[index];
+        if (owner < 0) continue;
+        const Bits& d = descriptors_[index];
+        const int distance =
+            __builtin_popcountll(query[0] ^ d[0]) + __builtin_popcountll(query[1] ^ d[1]) +
+            __builtin_popcountll(query[2] ^ d[2]) + __builtin_popcountll(query[3] ^ d[3]);
+        if (distance <= options_.max_distance) hits.emplace_back(owner, distance);
+      }
+    }
+    std::sort(hits.begin(), hits.end());
+    for (size_t i = 0; i < hits.size(); ++i) {
+      if (i == 0 || hits[i].first != hits[i - 1].first) ++votes[hits[i].first];
+    }
+  }
+  return votes;
+}
+
+std::vector<PlaceCandidate> PlaceIndex::Ranked(std::vector<PlaceCandidate> candidates,
+                                               size_t count) {
+  std::sort(candidates.begin(), candidates.end(),
+            [](const PlaceCandidate& a, const PlaceCandidate& b) {
+              return a.votes != b.votes ? a.votes > b.votes : a.keyframe_id < b.keyframe_id;
+            });
+  if (candidates.size() > count) candidates.resize(count);
+  return candidates;
+}
+
+size_t PlaceIndex::MemoryBytes() const {
+  size_t bytes = descriptors_.capacity() * sizeof(Bits) + owner_.capacity() * sizeof(int);
+  for (const auto& table : buckets_) {
+    for (const auto& [key, entries] : table) {
+      bytes += sizeof(key) + sizeof(entries) + entries.capacity() * sizeof(std::uint32_t);
+    }
+  }
+  return bytes;
+}
+
+}  // namespace stillmap
