@@ -58,6 +58,17 @@ FinishedMap Mapper::Finish() {
   return FinishedMap{std::move(cloud_), std::move(occupancy_), statistics_, std::move(views_)};
 }
 
+void Mapper::Reset() {
+  if (finished_) throw std::logic_error("Mapper::Reset called after Finish");
+  if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
+  cloud_ = VoxelCloud(options_.voxel);
+  if (occupancy_) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
+  views_.clear();
+  statistics_.frames = 0;
+  statistics_.points = 0;
+  ++statistics_.refusions;
+}
+
 void Mapper::WaitForOccupancy() {
   if (occupancy_job_.valid()) occupancy_job_.get();
 }

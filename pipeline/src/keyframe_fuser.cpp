@@ -1,6 +1,8 @@
 #include "keyframe_fuser.h"
 
 #include <chrono>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/io/timing.h"
 
@@ -8,7 +10,13 @@ namespace stillmap {
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const BuildConfig& config,
                              const MaskStage& masks, Mapper* mapper)
-    : mapper_(*mapper), selector_(config.selection), factors_(camera) {
+    : mapper_(*mapper),
+      keep_for_refusion_(config.tracking.loop_closure),
+      // The stored depth's step: the range the back-projection uses in 60000 steps (0.07 mm at
+      // 4 m), far below any sensor's noise.
+      depth_unit_m_(config.mapping.back_projection.max_depth / 60000.0),
+      selector_(config.selection),
+      factors_(camera) {
   if (masks.enabled() && config.map_recheck && config.masking.depth_check) {
     recheck_.emplace(masks.masker()->geometry(), config.masking);
   }
@@ -37,6 +45,10 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
   for (const FinalKeyframe& keyframe : finals) {
     const auto it = waiting_.find(keyframe.id);
     if (it == waiting_.end()) continue;
+    if (keyframe.culled) {  // keyframes kept before it saw its view: the map has the place
+      waiting_.erase(it);
+      continue;
+    }
     const Frame& frame = it->second.frame;
     bool changed = false;
     const cv::Mat mask = recheck_ ? Recheck(keyframe, it, &changed) : it->second.reference.mask;
@@ -51,6 +63,7 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
       mapper_.Integrate(input);
       fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
+      if (keep_for_refusion_) Store(keyframe.id, input);
     }
     if (recheck_) {
       MaskReference done = std::move(it->second.reference);
@@ -61,6 +74,50 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
     waiting_.erase(it);
   }
   fuse_ms_ += MillisecondsSince(start);
+}
+
+void KeyframeFuser::Store(int keyframe_id, const MapperFrame& input) {
+  Stored stored{keyframe_id, input.time, input.world_from_camera, {}, {}};
+  cv::Mat depth;
+  input.depth_m.convertTo(depth, CV_16U, 1.0 / depth_unit_m_);  // saturates beyond the range
+  if (!input.mask.empty()) depth.setTo(0, input.mask);
+  cv::imencode(".png", depth, stored.depth_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+  cv::imencode(".jpg", input.color, stored.color_jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
+  stored_.push_back(std::move(stored));
+}
+
+size_t KeyframeFuser::stored_bytes() const {
+  size_t bytes = 0;
+  for (const Stored& stored : stored_) bytes += stored.depth_png.size() + stored.color_jpeg.size();
+  return bytes;
+}
+
+size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  const auto start = std::chrono::steady_clock::now();
+  size_t moved = 0;
+  for (Stored& stored : stored_) {
+    const auto it = world_from_keyframe.find(stored.keyframe_id);
+    if (it == world_from_keyframe.end()) continue;
+    const Eigen::Isometry3d change = stored.world_from_camera.inverse() * it->second;
+    const double angle_deg = Eigen::AngleAxisd(change.linear()).angle() * 180.0 / M_PI;
+    if (change.translation().norm() > 0.001 || angle_deg > 0.05) ++moved;
+    stored.world_from_camera = it->second;
+  }
+  if (moved == 0) return 0;
+  mapper_.Reset();
+  fused_poses_.clear();
+  for (const Stored& stored : stored_) {
+    MapperFrame input;
+    input.time = stored.time;
+    input.color = cv::imdecode(stored.color_jpeg, cv::IMREAD_COLOR);
+    cv::imdecode(stored.depth_png, cv::IMREAD_UNCHANGED)
+        .convertTo(input.depth_m, CV_32F, depth_unit_m_);
+    input.world_from_camera = stored.world_from_camera;
+    mapper_.Integrate(input);
+    fused_poses_.push_back({stored.time, stored.world_from_camera});
+  }
+  refuse_ms_ += MillisecondsSince(start);
+  return moved;
 }
 
 SelectionFigures KeyframeFuser::figures() const {

@@ -34,10 +34,18 @@ class KeyframeFuser {
   // their depth corrected by `correction`.
   void Fuse(const std::vector<FinalKeyframe>& finals, const DepthCorrection& correction);
 
+  // After loop corrections: when a fused keyframe's pose in `world_from_keyframe` (by keyframe
+  // id) differs from the one it was fused at (by more than 1 mm or 0.05 degrees), the map is
+  // emptied and every fused keyframe fused again at its final pose, from the compact copies kept
+  // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG). Returns how many moved.
+  size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+
   // The keyframes fused, with the poses they were fused at.
   const std::vector<StampedPose>& fused_poses() const { return fused_poses_; }
   SelectionFigures figures() const;
   double fuse_ms() const { return fuse_ms_; }
+  double refuse_ms() const { return refuse_ms_; }
+  size_t stored_bytes() const;
 
  private:
   struct Waiting {
@@ -47,7 +55,21 @@ class KeyframeFuser {
   cv::Mat Recheck(const FinalKeyframe& keyframe, std::map<int, Waiting>::iterator it,
                   bool* changed);
 
+  // A fused keyframe in compact form, for Refuse.
+  struct Stored {
+    int keyframe_id = 0;
+    double time = 0.0;
+    Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+    std::vector<unsigned char> depth_png;   // CV_16UC1 in depth_unit_m_, 0 = none or masked
+    std::vector<unsigned char> color_jpeg;  // BGR
+  };
+  void Store(int keyframe_id, const MapperFrame& input);
+
   Mapper& mapper_;
+  bool keep_for_refusion_ = false;
+  double depth_unit_m_ = 0.0;
+  std::vector<Stored> stored_;
+  double refuse_ms_ = 0.0;
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   DepthFactorImages factors_;

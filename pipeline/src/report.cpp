@@ -240,7 +240,19 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
           {"relocalizations_refused", t.relocalizations_refused},
           {"static_depth_share", ShareJson(tracking.static_depth_share)},
           {"keyframes", t.keyframes},
+          {"keyframes_culled", t.keyframes_culled},
           {"landmarks_alive", t.landmarks},
+          {"landmarks_merged", t.landmarks_merged},
+          {"loops",
+           {{"candidates", t.loop_candidates},
+            {"verified", t.loops_verified},
+            {"accepted", t.loops_accepted},
+            {"rejected", t.loops_rejected},
+            {"refused_implausible_drift", t.loops_implausible},
+            {"largest_correction_m", t.loop_correction_m},
+            {"largest_correction_deg", t.loop_correction_deg},
+            {"fused_keyframes_moved", tracking.refused_keyframes_moved},
+            {"compact_keyframes_mib", tracking.refusion_store_mib}}},
           {"landmarks_created", t.landmarks_created},
           {"landmarks_culled", t.landmarks_culled},
           {"bundle_adjustments", t.bundle_adjustments},
@@ -262,6 +274,8 @@ json TrackingTimingJson(const TrackingFigures& tracking) {
                          ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
                          : 0.0},
             {"total", t.bundle_adjustment_ms}}},
+          {"place_recognition_and_loops_total", t.loop_ms},
+          {"refuse_map_total", tracking.refuse_ms},
           {"fuse_keyframes_total", tracking.fuse_ms}};
 }
 

@@ -49,6 +49,8 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
   }
   tracker.Finish();
   fuse_final();
+  // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
+  const size_t moved = fuser.Refuse(tracker.KeyframePoses());
   PosedFrames posed{tracker.TrackedTrajectory(), fuser.fused_poses()};
   if (posed.trajectory.empty()) {
     throw std::runtime_error(
@@ -57,6 +59,9 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
   }
   figures.statistics = tracker.statistics();
   figures.fuse_ms = fuser.fuse_ms();
+  figures.refuse_ms = fuser.refuse_ms();
+  figures.refused_keyframes_moved = moved;
+  figures.refusion_store_mib = static_cast<double>(fuser.stored_bytes()) / (1024.0 * 1024.0);
   figures.bundle_adjustment_thread =
       config.tracking.background_bundle_adjustment && request.threads > 1;
   result->tracking = std::move(figures);

@@ -309,6 +309,25 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
     add("books_" + std::to_string(board), books, static_cast<std::uint16_t>(kBookFirst + board));
   }
 
+  // look_alike: a second shelf with the same books on the near wall, a twin of the first: two
+  // places that look the same and must never be joined.
+  if (scenario == "look_alike") {
+    std::vector<StaticObject> twins;
+    for (const StaticObject& object : scene.statics) {
+      if (object.name != "shelf" && object.name.rfind("books_", 0) != 0) continue;
+      StaticObject twin = object;
+      twin.name = object.name + "_twin";
+      twin.id = id++;
+      // Turned from facing +x (left wall) to facing +y (near wall), 0.5 m right of the middle.
+      const Eigen::Matrix3f turn = Eigen::AngleAxisf(kPi / 2, Eigen::Vector3f::UnitZ()).matrix();
+      for (Eigen::Vector3f& vertex : twin.mesh.vertices) {
+        vertex = turn * vertex + Eigen::Vector3f(2.6f, 0.5f, 0.0f);
+      }
+      twins.push_back(std::move(twin));
+    }
+    for (StaticObject& twin : twins) scene.statics.push_back(std::move(twin));
+  }
+
   // People and what they carry.
   std::uint16_t dynamic_id = kFirstDynamicId;
   if (scenario.rfind("walking", 0) == 0) {
@@ -322,6 +341,19 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
     second.to = {-0.5f, 1.25f};   // stops short of person_0's line (y = 0.9)
     second.speed = 0.9f;
     second.phase_offset = 1.0f;
+    scene.movers.push_back(second);
+  } else if (scenario == "loop") {
+    // Two people walking along the far and the left wall, outside the camera's circle.
+    MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
+    first.from = {-1.6f, 2.35f};
+    first.to = {1.3f, 2.35f};
+    first.speed = 0.8f;
+    scene.movers.push_back(first);
+    MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
+    second.from = {-1.85f, -1.5f};
+    second.to = {-1.85f, 1.3f};
+    second.speed = 0.7f;
+    second.phase_offset = 2.0f;
     scene.movers.push_back(second);
   } else if (scenario == "crowd_start") {
     // Three people in view from the first frame, crossing it early.
@@ -513,6 +545,22 @@ Eigen::Isometry3f CameraPose(const std::string& scenario, double time) {
     // Fixed position; yaw, pitch and roll swing.
     target += Eigen::Vector3f(1.2f * std::sin(0.8f * t), 0.0f, 0.6f * std::sin(1.1f * t));
     roll = 0.18f * std::sin(1.3f * t);
+  } else if (scenario == "loop") {
+    // Around the room's middle on an ellipse (1.5 m by 1.0 m: 8.0 m a lap) at 0.45 m/s, looking
+    // outwards and a little ahead, bobbing: back at the start after 17.7 s, then on over the
+    // first lap again (15 m of path in 33 s, 1000 frames).
+    const float angle = -kPi / 2 + 2.0f * kPi * t / 17.7f;
+    const Eigen::Vector3f middle(0.0f, 0.45f, 1.3f);
+    position = middle + Eigen::Vector3f(1.5f * std::cos(angle), 1.0f * std::sin(angle),
+                                        0.06f * std::sin(2.1f * t));
+    const float look = angle + 0.35f;  // outwards, turned towards the direction of travel
+    target = position + Eigen::Vector3f(std::cos(look), std::sin(look), -0.12f);
+  } else if (scenario == "look_alike") {
+    // From near the middle, turning from the shelf on the left wall past the corner to its twin
+    // on the near wall and back (20 s a sweep), stepping sideways a little.
+    const float yaw = 2.5f + 2.2f * (0.5f - 0.5f * std::cos(2.0f * kPi * t / 20.0f));
+    position = Eigen::Vector3f(0.2f + 0.15f * std::sin(0.4f * t), 0.3f, 1.3f);
+    target = position + Eigen::Vector3f(std::cos(yaw), std::sin(yaw), -0.15f);
   } else if (scenario == "walking_halfsphere") {
     // On a half sphere of 0.5 m radius, always looking at the room's middle.
     const float azimuth = 1.0f * std::sin(0.35f * t);

@@ -59,5 +59,51 @@ TEST(MapperTest, FusedCloudOfATiltedPlaneLiesOnThePlane) {
   EXPECT_EQ(pcd[10].rgb, points[10].rgb);
 }
 
+// A loop correction moves keyframes fused earlier: Reset empties the map, and the frames fused
+// again at their corrected poses give exactly the map of a mapper that only ever saw those poses,
+// with no trace of the first fusion (the plane where the drifted poses put it).
+TEST(MapperTest, ResetAndRefusingGiveTheMapOfTheCorrectedPosesOnly) {
+  testing::TempDir dir;
+  const Camera camera = testing::SmallCamera(96, 72);
+  testing::PlaneScene scene;
+  scene.normal = Eigen::Vector3d(0.0, 0.0, -1.0);
+  scene.distance = -2.0;
+  std::vector<Eigen::Isometry3d> poses;
+  for (int i = 0; i < 4; ++i) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(0.05 * i, 0.0, 0.0);
+    poses.push_back(pose);
+  }
+  testing::WritePlaneSequence(dir.path(), camera, scene, poses);
+  const Sequence sequence = Sequence::Open(dir.path(), camera);
+  auto frame_at = [&](size_t i, const Eigen::Isometry3d& world_from_camera) {
+    const Frame frame = sequence.LoadFrame(i);
+    return MapperFrame{frame.time, frame.color, frame.depth_m, cv::Mat(), world_from_camera};
+  };
+  Eigen::Isometry3d drift = Eigen::Isometry3d::Identity();
+  drift.translation() = Eigen::Vector3d(0.0, 0.0, 0.2);  // the plane 20 cm off
+  Mapper corrected(camera, MapperOptions{});
+  Mapper fresh(camera, MapperOptions{});
+  for (size_t i = 0; i < poses.size(); ++i) corrected.Integrate(frame_at(i, drift * poses[i]));
+  corrected.Reset();
+  for (size_t i = 0; i < poses.size(); ++i) {
+    corrected.Integrate(frame_at(i, poses[i]));
+    fresh.Integrate(frame_at(i, poses[i]));
+  }
+  const FinishedMap a = corrected.Finish();
+  const FinishedMap b = fresh.Finish();
+  EXPECT_EQ(a.statistics.refusions, 1u);
+  EXPECT_EQ(a.statistics.frames, poses.size());
+  const std::vector<VoxelPoint> pa = a.cloud.Points(), pb = b.cloud.Points();
+  ASSERT_EQ(pa.size(), pb.size());
+  ASSERT_GT(pa.size(), 100u);
+  for (size_t i = 0; i < pa.size(); ++i) {
+    EXPECT_EQ(pa[i].position, pb[i].position);
+    EXPECT_LT(std::abs(pa[i].position.z() - 2.0f), 1e-3f);  // on the plane, none 20 cm off
+  }
+  ASSERT_TRUE(a.occupancy && b.occupancy);
+  EXPECT_EQ(a.occupancy->LeafCount(), b.occupancy->LeafCount());
+}
+
 }  // namespace
 }  // namespace stillmap

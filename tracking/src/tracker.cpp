@@ -8,6 +8,11 @@
 
 namespace stillmap {
 
+namespace {
+// The place index's hash masks: a fixed seed, so that every run indexes alike.
+constexpr std::uint64_t kPlaceIndexSeed = 0x5717'1a9e'0000'0027ULL;
+}  // namespace
+
 void TrackerOptions::Validate() const {
   features.Validate();
   auto require = [](bool ok, const char* message) {
@@ -98,6 +103,32 @@ void TrackerOptions::Validate() const {
       min_static_depth_share >= 0.0 && min_static_depth_share <= 1.0 && max_predicted_frames >= 0,
       "tracking.min_static_depth_share must lie in [0, 1] and tracking.max_predicted_frames "
       "not be negative");
+  require(redundant_radius_m >= 0.0 && redundant_axis_angle_deg >= 0.0 &&
+              redundant_axis_angle_deg <= 180.0,
+          "tracking.redundant_radius_m must not be negative and tracking.redundant_axis_angle_deg "
+          "lie in 0..180");
+  require(redundant_keyframe_share > 0.0 && redundant_keyframe_share <= 1.0 &&
+              redundant_view_angle_deg >= 0.0 && redundant_view_angle_deg <= 180.0 &&
+              redundant_scale_ratio >= 1.0,
+          "tracking.redundant_keyframe_share must lie in (0, 1], "
+          "tracking.redundant_view_angle_deg in 0..180 and tracking.redundant_scale_ratio be at "
+          "least 1");
+  require(landmark_merge_distance_m >= 0.0,
+          "tracking.landmark_merge_distance_m must not be negative");
+  place.Validate();
+  require(place_candidates >= 1 && place_min_votes >= 1,
+          "tracking.place_candidates and tracking.place_min_votes must be at least 1");
+  require(loop_min_inliers >= min_tracked && loop_consistency >= 1 && loop_min_separation >= 1,
+          "tracking.loop_min_inliers must be at least tracking.min_tracked, "
+          "tracking.loop_consistency and tracking.loop_min_separation at least 1");
+  require(loop_max_drift_m >= 0.0 && loop_max_drift_share >= 0.0 && loop_max_drift_deg >= 0.0 &&
+              loop_max_drift_deg_per_m >= 0.0,
+          "tracking.loop_max_drift_m, _share, _deg and _deg_per_m must not be negative");
+  require(pose_graph_min_shared >= 1 && pose_graph.iterations >= 1 &&
+              pose_graph.iterations <= 1000 && pose_graph.translation_sigma_m > 0.0 &&
+              pose_graph.rotation_sigma_rad > 0.0,
+          "tracking.pose_graph_min_shared must be at least 1, tracking.pose_graph_iterations "
+          "1..1000 and the pose graph's sigmas positive");
   require(relocalization_max_distance_m > 0.0 && relocalization_max_speed_mps >= 0.0,
           "tracking.relocalization_max_distance_m must be positive and "
           "tracking.relocalization_max_speed_mps not negative");
@@ -124,7 +155,7 @@ const char* TrackStatusName(TrackStatus status) {
 }
 
 Tracker::Impl::Impl(const Camera& camera_in, const TrackerOptions& options_in)
-    : camera(camera_in), options(options_in) {
+    : camera(camera_in), options(options_in), places(options_in.place, kPlaceIndexSeed) {
   options.Validate();
   double scale = 1.0;
   for (int level = 0; level < options.features.pyramid_levels; ++level) {
@@ -183,13 +214,16 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   const Clock::time_point start = Clock::now();
   TrackResult result;
   FrameData frame(ExtractFeatures(gray, depth_m, camera, ignore_mask, options.features), camera);
+  frame.SetImages(depth_m, ignore_mask);
   result.features = static_cast<int>(frame.size());
   result.static_depth_share = StaticDepthShare(depth_m, ignore_mask);
   result.timings.extract_ms = MillisecondsSince(start);
 
   std::unique_lock<std::mutex> lock(mutex);
   ++frame_serial;
+  ++match_serial;
   ++stats.frames;
+  duplicates.clear();
   if (pending && frame_serial >= pending->handover_serial) TakeAdjustment(lock);
   int with_depth = 0;
   for (float depth : frame.features().depth_m) with_depth += UsableDepth(depth) ? 1 : 0;
@@ -254,6 +288,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
     result.inliers = estimate.inliers;
     result.reprojection_rmse_px = estimate.rmse_px;
     CountVisibility(estimate.camera_from_world, local, association);
+    MergeDuplicates(estimate.camera_from_world, frame, &association);
     ++frames_since_keyframe;
     consecutive_predicted = 0;
     if (!occluded && NeedKeyframe(frame, association, estimate.inliers)) {
@@ -390,11 +425,23 @@ Trajectory Tracker::TrackedTrajectory() const {
   std::vector<StampedPose> poses;
   poses.reserve(impl_->records.size());
   for (const FrameRecord& record : impl_->records) {
-    const Keyframe& reference = impl_->keyframes.at(record.reference_keyframe);
-    poses.push_back(
-        {record.time, (record.camera_from_reference * reference.camera_from_world).inverse()});
+    poses.push_back({record.time, (record.camera_from_reference *
+                                   impl_->CameraFromWorld(record.reference_keyframe))
+                                      .inverse()});
   }
   return Trajectory(std::move(poses));
+}
+
+std::map<int, Eigen::Isometry3d> Tracker::KeyframePoses() const {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  std::map<int, Eigen::Isometry3d> out;
+  for (const auto& [id, keyframe] : impl_->keyframes) {
+    out.emplace(id, keyframe.camera_from_world.inverse());
+  }
+  for (const auto& entry : impl_->culled) {  // posed through the keyframes they were handed to
+    out.emplace(entry.first, impl_->CameraFromWorld(entry.first).inverse());
+  }
+  return out;
 }
 
 TrackerStatistics Tracker::statistics() const {

@@ -18,6 +18,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 #include <unordered_map>
 #include <utility>
@@ -56,7 +57,7 @@ struct Landmark {
   int visible = 0;                                // frames in which it projected into the image
   int found = 0;                                  // frames in which it was an inlier
   size_t local_stamp = 0;                         // serial of the last local set it was put into
-  size_t matched_stamp = 0;                       // frame serial when last matched
+  size_t matched_stamp = 0;                       // match_serial when last matched
 };
 
 struct Keyframe {
@@ -68,7 +69,11 @@ struct Keyframe {
   std::vector<Descriptor> descriptors;
   std::vector<int> landmark_of_feature;  // landmark id per feature, -1 none
   bool final = false;
+  // What it saw (SeenDepth), for the redundancy rule: a point counts as seen by this keyframe
+  // only at a depth it read there, not behind what stood in front or in a masked region.
+  cv::Mat seen_depth;
 };
+constexpr int kDepthCell = 16;  // [px]
 
 // The current frame: features, descriptors and undistorted pixel positions, bucketed in a grid
 // for radius searches.
@@ -109,6 +114,13 @@ class FrameData {
     }
   }
 
+  // The frame's depth and moving-object mask (kept for the keyframe it may become).
+  void SetImages(const cv::Mat& depth_m, const cv::Mat& ignore_mask) {
+    depth_m_ = depth_m;
+    ignore_mask_ = ignore_mask;
+  }
+  const cv::Mat& depth_m() const { return depth_m_; }
+  const cv::Mat& ignore_mask() const { return ignore_mask_; }
   const FrameFeatures& features() const { return features_; }
   FrameFeatures& features() { return features_; }
   const std::vector<Descriptor>& descriptors() const { return descriptors_; }
@@ -128,6 +140,7 @@ class FrameData {
   int CellIndex(int column, int row) const { return row * columns_ + column; }
 
   FrameFeatures features_;
+  cv::Mat depth_m_, ignore_mask_;
   std::vector<Descriptor> descriptors_;
   std::vector<Eigen::Vector2d> pixels_;
   int width_, height_;
@@ -188,7 +201,23 @@ struct Tracker::Impl {
               const std::vector<int>& matched, TrackResult* result);
 
   // ---- The local map: its landmarks, culling, a new map after a loss (tracker_local_map.cpp)
+  // The landmarks of the local keyframes, and those the last frame matched.
   LocalSet CollectLocalLandmarks();
+  // The landmarks of a place: those of keyframe_id and of the keyframes sharing most with it.
+  LocalSet PlaceLandmarks(int keyframe_id);
+  // The local map's keyframes: the current map's most recent, then (map reuse on a revisit)
+  // those covisible with the last frame's matches, most shared first.
+  std::vector<int> LocalKeyframes() const;
+  // Keyframes (with features) whose centre lies within radius_m of the camera's and whose
+  // optical axis is within max_angle_deg of its own, in id order.
+  std::vector<int> NearbyKeyframes(const Eigen::Isometry3d& camera_from_world, double radius_m,
+                                   double max_angle_deg) const;
+  // A landmark found again as a second copy (both matched the same feature, close in space) is
+  // merged into the older one: its observations move over, the copy goes. Call after
+  // CountVisibility (the local set's pointers must not dangle while used).
+  void MergeDuplicates(const Eigen::Isometry3d& camera_from_world, const FrameData& frame,
+                       Association* association);
+  void MergeLandmark(int keep, int drop);
   // ORB-SLAM2's culling of recent map points: found in under a quarter of the frames where they
   // were visible, or seen by a single keyframe two keyframes after their creation.
   void CullRecentLandmarks(int current_keyframe);
@@ -216,12 +245,54 @@ struct Tracker::Impl {
                             const LocalSet& local, const FrameData& frame,
                             Association* association);
   void Unmatch(size_t feature, Association* association);
-  // Descriptor matching against the landmarks of recent keyframes, newest first.
+  // Verifies the place index's candidates, then the most recent keyframes, until one gives a
+  // pose with min_relocalized inliers.
   PoseEstimate Relocalize(const FrameData& frame, Association* association);
+  // The frame's pose against the place keyframe `keyframe_id` saw: descriptor matches with its
+  // landmarks, PnP-RANSAC, the refinement and a projection search in the local map around it.
+  // Not ok below min_inliers inliers (the association is then cleared).
+  PoseEstimate VerifyPlace(const FrameData& frame, int keyframe_id, int min_inliers,
+                           Association* association);
+
+  // ---- Place recognition and loop closure (tracker_loops.cpp)
+  // Asks the place index for an earlier place the new keyframe does not share landmarks with,
+  // verifies it, and closes the loop once loop_consistency keyframes in a row verified it.
+  void DetectLoop(int keyframe_id);
+  // The correction a loop would make (the keyframe at camera_from_world instead of where it is)
+  // is within what drift could have done over the path from the candidate (options.loop_max_*):
+  // a place that only looks like an earlier one would ask for more.
+  bool PlausibleDrift(int candidate, int keyframe_id,
+                      const Eigen::Isometry3d& camera_from_world) const;
+  // Keyframes that share landmarks with `keyframe_id` (itself included), and how many.
+  std::map<int, int> SharedLandmarks(int keyframe_id) const;
+  // The pose graph with the loop edge (the keyframe at camera_from_world as verified against
+  // `candidate`), the keyframes and landmarks moved, the place's two copies merged.
+  void CloseLoop(int keyframe_id, int candidate, const Eigen::Isometry3d& camera_from_world,
+                 const Association& association);
+  // Pose-graph edges between keyframes sharing pose_graph_min_shared landmarks.
+  void AddCovisibilityEdges(const std::map<int, int>& node_of, PoseGraphProblem* problem) const;
   void ClearMatches(Association& association);
 
   // ---- Keyframe policy and insertion, final keyframes (tracker_keyframes.cpp)
   bool NeedKeyframe(const FrameData& frame, const Association& association, int inliers) const;
+  // The keyframe observing most of the associated landmarks (the last keyframe when none).
+  int ReferenceKeyframe(const Association& association) const;
+  // The share of the frame's features with depth that keyframes near the pose already saw from
+  // a similar direction and distance (options.redundant_*): the seed paper's redundancy rule,
+  // applied to tracking keyframes against every keyframe near the pose.
+  // The share of a keyframe's view (its seen_depth cells) that keyframes near it, as `use`
+  // picks them, saw from a similar direction and distance at the same depth.
+  template <typename Use>
+  double CoveredShare(const Keyframe& keyframe, Use&& use) const;
+  // What a keyframe saw: per cell of kDepthCell px, the depth range and mean of its static depth
+  // readings (CV_32FC3: min, max, mean; 0 where fewer than a quarter of the pixels have one).
+  cv::Mat SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_mask) const;
+  // A keyframe becoming final that keyframes kept before it cover (redundant_keyframe_share) is
+  // culled: its observations go, its frames are handed to the keyframe sharing most landmarks with
+  // it.
+  bool CullIfRedundant(size_t position);
+  // A keyframe's pose, culled ones through the keyframe they were handed to.
+  Eigen::Isometry3d CameraFromWorld(int keyframe_id) const;
   int InsertKeyframe(const Eigen::Isometry3d& camera_from_world, FrameData& frame,
                      const Association& association, size_t frame_index, double time,
                      std::unique_lock<std::mutex>& lock);
@@ -288,8 +359,17 @@ struct Tracker::Impl {
   bool have_map = false;
   size_t next_final = 0;  // position in map_keyframes of the first keyframe not final yet
   std::vector<FinalKeyframe> final_queue;
+  struct Culled {
+    int parent = 0;  // the keyframe its frames are posed through
+    Eigen::Isometry3d camera_from_parent = Eigen::Isometry3d::Identity();
+  };
+  std::map<int, Culled> culled;
 
+  PlaceIndex places;
+  int loop_streak = 0;           // keyframes in a row that verified the same earlier place
+  int loop_last_candidate = -1;  // the place the last of them verified
   size_t frame_serial = 0;
+  size_t match_serial = 0;  // a landmark matched under this serial is taken (Landmark)
   size_t collect_serial = 0;
   bool have_last = false;
   Eigen::Isometry3d last_camera_from_world = Eigen::Isometry3d::Identity();
@@ -302,6 +382,14 @@ struct Tracker::Impl {
   double last_good_time = 0.0;
   int frames_since_keyframe = 0;
   std::vector<int> last_frame_landmarks;
+  // Where this frame's projection search found a second landmark for a feature besides the one
+  // it kept: candidates for MergeDuplicates.
+  struct Duplicate {
+    size_t feature;
+    int landmark;
+    int distance;  // Hamming, to the feature
+  };
+  std::vector<Duplicate> duplicates;
   std::vector<FrameRecord> records;
   TrackerStatistics stats;
   // Normalized coordinates of the image's corners, edge midpoints and centre: where the depth

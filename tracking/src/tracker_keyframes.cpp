@@ -1,3 +1,5 @@
+#include <cmath>
+
 #include "tracker_impl.h"
 
 namespace stillmap {
@@ -29,6 +31,161 @@ bool Tracker::Impl::NeedKeyframe(const FrameData& frame, const Association& asso
   const bool need_close =
       tracked_close < options.close_tracked_max && untracked_close > options.close_untracked_min;
   return inliers < options.keyframe_ratio * reference_tracked || need_close;
+}
+
+int Tracker::Impl::ReferenceKeyframe(const Association& association) const {
+  std::map<int, int> shared;  // by keyframe id
+  for (int id : association.landmark) {
+    if (id < 0) continue;
+    for (const auto& observation : landmarks.at(id).observations) ++shared[observation.first];
+  }
+  int best = map_keyframes.back(), most = 0;
+  for (const auto& [id, n] : shared) {
+    if (n > most) {
+      most = n;
+      best = id;
+    }
+  }
+  return best;
+}
+
+cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_mask) const {
+  const int rows = (camera.height + kDepthCell - 1) / kDepthCell;
+  const int columns = (camera.width + kDepthCell - 1) / kDepthCell;
+  cv::Mat seen(rows, columns, CV_32FC3, cv::Scalar::all(0.0));
+  if (depth_m.empty()) return seen;
+  std::vector<float> low(static_cast<size_t>(columns)), high(low.size()), sum(low.size());
+  std::vector<int> count(low.size());
+  for (int row = 0; row < rows; ++row) {
+    std::fill(low.begin(), low.end(), 1e9f);
+    std::fill(high.begin(), high.end(), 0.0f);
+    std::fill(sum.begin(), sum.end(), 0.0f);
+    std::fill(count.begin(), count.end(), 0);
+    for (int v = row * kDepthCell; v < std::min(depth_m.rows, (row + 1) * kDepthCell); ++v) {
+      const float* z = depth_m.ptr<float>(v);
+      const std::uint8_t* ignored =
+          ignore_mask.empty() ? nullptr : ignore_mask.ptr<std::uint8_t>(v);
+      for (int u = 0; u < depth_m.cols; ++u) {
+        if (!UsableDepth(z[u]) || (ignored != nullptr && ignored[u] != 0)) continue;
+        const auto c = static_cast<size_t>(u / kDepthCell);
+        low[c] = std::min(low[c], z[u]);
+        high[c] = std::max(high[c], z[u]);
+        sum[c] += z[u];
+        ++count[c];
+      }
+    }
+    for (int c = 0; c < columns; ++c) {
+      const auto i = static_cast<size_t>(c);
+      if (4 * count[i] < kDepthCell * kDepthCell) continue;
+      seen.at<cv::Vec3f>(row, c) = {low[i], high[i], sum[i] / static_cast<float>(count[i])};
+    }
+  }
+  return seen;
+}
+
+template <typename Use>
+double Tracker::Impl::CoveredShare(const Keyframe& keyframe, Use&& use) const {
+  const double max_ratio = options.redundant_scale_ratio;
+  const double min_cosine = std::cos(options.redundant_view_angle_deg * M_PI / 180.0);
+  std::vector<const Keyframe*> near;
+  for (int id : NearbyKeyframes(keyframe.camera_from_world, options.redundant_radius_m,
+                                options.redundant_axis_angle_deg)) {
+    if (use(id)) near.push_back(&keyframes.at(id));
+  }
+  const Eigen::Isometry3d world_from_camera = keyframe.camera_from_world.inverse();
+  const Eigen::Vector3d centre = world_from_camera.translation();
+  int cells = 0, covered = 0;
+  for (int row = 0; row < keyframe.seen_depth.rows; ++row) {
+    for (int column = 0; column < keyframe.seen_depth.cols; ++column) {
+      const cv::Vec3f& cell = keyframe.seen_depth.at<cv::Vec3f>(row, column);
+      if (cell[2] <= 0.0f) continue;
+      ++cells;
+      const double u0 = (column + 0.5) * kDepthCell, v0 = (row + 0.5) * kDepthCell;
+      const Eigen::Vector3d point =
+          world_from_camera * (cell[2] * Eigen::Vector3d((u0 - camera.cx) / camera.fx,
+                                                         (v0 - camera.cy) / camera.fy, 1.0));
+      const Eigen::Vector3d ray = point - centre;
+      const double range = ray.norm();
+      for (const Keyframe* other : near) {
+        const Eigen::Vector3d p = other->camera_from_world * point;
+        if (!UsableDepth(static_cast<float>(p.z()))) continue;
+        const double u = camera.fx * p.x() / p.z() + camera.cx;
+        const double v = camera.fy * p.y() / p.z() + camera.cy;
+        if (u < 0.0 || v < 0.0 || u >= camera.width || v >= camera.height) continue;
+        // It read a surface at that depth there (5 % and 3 cm of slack).
+        const cv::Vec3f& seen = other->seen_depth.at<cv::Vec3f>(static_cast<int>(v) / kDepthCell,
+                                                                static_cast<int>(u) / kDepthCell);
+        if (seen[2] <= 0.0f || p.z() < 0.95 * seen[0] - 0.03 || p.z() > 1.05 * seen[1] + 0.03) {
+          continue;
+        }
+        // Seen from a similar direction at a similar scale: the view adds nothing there.
+        const double other_range = p.norm();
+        const double ratio = other_range / range;
+        if (ratio > max_ratio || ratio < 1.0 / max_ratio) continue;
+        const Eigen::Vector3d other_ray = other->camera_from_world.linear().transpose() * p;
+        if (other_ray.dot(ray) < min_cosine * other_range * range) continue;
+        ++covered;
+        break;
+      }
+    }
+  }
+  return cells == 0 ? 1.0 : static_cast<double>(covered) / cells;
+}
+
+bool Tracker::Impl::CullIfRedundant(size_t position) {
+  if (position == 0 || position + 1 >= map_keyframes.size()) return false;  // the map's ends
+  const int id = map_keyframes[position];
+  const Keyframe& keyframe = keyframes.at(id);
+  // Against the keyframes kept before it: a chain of keyframes each covered by the next would
+  // otherwise all go.
+  if (CoveredShare(keyframe, [id](int other) { return other < id; }) <=
+      options.redundant_keyframe_share) {
+    return false;
+  }
+  // Its frames go to the keyframe sharing most landmarks with it (else the next one).
+  std::map<int, int> shared;
+  for (int landmark : keyframe.landmark_of_feature) {
+    if (landmark < 0 || landmarks.count(landmark) == 0) continue;
+    for (const auto& observation : landmarks.at(landmark).observations) {
+      if (observation.first != id) ++shared[observation.first];
+    }
+  }
+  int parent = map_keyframes[position + 1], most = 0;
+  for (const auto& [other, n] : shared) {
+    if (n > most && keyframes.count(other) > 0) {
+      most = n;
+      parent = other;
+    }
+  }
+  FinalKeyframe done{
+      id, keyframe.frame_index, keyframe.time, keyframe.camera_from_world.inverse(), {}, true};
+  for (int landmark : keyframe.landmark_of_feature) {
+    if (landmark >= 0) done.landmarks.push_back(landmark);
+  }
+  final_queue.push_back(std::move(done));
+  culled[id] = {parent,
+                keyframe.camera_from_world * keyframes.at(parent).camera_from_world.inverse()};
+  for (size_t f = 0; f < keyframe.landmark_of_feature.size(); ++f) {
+    const auto it = landmarks.find(keyframe.landmark_of_feature[f]);
+    if (it == landmarks.end()) continue;
+    auto& observations = it->second.observations;
+    observations.erase(std::remove(observations.begin(), observations.end(),
+                                   std::make_pair(id, static_cast<int>(f))),
+                       observations.end());
+    if (observations.empty()) EraseLandmark(it->first);
+  }
+  places.Remove(id);
+  keyframes.erase(id);
+  map_keyframes.erase(map_keyframes.begin() + static_cast<std::ptrdiff_t>(position));
+  ++stats.keyframes_culled;
+  return true;
+}
+
+Eigen::Isometry3d Tracker::Impl::CameraFromWorld(int keyframe_id) const {
+  const auto it = keyframes.find(keyframe_id);
+  if (it != keyframes.end()) return it->second.camera_from_world;
+  const Culled& handed = culled.at(keyframe_id);
+  return handed.camera_from_parent * CameraFromWorld(handed.parent);
 }
 
 int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, FrameData& frame,
@@ -64,6 +221,7 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
     recent_landmarks.push_back(id);
     ++stats.landmarks_created;
   }
+  keyframe.seen_depth = SeenDepth(frame.depth_m(), frame.ignore_mask());
   keyframe.features = std::move(frame.features());
   keyframe.descriptors = std::move(frame.descriptors());
   const int id = keyframe.id;
@@ -77,6 +235,8 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
       map_keyframes.size() % static_cast<size_t>(options.depth_calibration_interval) == 0) {
     CalibrateDepth();
   }
+  places.Add(id, keyframes.at(id).features.descriptors);
+  DetectLoop(id);
   RequestAdjustment();
   UpdateFinal();
   return id;
@@ -89,7 +249,8 @@ void Tracker::Impl::UpdateFinal(bool all) {
                                   : 0;
   int boundary = all ? INT_MAX : (count > 0 ? map_keyframes[window_first] : INT_MAX);
   boundary = std::min(boundary, all ? INT_MAX : running_window_first);
-  while (next_final < count && map_keyframes[next_final] < boundary) {
+  while (next_final < map_keyframes.size() && map_keyframes[next_final] < boundary) {
+    if (options.redundant_keyframe_share < 1.0 && CullIfRedundant(next_final)) continue;
     Keyframe& keyframe = keyframes.at(map_keyframes[next_final]);
     if (!keyframe.final) {
       keyframe.final = true;

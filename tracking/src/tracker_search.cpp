@@ -11,7 +11,7 @@ void Tracker::Impl::SearchByProjection(const Eigen::Isometry3d& camera_from_worl
   for (const auto& entry : local) {
     const int id = entry.first;
     Landmark* const landmark = entry.second;
-    if (landmark->matched_stamp == frame_serial) continue;
+    if (landmark->matched_stamp == match_serial) continue;
     const Eigen::Vector3d p = rotation * landmark->position + translation;
     if (p.z() < options.min_landmark_depth) continue;
     const double u = camera.fx * p.x() / p.z() + camera.cx;
@@ -42,13 +42,18 @@ void Tracker::Impl::SearchByProjection(const Eigen::Isometry3d& camera_from_worl
       continue;
     }
     const size_t feature = static_cast<size_t>(best_index);
-    if (best >= association->distance[feature]) continue;
+    if (best >= association->distance[feature]) {
+      if (association->landmark[feature] >= 0) duplicates.push_back({feature, id, best});
+      continue;
+    }
     if (association->landmark[feature] >= 0) {
+      duplicates.push_back(
+          {feature, association->landmark[feature], association->distance[feature]});
       landmarks.at(association->landmark[feature]).matched_stamp = 0;  // displaced
     }
     association->landmark[feature] = id;
     association->distance[feature] = best;
-    landmark->matched_stamp = frame_serial;
+    landmark->matched_stamp = match_serial;
   }
 }
 
@@ -122,41 +127,59 @@ void Tracker::Impl::Unmatch(size_t feature, Association* association) {
 
 Tracker::Impl::PoseEstimate Tracker::Impl::Relocalize(const FrameData& frame,
                                                       Association* association) {
+  // The place index's best candidates first (the camera may be back at an earlier place), then
+  // the most recent keyframes.
+  std::vector<int> tries;
+  for (const PlaceCandidate& candidate :
+       places.Query(frame.features().descriptors, static_cast<size_t>(options.place_candidates),
+                    [](int) { return false; })) {
+    if (candidate.votes >= options.place_min_votes) tries.push_back(candidate.keyframe_id);
+  }
   const size_t count = map_keyframes.size();
-  const size_t tries = std::min(count, static_cast<size_t>(options.relocalization_keyframes));
-  MatchOptions match_options;
-  for (size_t t = 0; t < tries; ++t) {
-    const Keyframe& keyframe = keyframes.at(map_keyframes[count - 1 - t]);
-    cv::Mat train;
-    std::vector<int> landmark_of_row;
-    for (size_t i = 0; i < keyframe.features.size(); ++i) {
-      const int id = keyframe.landmark_of_feature[i];
-      if (id < 0 || landmarks.count(id) == 0) continue;
-      train.push_back(keyframe.features.descriptors.row(static_cast<int>(i)));
-      landmark_of_row.push_back(id);
-    }
-    if (static_cast<int>(landmark_of_row.size()) < options.min_relocalized) continue;
-    *association = Association(frame.size());
-    for (const cv::DMatch& match :
-         MatchDescriptors(frame.features().descriptors, train, match_options)) {
-      const int id = landmark_of_row[static_cast<size_t>(match.trainIdx)];
-      Landmark& landmark = landmarks.at(id);
-      if (landmark.matched_stamp == frame_serial) continue;
-      landmark.matched_stamp = frame_serial;
-      association->landmark[static_cast<size_t>(match.queryIdx)] = id;
-      association->distance[static_cast<size_t>(match.queryIdx)] = static_cast<int>(match.distance);
-    }
-    if (association->count() < options.min_relocalized) {
-      ClearMatches(*association);
-      continue;
-    }
-    const LocalSet local = CollectLocalLandmarks();
-    PoseEstimate estimate =
-        EstimatePose(keyframe.camera_from_world, false, local, frame, association);
-    if (estimate.ok && estimate.inliers >= options.min_relocalized) return estimate;
-    ClearMatches(*association);
+  for (size_t t = 0; t < std::min(count, static_cast<size_t>(options.relocalization_keyframes));
+       ++t) {
+    const int id = map_keyframes[count - 1 - t];
+    if (std::find(tries.begin(), tries.end(), id) == tries.end()) tries.push_back(id);
+  }
+  for (const int id : tries) {
+    PoseEstimate estimate = VerifyPlace(frame, id, options.min_relocalized, association);
+    if (estimate.ok) return estimate;
   }
   *association = Association(frame.size());
+  return {};
+}
+
+Tracker::Impl::PoseEstimate Tracker::Impl::VerifyPlace(const FrameData& frame, int keyframe_id,
+                                                       int min_inliers, Association* association) {
+  const Keyframe& keyframe = keyframes.at(keyframe_id);
+  cv::Mat train;
+  std::vector<int> landmark_of_row;
+  for (size_t i = 0; i < keyframe.landmark_of_feature.size(); ++i) {
+    const int id = keyframe.landmark_of_feature[i];
+    if (id < 0 || landmarks.count(id) == 0) continue;
+    train.push_back(keyframe.features.descriptors.row(static_cast<int>(i)));
+    landmark_of_row.push_back(id);
+  }
+  *association = Association(frame.size());
+  if (static_cast<int>(landmark_of_row.size()) < min_inliers) return {};
+  for (const cv::DMatch& match :
+       MatchDescriptors(frame.features().descriptors, train, MatchOptions{})) {
+    const int id = landmark_of_row[static_cast<size_t>(match.trainIdx)];
+    Landmark& landmark = landmarks.at(id);
+    if (landmark.matched_stamp == match_serial) continue;
+    landmark.matched_stamp = match_serial;
+    association->landmark[static_cast<size_t>(match.queryIdx)] = id;
+    association->distance[static_cast<size_t>(match.queryIdx)] = static_cast<int>(match.distance);
+  }
+  if (association->count() < min_inliers) {
+    ClearMatches(*association);
+    return {};
+  }
+  const LocalSet local = PlaceLandmarks(keyframe_id);
+  PoseEstimate estimate =
+      EstimatePose(keyframe.camera_from_world, false, local, frame, association);
+  if (estimate.ok && estimate.inliers >= min_inliers) return estimate;
+  ClearMatches(*association);
   return {};
 }
 

@@ -67,6 +67,7 @@ struct MapperStatistics {
   double occupancy_ms = 0.0;       // OctoMap insertion, on whichever thread ran it
   double occupancy_wait_ms = 0.0;  // time fusion waited for the previous OctoMap insertion
   double wait_ms = 0.0;            // time the caller waited for background fusion
+  size_t refusions = 0;            // times the map was emptied to be fused again (Reset)
 };
 
 // The map a Mapper built, handed out once by Mapper::Finish.
@@ -96,6 +97,11 @@ class Mapper {
   // (the camera center is the origin of every ray). In the background, the frame's images are
   // shared, not copied: the caller must not write to them afterwards.
   void Integrate(const MapperFrame& frame);
+
+  // Empties the map (cloud, OctoMap, views) so that the frames can be fused again at corrected
+  // poses (loop closure); waits for the background work first. Timings add up; frames and
+  // points count again from zero, and refusions counts the calls.
+  void Reset();
 
   // Waits for the background work still running (rethrowing its failure) and hands over the
   // map. Call once: the mapper holds nothing afterwards (a second call throws

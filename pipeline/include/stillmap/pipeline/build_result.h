@@ -49,6 +49,11 @@ struct TrackingFigures {
   std::vector<double> static_depth_share;  // per frame (TrackResult::static_depth_share)
   std::vector<double> extract_ms, match_ms, pose_ms, keyframe_ms, total_ms;  // per frame
   double fuse_ms = 0.0;  // fusing final keyframes into the map, on the main thread
+  // Loop corrections: fusing the map again at the final poses (0 when nothing moved), the fused
+  // keyframes that had moved, and the compact copies kept for it.
+  double refuse_ms = 0.0;
+  size_t refused_keyframes_moved = 0;
+  double refusion_store_mib = 0.0;
   bool bundle_adjustment_thread = false;
 };
 

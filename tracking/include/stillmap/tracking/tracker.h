@@ -9,6 +9,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -19,7 +20,9 @@
 #include "stillmap/tracking/bundle_adjustment.h"
 #include "stillmap/tracking/depth_correction.h"
 #include "stillmap/tracking/features.h"
+#include "stillmap/tracking/place_index.h"
 #include "stillmap/tracking/pose_estimation.h"
+#include "stillmap/tracking/pose_graph.h"
 #include "stillmap/tracking/pose_refinement.h"
 
 namespace stillmap {
@@ -103,7 +106,35 @@ struct TrackerOptions {
   int cull_recent_age = 3;
 
   int local_map_keyframes = 25;  // keyframes whose landmarks are searched for in each frame
-  int local_window = 8;          // keyframes optimized by the local bundle adjustment
+  // Map reuse (issue 27): besides the local_map_keyframes most recent keyframes, up to as many
+  // keyframes covisible with the last frame's matches join the local map, so that a camera
+  // coming back over its path tracks against what the map holds of the place.
+  // Keyframes grow with the places visited, not with the recording's length: when a keyframe
+  // becomes final (it left the local bundle adjustment's window, having served tracking while it
+  // was recent), it is culled if keyframes kept before it near its pose (centre within
+  // redundant_radius_m, optical axis within redundant_axis_angle_deg) saw more than
+  // redundant_keyframe_share of its view: its depth over the image in cells of 16 px, each seen
+  // by such a keyframe at the same depth, from a direction within redundant_view_angle_deg and a
+  // distance within redundant_scale_ratio of its own. The seed paper's redundancy rule (paper
+  // 000, II.D) applied to tracking keyframes, against every keyframe near the pose. A culled
+  // keyframe is not fused; its frames are posed through the keyframe sharing most landmarks with
+  // it. 1 = off. Measured with the defaults (keyframes kept, ATE; scripts/revisit_replay.py for
+  // the replays): 0.9 / 0.95 / 0.98 / off: teddy 23 / 24 / 25 / 25 (4.6 / 4.9 / 4.9 / 4.8 mm),
+  // teddy 4 passes 23 / 25 / 29 / 92 (4.6 / 5.2 / 5.2 / 6.1 mm), bonn_crowd_a 10 / 17 / 23 / 55
+  // (19.5 / 21.2 / 18.9 / 18.0 mm), synthetic walking_xyz map completeness 0.893 / 0.974 /
+  // 0.966 / 0.977 (docs/figures.md).
+  double redundant_keyframe_share = 0.98;
+  double redundant_view_angle_deg = 15.0;
+  double redundant_scale_ratio = 1.25;
+  double redundant_radius_m = 1.0;
+  double redundant_axis_angle_deg = 60.0;
+  // A landmark found again as a second copy while tracking (both match one feature within
+  // ORB-SLAM2's fusion tests; positions within this [m]) is merged into the one more keyframes
+  // observe. 0 = off, the default: on the noise-free synthetic room it moved the motion model's
+  // predictions by up to 3 mm (tests/tracking/tracker_test.cpp). The loop closure merges the two
+  // copies of a place it joins in any case.
+  double landmark_merge_distance_m = 0.0;
+  int local_window = 8;                      // keyframes optimized by the local bundle adjustment
   bool background_bundle_adjustment = true;  // false: solve it inline (same result, slower)
   // Frames after its request when a local bundle adjustment's result is taken (sooner at the
   // next keyframe): a point fixed by the data, so runs repeat exactly. The solve takes about 3
@@ -126,6 +157,34 @@ struct TrackerOptions {
   double relocalization_max_distance_m = 0.3;
   double relocalization_max_speed_mps = 1.5;
   int min_initial_points = 100;  // features with depth needed to start a map
+
+  // Place recognition (place_index.h) and loop closure (issue 27). Every keyframe's descriptors
+  // go into the place index; a relocalization verifies the place_candidates keyframes with most
+  // votes (at least place_min_votes) besides the most recent ones. Each new keyframe asks the
+  // index for an earlier place it does not share landmarks with (at least loop_min_separation
+  // keyframes older); a candidate is verified geometrically (descriptor matches, PnP-RANSAC, the
+  // RGB-D refinement and a projection search around it: at least loop_min_inliers inliers), and
+  // a loop is accepted only when loop_consistency keyframes in a row verify the same place. The
+  // pose graph over all keyframes (odometry edges, covisibility edges between keyframes sharing
+  // pose_graph_min_shared landmarks, the loop edge) then moves keyframes and landmarks, and the
+  // two copies of the place's landmarks are merged.
+  PlaceIndexOptions place;
+  int place_candidates = 3;
+  int place_min_votes = 30;
+  bool loop_closure = true;
+  int loop_min_inliers = 60;
+  int loop_consistency = 2;
+  int loop_min_separation = 10;
+  int pose_graph_min_shared = 100;
+  PoseGraphOptions pose_graph;
+  // A verified loop whose correction exceeds what drift could do over the path between its two
+  // keyframes is refused (a look-alike place): loop_max_drift_m plus loop_max_drift_share of the
+  // path, and loop_max_drift_deg plus loop_max_drift_deg_per_m for each metre of it. stillmap
+  // drifts about 1 % of the path (teddy, bonn_crowd_a, the synthetic loop).
+  double loop_max_drift_m = 0.1;
+  double loop_max_drift_share = 0.05;
+  double loop_max_drift_deg = 3.0;
+  double loop_max_drift_deg_per_m = 1.0;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
@@ -190,6 +249,19 @@ struct TrackerOptions {
     visit("cull_recent_age", self.cull_recent_age, "keyframes a landmark stays subject to culling");
     visit("local_map_keyframes", self.local_map_keyframes,
           "keyframes whose landmarks are searched for per frame");
+    visit("redundant_keyframe_share", self.redundant_keyframe_share,
+          "a keyframe becoming final is culled when keyframes kept before it near its pose saw "
+          "more than this share of its view (paper 000's redundancy rule; 1 = off)");
+    visit("redundant_view_angle_deg", self.redundant_view_angle_deg,
+          "similar view: the rays to the point within this angle [deg]");
+    visit("redundant_scale_ratio", self.redundant_scale_ratio,
+          "similar view: distances to the point within this ratio");
+    visit("redundant_radius_m", self.redundant_radius_m,
+          "keyframes with their centre within this of the pose are near it [m]");
+    visit("redundant_axis_angle_deg", self.redundant_axis_angle_deg,
+          "... and their optical axis within this of its own [deg]");
+    visit("landmark_merge_distance_m", self.landmark_merge_distance_m,
+          "a second copy of a landmark found again within this distance is merged [m]");
     visit("local_window", self.local_window, "keyframes optimized by the local bundle adjustment");
     visit("background_bundle_adjustment", self.background_bundle_adjustment,
           "solve the local bundle adjustment on its own thread (false: inline; same result)");
@@ -212,6 +284,30 @@ struct TrackerOptions {
           "... plus this much per second since it [m/s]");
     visit("min_initial_points", self.min_initial_points,
           "features with depth needed to start a map");
+    visit.Nested("place_", self.place);
+    visit("place_candidates", self.place_candidates,
+          "best-voted keyframes of the place index verified per query");
+    visit("place_min_votes", self.place_min_votes,
+          "place index votes a keyframe needs to be verified as a candidate");
+    visit("loop_closure", self.loop_closure,
+          "detect loops with the place index and correct them with the pose graph");
+    visit("loop_min_inliers", self.loop_min_inliers,
+          "inliers of a keyframe's pose against an earlier place for a verified loop");
+    visit("loop_consistency", self.loop_consistency,
+          "keyframes in a row that must verify the same place before a loop is accepted");
+    visit("loop_min_separation", self.loop_min_separation,
+          "a loop candidate is at least this many keyframes older than the keyframe");
+    visit("pose_graph_min_shared", self.pose_graph_min_shared,
+          "landmarks two keyframes share for a covisibility edge of the pose graph");
+    visit.Nested("pose_graph_", self.pose_graph);
+    visit("loop_max_drift_m", self.loop_max_drift_m,
+          "a loop's correction may be this much [m] ...");
+    visit("loop_max_drift_share", self.loop_max_drift_share,
+          "... plus this share of the path between its keyframes (else refused as a look-alike)");
+    visit("loop_max_drift_deg", self.loop_max_drift_deg,
+          "a loop's rotation correction may be this much [deg] ...");
+    visit("loop_max_drift_deg_per_m", self.loop_max_drift_deg_per_m,
+          "... plus this much per metre of path between its keyframes [deg/m]");
   }
 };
 
@@ -254,6 +350,10 @@ struct FinalKeyframe {
   double time = 0.0;
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
   std::vector<int> landmarks;  // ids of the landmarks it observes (for the map's redundancy test)
+  // Culled when it became final: keyframes kept before it saw its view
+  // (TrackerOptions::redundant_keyframe_share). Not for the map; its frames are posed through
+  // the keyframe it handed them to.
+  bool culled = false;
 };
 
 struct TrackerStatistics {
@@ -265,9 +365,20 @@ struct TrackerStatistics {
   size_t occluded = 0, predicted = 0;  // frames with too little static depth (TrackStatus)
   size_t relocalizations_refused = 0;  // too far from the last good pose
   size_t keyframes = 0;
-  size_t landmarks = 0;  // alive now
+  size_t keyframes_culled = 0;  // keyframes culled when final: their view was covered
+  size_t landmarks = 0;         // alive now
+  size_t landmarks_merged = 0;  // second copies found again and merged
   size_t landmarks_created = 0;
   size_t landmarks_culled = 0;
+  // Place recognition and loop closure.
+  size_t loop_candidates = 0;      // keyframes the place index proposed and verification tried
+  size_t loops_verified = 0;       // candidates that passed the geometric verification
+  size_t loops_accepted = 0;       // loops corrected (verified loop_consistency times in a row)
+  size_t loops_rejected = 0;       // candidates that failed verification
+  size_t loops_implausible = 0;    // verified, but asking for more correction than drift explains
+  double loop_correction_m = 0.0;  // largest keyframe correction of an accepted loop
+  double loop_correction_deg = 0.0;
+  double loop_ms = 0.0;  // place queries, verification and pose graph, on the tracking thread
   size_t bundle_adjustments = 0;
   double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
   // Results the tracker had to wait for at their handover point, and the time it waited: a slow
@@ -310,6 +421,10 @@ class Tracker {
   Trajectory TrackedTrajectory() const;
 
   TrackerStatistics statistics() const;
+
+  // Every keyframe's current pose (camera-to-world) by keyframe id: after Finish, the final
+  // ones, loop corrections included.
+  std::map<int, Eigen::Isometry3d> KeyframePoses() const;
 
  private:
   struct Impl;
