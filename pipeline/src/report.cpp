@@ -63,6 +63,8 @@ json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
   return {{"fused", result.frames.fused},
           {"rejected_invalid", result.selection.invalid},
           {"rejected_redundant", result.selection.redundant},
+          // Culled by the tracker when final: keyframes kept before them saw their view.
+          {"culled", result.tracking ? result.tracking->statistics.keyframes_culled : 0},
           {"map_recheck_added_pixels", result.selection.recheck_additions},
           {"selection", result.tracked() ? config.selection.Describe()
                                          : "none: with known poses every frame is fused"}};

@@ -28,13 +28,14 @@ void Print(const char* name, const BuildResult& result) {
             << ", candidates " << t.loop_candidates << ")\n";
 }
 
+// A build with the defaults; without `models`, geometry alone masks the people.
 BuildResult Build(const std::string& sequence, const std::string& output,
-                  const std::vector<std::string>& settings = {}) {
+                  const std::vector<std::string>& settings = {}, const std::string& models = {}) {
   BuildRequest request;
   request.sequence_dir = sequence;
   request.output_dir = output;
-  request.detector = "none";  // geometry masks the people; the figures do not need the models
-  ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
+  request.detector = models.empty() ? "none" : "auto";
+  request.models_dir = models;
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
   return RunBuild(request);
 }
@@ -46,13 +47,16 @@ TEST(RevisitTest, RealTeddyFourPassesGrowWithThePlaceNotTheRecording) {
   if (!sequence) {
     GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
   }
+  // The issue's figures are for the default build, YOLOX included.
+  const std::optional<std::string> models = testing::SharedModels("yolox_nano");
+  if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
   testing::TempDir dir;
   const std::string replay = dir / "teddy_x4";
   const std::string command = std::string("python3 ") + STILLMAP_REPLAY_SCRIPT + " " + *sequence +
                               " " + replay + " --passes 4 > /dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
-  const BuildResult once = Build(*sequence, dir / "once");
-  const BuildResult four = Build(replay, dir / "four");
+  const BuildResult once = Build(*sequence, dir / "once", {}, *models);
+  const BuildResult four = Build(replay, dir / "four", {}, *models);
   Print("teddy, one pass", once);
   Print("teddy, four passes", four);
   EXPECT_LE(KeyframesKept(four), 1.3 * static_cast<double>(KeyframesKept(once)));
@@ -65,13 +69,18 @@ TEST(RevisitTest, RealTeddyFourPassesGrowWithThePlaceNotTheRecording) {
 // Around the room and over the start again: the loop is found, verified and closed, the map is
 // fused again from the corrected poses, and the path is nearer the truth than without it.
 TEST(RevisitTest, SyntheticLoopIsClosedAndTheMapRefused) {
+  // The default build, YOLOX included: with geometry alone the people along the walls pull the
+  // path (700 frames: 30 mm closed, 86 mm open).
+  const std::optional<std::string> models = testing::SharedModels("yolox_nano");
+  if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
   testing::TempDir dir;
   SynthOptions synth;
   synth.scenario = "loop";
-  synth.frames = 700;  // a lap takes 531 frames
+  synth.frames = 1000;  // a lap takes 531 frames; 15 m of path
   WriteSyntheticSequence(dir / "seq", synth);
-  const BuildResult closed = Build(dir / "seq", dir / "closed");
-  const BuildResult open = Build(dir / "seq", dir / "open", {"tracking.loop_closure=false"});
+  const BuildResult closed = Build(dir / "seq", dir / "closed", {}, *models);
+  const BuildResult open =
+      Build(dir / "seq", dir / "open", {"tracking.loop_closure=false"}, *models);
   Print("loop, closed", closed);
   Print("loop, loop closure off", open);
   const TrackerStatistics& t = closed.tracking->statistics;
@@ -79,7 +88,8 @@ TEST(RevisitTest, SyntheticLoopIsClosedAndTheMapRefused) {
   EXPECT_GT(closed.tracking->refused_keyframes_moved, 0u);
   ASSERT_TRUE(closed.evaluation.ate && open.evaluation.ate);
   EXPECT_LE(closed.evaluation.ate->translation.rmse, 0.010);
-  EXPECT_LT(closed.evaluation.ate->translation.rmse, 0.75 * open.evaluation.ate->translation.rmse);
+  // Measured: 7.3 mm closed, 17.9 mm open (the issue asks for 3 times better: not met yet).
+  EXPECT_LT(closed.evaluation.ate->translation.rmse, 0.5 * open.evaluation.ate->translation.rmse);
   ASSERT_TRUE(closed.evaluation.map_quality.has_value());
   EXPECT_LE(closed.evaluation.map_quality->accuracy_median, 0.01);
 }

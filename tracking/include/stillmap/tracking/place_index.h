@@ -7,7 +7,8 @@
 // descriptors within a small Hamming distance share a bucket in at least one table with high
 // probability. Written here rather than taken from FLANN (a design-card package): FLANN 1.9's
 // LshTable draws its bit masks from std::random_device, so two runs would index differently and a
-// build would not repeat (issue 33); here the masks come from a generator seeded by run.seed.
+// build would not repeat (issue 33); here the masks come from a generator with the seed given
+// (the tracker gives a fixed one).
 #pragma once
 
 #include <array>
