@@ -38,9 +38,10 @@ def main():
     parser.add_argument("b", help="second stillmap binary")
     parser.add_argument("sequence")
     parser.add_argument("--runs", type=int, default=3, help="runs of each binary")
-    parser.add_argument("extra", nargs=argparse.REMAINDER, help="-- then build options")
-    args = parser.parse_args()
-    extra = args.extra[1:] if args.extra[:1] == ["--"] else args.extra
+    argv = sys.argv[1:]
+    split = argv.index("--") if "--" in argv else len(argv)
+    args = parser.parse_args(argv[:split])
+    extra = argv[split + 1:]
     work = tempfile.mkdtemp(prefix="side_by_side_")
     results = {"a": [], "b": []}
     try:
