@@ -131,7 +131,8 @@ size_t PlaceIndex::MemoryBytes() const {
   size_t bytes = descriptors_.capacity() * sizeof(Bits) + owner_.capacity() * sizeof(int);
   for (const auto& table : buckets_) {
     for (const auto& [key, entries] : table) {
-      bytes += sizeof(key) + sizeof(entries) + entries.capacity() * sizeof(std::uint32_t);
+      bytes += sizeof(key) + sizeof(std::vector<std::uint32_t>) +
+               entries.capacity() * sizeof(std::uint32_t);
     }
   }
   return bytes;

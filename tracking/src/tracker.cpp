@@ -448,6 +448,7 @@ TrackerStatistics Tracker::statistics() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
   TrackerStatistics stats = impl_->stats;
   stats.landmarks = impl_->landmarks.size();
+  stats.place_index_mib = static_cast<double>(impl_->places.MemoryBytes()) / (1024.0 * 1024.0);
   return stats;
 }
 

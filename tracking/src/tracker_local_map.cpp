@@ -25,8 +25,9 @@ std::vector<int> Tracker::Impl::LocalKeyframes() const {
     if (it == landmarks.end()) continue;
     for (const auto& observation : it->second.observations) ++shared[observation.first];
   }
-  std::vector<std::pair<double, int>> ranked;  // (-shared or distance, id)
-  for (const auto& [id, n] : shared) ranked.emplace_back(-static_cast<double>(n), id);
+  std::vector<std::pair<int, int>> ranked;  // (-shared, id)
+  ranked.reserve(shared.size());
+  for (const auto& [id, n] : shared) ranked.emplace_back(-n, id);
   std::sort(ranked.begin(), ranked.end());
   size_t extra = 0;
   const size_t max_extra = static_cast<size_t>(options.local_map_keyframes);
@@ -128,7 +129,8 @@ void Tracker::Impl::MergeDuplicates(const Eigen::Isometry3d& camera_from_world,
 void Tracker::Impl::MergeLandmark(int keep, int drop) {
   Landmark& kept = landmarks.at(keep);
   const Landmark& dropped = landmarks.at(drop);
-  for (const auto& [keyframe_id, feature] : dropped.observations) {
+  for (const auto& observation : dropped.observations) {
+    const int keyframe_id = observation.first, feature = observation.second;
     const auto keyframe = keyframes.find(keyframe_id);
     if (keyframe == keyframes.end()) continue;
     std::vector<int>& slots = keyframe->second.landmark_of_feature;

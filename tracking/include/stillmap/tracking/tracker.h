@@ -379,6 +379,7 @@ struct TrackerStatistics {
   double loop_correction_m = 0.0;  // largest keyframe correction of an accepted loop
   double loop_correction_deg = 0.0;
   double loop_ms = 0.0;  // place queries, verification and pose graph, on the tracking thread
+  double place_index_mib = 0.0;  // memory of the place index
   size_t bundle_adjustments = 0;
   double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
   // Results the tracker had to wait for at their handover point, and the time it waited: a slow
