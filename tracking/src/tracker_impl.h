@@ -275,8 +275,6 @@ struct Tracker::Impl {
 
   // ---- Keyframe policy and insertion, final keyframes (tracker_keyframes.cpp)
   bool NeedKeyframe(const FrameData& frame, const Association& association, int inliers) const;
-  // The keyframe observing most of the associated landmarks (the last keyframe when none).
-  int ReferenceKeyframe(const Association& association) const;
   // The share of the frame's features with depth that keyframes near the pose already saw from
   // a similar direction and distance (options.redundant_*): the seed paper's redundancy rule,
   // applied to tracking keyframes against every keyframe near the pose.

@@ -33,22 +33,6 @@ bool Tracker::Impl::NeedKeyframe(const FrameData& frame, const Association& asso
   return inliers < options.keyframe_ratio * reference_tracked || need_close;
 }
 
-int Tracker::Impl::ReferenceKeyframe(const Association& association) const {
-  std::map<int, int> shared;  // by keyframe id
-  for (int id : association.landmark) {
-    if (id < 0) continue;
-    for (const auto& observation : landmarks.at(id).observations) ++shared[observation.first];
-  }
-  int best = map_keyframes.back(), most = 0;
-  for (const auto& [id, n] : shared) {
-    if (n > most) {
-      most = n;
-      best = id;
-    }
-  }
-  return best;
-}
-
 cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_mask) const {
   const int rows = (camera.height + kDepthCell - 1) / kDepthCell;
   const int columns = (camera.width + kDepthCell - 1) / kDepthCell;
