@@ -11,7 +11,7 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const BuildConfig& con
     const Eigen::Isometry3d& pose = inputs.groundtruth_poses[k].world_from_camera;
     const cv::Mat mask =
         stages.masks.Compute(frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, pose);
-    if (k % reference_every == 0) stages.masks.AddReference(frame, mask, pose);
+    if (k % reference_every == 0) stages.masks.AddReference(frame, mask, pose, -1);
     stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
     stages.progress.Update(k + 1);
   }

@@ -278,6 +278,9 @@ json TrackingTimingJson(const TrackingFigures& tracking) {
                          : 0.0},
             {"total", t.bundle_adjustment_ms}}},
           {"place_recognition_and_loops_total", t.loop_ms},
+          {"loop_pose_graph_total", t.loop_solve_ms},
+          {"global_bundle_adjustment",
+           {{"runs", t.global_bundle_adjustments}, {"total", t.global_bundle_adjustment_ms}}},
           {"refuse_map_total", tracking.refuse_ms},
           {"fuse_keyframes_total", tracking.fuse_ms}};
 }
@@ -389,6 +392,8 @@ json RunTimingJson(const BuildResult& result) {
     // A slow or busy machine shows as waits here, never as other poses.
     timing["bundle_adjustment_waits"] = t.bundle_adjustment_waits;
     timing["bundle_adjustment_wait_ms_total"] = t.bundle_adjustment_wait_ms;
+    timing["loop_correction_waits"] = t.loop_waits;
+    timing["loop_correction_wait_ms_total"] = t.loop_wait_ms;
   }
   return timing;
 }

@@ -32,6 +32,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
     if (!finals.empty()) fuser.Fuse(finals, tracker.statistics().depth_correction);
   };
   TrackingFigures figures;
+  size_t corrections = 0;
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     PreparedFrame prepared = stages.reader.Get(k);
     Frame& frame = prepared.frame;
@@ -40,8 +41,12 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
     const TrackResult tracked =
         tracker.Track(frame.index, frame.time, prepared.gray, frame.depth_m, mask);
     Record(tracked, frame.time, &figures);
+    if (tracker.pose_corrections() != corrections) {  // the depth check's references moved too
+      corrections = tracker.pose_corrections();
+      stages.masks.Repose(tracker.KeyframePoses());
+    }
     if (tracked.keyframe_id >= 0) {
-      stages.masks.AddReference(frame, mask, tracked.world_from_camera);
+      stages.masks.AddReference(frame, mask, tracked.world_from_camera, tracked.keyframe_id);
       fuser.Hold(tracked.keyframe_id, std::move(frame), mask, tracked.world_from_camera);
     }
     fuse_final();

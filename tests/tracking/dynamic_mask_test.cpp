@@ -224,5 +224,25 @@ TEST(DynamicMaskerTest, DepthOutlineKeepsPartedLimbsButNotConfirmedStaticReading
   EXPECT_EQ(cv::countNonZero(centre(arm)), 0);
 }
 
+// A reference posed 0.5 m ahead of where it was (a loop correction later moved its keyframe)
+// sees the wall 0.5 m farther than the current frame does: the whole wall looks nearer, so moving.
+// Once the reference takes its keyframe's corrected pose, nothing moves.
+TEST(DynamicMaskerTest, ReposedReferencesUseTheirKeyframesCorrectedPoses) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  MaskReference reference = WallReference(camera);
+  reference.keyframe_id = 7;
+  reference.world_from_camera.translation() = Eigen::Vector3d(0.0, 0.0, 0.5);
+  DynamicMasker masker(camera, KeepEveryRegion());
+  masker.AddReference(reference);
+  const cv::Mat gray(reference.depth_m.size(), CV_8UC1, cv::Scalar(128));
+  const Eigen::Isometry3d here = Eigen::Isometry3d::Identity();
+  EXPECT_GT(cv::countNonZero(masker.Compute(gray, reference.depth_m, here, nullptr).mask),
+            0.5 * static_cast<double>(gray.total()));
+  masker.Repose({{3, here}});  // another keyframe: no change
+  EXPECT_GT(cv::countNonZero(masker.Compute(gray, reference.depth_m, here, nullptr).mask), 0);
+  masker.Repose({{7, here}});
+  EXPECT_EQ(cv::countNonZero(masker.Compute(gray, reference.depth_m, here, nullptr).mask), 0);
+}
+
 }  // namespace
 }  // namespace stillmap

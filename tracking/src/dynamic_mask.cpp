@@ -377,6 +377,13 @@ void DynamicMasker::AddReference(MaskReference reference) {
   }
 }
 
+void DynamicMasker::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  for (MaskReference& reference : references_) {
+    const auto it = world_from_keyframe.find(reference.keyframe_id);
+    if (it != world_from_keyframe.end()) reference.world_from_camera = it->second;
+  }
+}
+
 std::vector<const MaskReference*> DynamicMasker::References() const {
   std::vector<const MaskReference*> newest_first;
   for (const MaskReference& reference : references_) newest_first.push_back(&reference);

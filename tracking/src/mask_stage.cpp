@@ -89,9 +89,14 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
 }
 
 void MaskStage::AddReference(const Frame& frame, const cv::Mat& mask,
-                             const Eigen::Isometry3d& world_from_camera) {
+                             const Eigen::Isometry3d& world_from_camera, int keyframe_id) {
   if (!enabled_) return;
-  masker_->AddReference({frame.time, frame.depth_m, mask, world_from_camera, cv::Mat()});
+  masker_->AddReference(
+      {frame.time, frame.depth_m, mask, world_from_camera, cv::Mat(), keyframe_id});
+}
+
+void MaskStage::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  if (enabled_) masker_->Repose(world_from_keyframe);
 }
 
 MaskingStatistics MaskStage::statistics() const {

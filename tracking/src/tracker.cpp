@@ -129,6 +129,11 @@ void TrackerOptions::Validate() const {
               pose_graph.rotation_sigma_rad > 0.0,
           "tracking.pose_graph_min_shared must be at least 1, tracking.pose_graph_iterations "
           "1..1000 and the pose graph's sigmas positive");
+  require(loop_handover_frames >= 0 && loop_handover_frames <= 1000 &&
+              global_bundle_adjustment_handover_frames >= 0 &&
+              global_bundle_adjustment_handover_frames <= 1000,
+          "tracking.loop_handover_frames and "
+          "tracking.global_bundle_adjustment_handover_frames must be 0..1000");
   require(relocalization_max_distance_m > 0.0 && relocalization_max_speed_mps >= 0.0,
           "tracking.relocalization_max_distance_m must be positive and "
           "tracking.relocalization_max_speed_mps not negative");
@@ -224,6 +229,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   ++match_serial;
   ++stats.frames;
   duplicates.clear();
+  if (pending_loop && frame_serial >= pending_loop->handover_serial) TakeLoopCorrection(lock);
   if (pending && frame_serial >= pending->handover_serial) TakeAdjustment(lock);
   int with_depth = 0;
   for (float depth : frame.features().depth_m) with_depth += UsableDepth(depth) ? 1 : 0;
@@ -414,6 +420,7 @@ std::vector<FinalKeyframe> Tracker::TakeFinalKeyframes() {
 
 void Tracker::Finish() {
   std::unique_lock<std::mutex> lock(impl_->mutex);
+  impl_->TakeLoopCorrection(lock);
   impl_->TakeAdjustment(lock);
   impl_->RequestAdjustment();  // a last one over the final window
   impl_->TakeAdjustment(lock);
@@ -442,6 +449,11 @@ std::map<int, Eigen::Isometry3d> Tracker::KeyframePoses() const {
     out.emplace(entry.first, impl_->CameraFromWorld(entry.first).inverse());
   }
   return out;
+}
+
+size_t Tracker::pose_corrections() const {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->stats.loops_accepted + impl_->stats.global_bundle_adjustments;
 }
 
 TrackerStatistics Tracker::statistics() const {

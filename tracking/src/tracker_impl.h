@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "stillmap/io/timing.h"
+#include "stillmap/tracking/pose_graph.h"
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
@@ -265,10 +266,33 @@ struct Tracker::Impl {
                       const Eigen::Isometry3d& camera_from_world) const;
   // Keyframes that share landmarks with `keyframe_id` (itself included), and how many.
   std::map<int, int> SharedLandmarks(int keyframe_id) const;
+  // A loop correction is solved on the worker like the bundle adjustment and taken at a point
+  // fixed by the data: before the frame loop_handover_frames after the loop was accepted, a new
+  // map or Finish. Keyframes made meanwhile move with the loop's keyframe.
+  struct LoopCorrection {
+    PoseGraphProblem problem;  // read by the solver; its initial poses give each correction
+    std::vector<int> ids;      // keyframe id per node, ascending
+    int keyframe_id = 0;
+    std::vector<std::pair<size_t, int>> merges;  // (feature of keyframe_id, earlier landmark)
+    size_t handover_serial = 0;
+    bool is_solved = false;
+    PoseGraphResult result;
+    std::exception_ptr error;
+    double ms = 0.0;
+  };
   // The pose graph with the loop edge (the keyframe at camera_from_world as verified against
-  // `candidate`), the keyframes and landmarks moved, the place's two copies merged.
-  void CloseLoop(int keyframe_id, int candidate, const Eigen::Isometry3d& camera_from_world,
-                 const Association& association);
+  // `candidate`), handed to the worker (or solved at once without one).
+  void RequestLoopCorrection(int keyframe_id, int candidate,
+                             const Eigen::Isometry3d& camera_from_world,
+                             const Association& association);
+  // Takes the pending loop correction (after the pending adjustment, which is in the frame
+  // before it), moves keyframes and landmarks, merges the place's two copies and requests a
+  // global bundle adjustment (loop_global_bundle_adjustment).
+  void TakeLoopCorrection(std::unique_lock<std::mutex>& lock);
+  // Solves the pose graph into solved's result, error and ms (on the worker or inline).
+  void SolveLoop(const PoseGraphProblem& problem, LoopCorrection* solved) const;
+  void ApplyLoopCorrection(const LoopCorrection& loop);
+  void MergeLoopLandmarks(const LoopCorrection& loop);
   // Pose-graph edges between keyframes sharing pose_graph_min_shared landmarks.
   void AddCovisibilityEdges(const std::map<int, int>& node_of, PoseGraphProblem* problem) const;
   void ClearMatches(Association& association);
@@ -320,15 +344,21 @@ struct Tracker::Impl {
     bool calibrating = false;          // the depth correction is estimated jointly
     int window_first = INT_MAX;        // first keyframe id of the window
     size_t handover_serial = 0;        // taken before the frame with this frame_serial
+    bool global = false;               // the whole local map, after a loop correction
     bool is_solved = false;
     SolvedWindow solved;
   };
   void WorkerLoop();
   SolvedWindow Solve(BundleAdjustmentProblem problem) const;
-  // The current window's problem; nothing when the map has fewer than two keyframes.
-  std::optional<WindowAdjustment> PrepareAdjustment() const;
-  // Prepares an adjustment and hands it to the worker (or solves it at once without one).
-  void RequestAdjustment();
+  // The problem over the local map's last `window` keyframes; nothing when the map has fewer
+  // than two keyframes.
+  std::optional<WindowAdjustment> PrepareAdjustment(size_t window) const;
+  // Prepares an adjustment (the local window, or the whole local map when `global`) and hands it
+  // to the worker (or solves it at once without one).
+  void RequestAdjustment(bool global = false);
+  // A global adjustment runs across keyframes: it is taken at its handover frame, and the
+  // keyframes made before then request no local one (it covers their window).
+  bool GlobalAdjustmentRunning() const;
   // Takes the pending adjustment's result (waiting for it when needed) and writes it back.
   void TakeAdjustment(std::unique_lock<std::mutex>& lock);
   void ApplyAdjustment(const WindowAdjustment& adjustment);
@@ -398,6 +428,8 @@ struct Tracker::Impl {
   std::condition_variable wake;     // the worker waits for a request
   std::condition_variable ba_done;  // TakeAdjustment waits for the worker
   bool ba_requested = false;        // the pending adjustment waits for the worker
+  bool loop_requested = false;      // the pending loop correction waits for the worker
+  std::optional<LoopCorrection> pending_loop;
   bool ba_running = false;
   bool stopping = false;
   std::optional<WindowAdjustment> pending;  // requested, not taken yet

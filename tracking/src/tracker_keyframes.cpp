@@ -175,7 +175,8 @@ Eigen::Isometry3d Tracker::Impl::CameraFromWorld(int keyframe_id) const {
 int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, FrameData& frame,
                                   const Association& association, size_t frame_index, double time,
                                   std::unique_lock<std::mutex>& lock) {
-  TakeAdjustment(lock);  // the last keyframe's adjustment first, whatever the frame count
+  // The last keyframe's adjustment first, whatever the frame count; a global one at its frame.
+  if (!GlobalAdjustmentRunning()) TakeAdjustment(lock);
   Keyframe keyframe;
   keyframe.id = next_keyframe++;
   keyframe.frame_index = frame_index;
@@ -220,8 +221,8 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
     CalibrateDepth();
   }
   places.Add(id, keyframes.at(id).features.descriptors);
-  DetectLoop(id);
-  RequestAdjustment();
+  if (!pending_loop) DetectLoop(id);
+  if (!pending) RequestAdjustment();
   UpdateFinal();
   return id;
 }

@@ -184,6 +184,7 @@ void Tracker::Impl::EraseLandmark(int id) {
 
 void Tracker::Impl::StartMap(const Eigen::Isometry3d& camera_from_world, FrameData& frame,
                              size_t frame_index, double time, std::unique_lock<std::mutex>& lock) {
+  TakeLoopCorrection(lock);
   TakeAdjustment(lock);
   UpdateFinal(true);
   for (int id : map_keyframes) {  // the old map's features are no longer needed

@@ -74,7 +74,7 @@ void Tracker::Impl::DetectLoop(int keyframe_id) {
     loop_streak = same_place ? loop_streak + 1 : 1;
     loop_last_candidate = verified;
     if (loop_streak >= options.loop_consistency) {
-      CloseLoop(keyframe_id, verified, estimate.camera_from_world, association);
+      RequestLoopCorrection(keyframe_id, verified, estimate.camera_from_world, association);
       loop_streak = 0;
     }
   }
@@ -123,77 +123,6 @@ void Tracker::Impl::AddCovisibilityEdges(const std::map<int, int>& node_of,
         from->second, to->second, problem->world_from_node[static_cast<size_t>(from->second)],
         problem->world_from_node[static_cast<size_t>(to->second)]));
   }
-}
-
-void Tracker::Impl::CloseLoop(int keyframe_id, int candidate,
-                              const Eigen::Isometry3d& camera_from_world,
-                              const Association& association) {
-  // Every keyframe is a node, in id order; the oldest holds the gauge.
-  PoseGraphProblem problem;
-  std::map<int, int> node_of;
-  std::vector<int> ids;
-  for (const auto& [id, keyframe] : keyframes) {
-    node_of[id] = static_cast<int>(ids.size());
-    ids.push_back(id);
-    problem.world_from_node.push_back(keyframe.camera_from_world.inverse());
-  }
-  problem.fixed.assign(ids.size(), false);
-  problem.fixed[0] = true;
-  for (size_t n = 0; n + 1 < ids.size(); ++n) {
-    problem.edges.push_back(EdgeBetween(static_cast<int>(n), static_cast<int>(n + 1),
-                                        problem.world_from_node[n],
-                                        problem.world_from_node[n + 1]));
-  }
-  AddCovisibilityEdges(node_of, &problem);
-  problem.edges.push_back(EdgeBetween(node_of.at(candidate), node_of.at(keyframe_id),
-                                      keyframes.at(candidate).camera_from_world.inverse(),
-                                      camera_from_world.inverse()));
-  const PoseGraphResult solved = SolvePoseGraph(problem, options.pose_graph);
-
-  // world' = correction * world for each keyframe, and for each landmark that of the keyframe
-  // that made it.
-  std::map<int, Eigen::Isometry3d> correction;
-  for (size_t n = 0; n < ids.size(); ++n) {
-    const Eigen::Isometry3d moved =
-        solved.world_from_node[n] * problem.world_from_node[n].inverse();
-    correction[ids[n]] = moved;
-    keyframes.at(ids[n]).camera_from_world = solved.world_from_node[n].inverse();
-  }
-  for (auto& [id, landmark] : landmarks) {
-    int reference = landmark.created_keyframe;
-    if (correction.count(reference) == 0 && !landmark.observations.empty()) {
-      reference = landmark.observations.front().first;
-    }
-    const auto it = correction.find(reference);
-    if (it != correction.end()) landmark.position = it->second * landmark.position;
-  }
-  const Eigen::Isometry3d& at_loop = correction.at(keyframe_id);
-  stats.loop_correction_m = std::max(stats.loop_correction_m, at_loop.translation().norm());
-  stats.loop_correction_deg = std::max(stats.loop_correction_deg,
-                                       Eigen::AngleAxisd(at_loop.linear()).angle() * 180.0 / M_PI);
-  last_camera_from_world = last_camera_from_world * at_loop.inverse();
-  last_good_camera_from_world = last_good_camera_from_world * at_loop.inverse();
-
-  // The keyframe's features found in the earlier place: its landmarks are merged into those.
-  Keyframe& keyframe = keyframes.at(keyframe_id);
-  for (size_t f = 0; f < association.landmark.size(); ++f) {
-    const int earlier = association.landmark[f];
-    if (earlier < 0 || landmarks.count(earlier) == 0) continue;
-    const int own = keyframe.landmark_of_feature[f];
-    if (own == earlier) continue;
-    if (own >= 0 && landmarks.count(own) > 0) {
-      MergeLandmark(std::min(own, earlier), std::max(own, earlier));
-    } else {
-      Landmark& landmark = landmarks.at(earlier);
-      const bool seen = std::any_of(landmark.observations.begin(), landmark.observations.end(),
-                                    [&](const auto& o) { return o.first == keyframe_id; });
-      if (!seen) {
-        landmark.observations.emplace_back(keyframe_id, static_cast<int>(f));
-        keyframe.landmark_of_feature[f] = earlier;
-      }
-    }
-  }
-  ++stats.loops_accepted;
 }
 
 }  // namespace stillmap

@@ -7,8 +7,22 @@ namespace stillmap {
 void Tracker::Impl::WorkerLoop() {
   std::unique_lock<std::mutex> lock(mutex);
   while (true) {
-    wake.wait(lock, [this] { return ba_requested || stopping; });
+    wake.wait(lock, [this] { return ba_requested || loop_requested || stopping; });
     if (stopping) break;
+    if (loop_requested) {
+      loop_requested = false;
+      const PoseGraphProblem problem = pending_loop->problem;
+      lock.unlock();
+      LoopCorrection solved;
+      SolveLoop(problem, &solved);
+      lock.lock();
+      pending_loop->result = std::move(solved.result);
+      pending_loop->error = solved.error;
+      pending_loop->ms = solved.ms;
+      pending_loop->is_solved = true;
+      ba_done.notify_all();
+      continue;
+    }
     ba_requested = false;
     ba_running = true;
     BundleAdjustmentProblem problem = std::move(pending->problem);
@@ -36,12 +50,11 @@ Tracker::Impl::SolvedWindow Tracker::Impl::Solve(BundleAdjustmentProblem problem
   return solved;
 }
 
-std::optional<Tracker::Impl::WindowAdjustment> Tracker::Impl::PrepareAdjustment() const {
+std::optional<Tracker::Impl::WindowAdjustment> Tracker::Impl::PrepareAdjustment(
+    size_t window) const {
   const size_t count = map_keyframes.size();
   if (count < 2) return std::nullopt;
-  const size_t window_first = count > static_cast<size_t>(options.local_window)
-                                  ? count - static_cast<size_t>(options.local_window)
-                                  : 0;
+  const size_t window_first = count > window ? count - window : 0;
   WindowAdjustment adjustment;
   BundleAdjustmentProblem& problem = adjustment.problem;
   adjustment.calibrating =
@@ -92,11 +105,18 @@ std::optional<Tracker::Impl::WindowAdjustment> Tracker::Impl::PrepareAdjustment(
   return adjustment;
 }
 
-void Tracker::Impl::RequestAdjustment() {
-  std::optional<WindowAdjustment> adjustment = PrepareAdjustment();
+bool Tracker::Impl::GlobalAdjustmentRunning() const {
+  return pending && pending->global && frame_serial < pending->handover_serial;
+}
+
+void Tracker::Impl::RequestAdjustment(bool global) {
+  std::optional<WindowAdjustment> adjustment = PrepareAdjustment(
+      global ? map_keyframes.size() : static_cast<size_t>(options.local_window));
   if (!adjustment) return;
+  adjustment->global = global;
   adjustment->handover_serial =
-      frame_serial + static_cast<size_t>(options.bundle_adjustment_handover_frames);
+      frame_serial + static_cast<size_t>(global ? options.global_bundle_adjustment_handover_frames
+                                                : options.bundle_adjustment_handover_frames);
   running_window_first = adjustment->window_first;
   pending = std::move(adjustment);
   if (worker.joinable()) {
@@ -145,8 +165,13 @@ void Tracker::Impl::ApplyAdjustment(const WindowAdjustment& adjustment) {
   for (size_t o = 0; o < adjustment.refs.size(); ++o) {
     if (result.outlier[o]) RejectObservation(adjustment.refs[o]);
   }
-  ++stats.bundle_adjustments;
-  stats.bundle_adjustment_ms += adjustment.solved.ms;
+  if (adjustment.global) {
+    ++stats.global_bundle_adjustments;
+    stats.global_bundle_adjustment_ms += adjustment.solved.ms;
+  } else {
+    ++stats.bundle_adjustments;
+    stats.bundle_adjustment_ms += adjustment.solved.ms;
+  }
 }
 
 void Tracker::Impl::RejectObservation(const ObservationRef& ref) {

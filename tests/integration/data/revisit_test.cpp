@@ -30,10 +30,12 @@ void Print(const char* name, const BuildResult& result) {
 
 // A build with the defaults; without `models`, geometry alone masks the people.
 BuildResult Build(const std::string& sequence, const std::string& output,
-                  const std::vector<std::string>& settings = {}, const std::string& models = {}) {
+                  const std::vector<std::string>& settings = {}, const std::string& models = {},
+                  int threads = 2) {
   BuildRequest request;
   request.sequence_dir = sequence;
   request.output_dir = output;
+  request.threads = threads;
   request.detector = models.empty() ? "none" : "auto";
   request.models_dir = models;
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
@@ -67,7 +69,9 @@ TEST(RevisitTest, RealTeddyFourPassesGrowWithThePlaceNotTheRecording) {
 }
 
 // Around the room and over the start again: the loop is found, verified and closed, the map is
-// fused again from the corrected poses, and the path is nearer the truth than without it.
+// fused again from the corrected poses, and the path is nearer the truth than without it. The
+// correction and the global bundle adjustment after it run on the worker and are taken at frames
+// fixed by the data: one thread (everything inline) gives the same bytes.
 TEST(RevisitTest, SyntheticLoopIsClosedAndTheMapRefused) {
   // The default build, YOLOX included: with geometry alone the people along the walls pull the
   // path (700 frames: 30 mm closed, 86 mm open).
@@ -81,15 +85,21 @@ TEST(RevisitTest, SyntheticLoopIsClosedAndTheMapRefused) {
   const BuildResult closed = Build(dir / "seq", dir / "closed", {}, *models);
   const BuildResult open =
       Build(dir / "seq", dir / "open", {"tracking.loop_closure=false"}, *models);
+  const BuildResult inline_run = Build(dir / "seq", dir / "inline", {}, *models, 1);
   Print("loop, closed", closed);
   Print("loop, loop closure off", open);
   const TrackerStatistics& t = closed.tracking->statistics;
   EXPECT_GE(t.loops_accepted, 1u);
+  EXPECT_GE(t.global_bundle_adjustments, 1u);
   EXPECT_GT(closed.tracking->refused_keyframes_moved, 0u);
+  for (const char* name : {"trajectory.txt", "keyframes.txt", "map.ply"}) {
+    EXPECT_TRUE(testing::ReadText(dir / ("closed/" + std::string(name))) ==
+                testing::ReadText(dir / ("inline/" + std::string(name))))
+        << name << " differs between the default and one thread";
+  }
   ASSERT_TRUE(closed.evaluation.ate && open.evaluation.ate);
   EXPECT_LE(closed.evaluation.ate->translation.rmse, 0.010);
-  // Measured: 7.3 mm closed, 17.9 mm open (the issue asks for 3 times better: not met yet).
-  EXPECT_LT(closed.evaluation.ate->translation.rmse, 0.5 * open.evaluation.ate->translation.rmse);
+  EXPECT_LE(closed.evaluation.ate->translation.rmse, open.evaluation.ate->translation.rmse / 3.0);
   ASSERT_TRUE(closed.evaluation.map_quality.has_value());
   EXPECT_LE(closed.evaluation.map_quality->accuracy_median, 0.01);
 }

@@ -23,6 +23,7 @@
 
 #include <Eigen/Geometry>
 #include <deque>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -172,6 +173,7 @@ struct MaskReference {
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
   // NearestStaticDepth(*this), cached by DynamicMasker; computed on the fly when empty.
   cv::Mat nearest_depth_m;
+  int keyframe_id = -1;  // the tracker's, for poses corrected later (DynamicMasker::Repose)
 };
 
 // The reference's depth with its moving pixels removed, as the minimum over 5x5 pixels (0 where
@@ -236,6 +238,9 @@ class DynamicMasker {
 
   // A keyframe becomes a depth-check reference (kept: the newest and older ones spread in time).
   void AddReference(MaskReference reference);
+
+  // References whose keyframe has a pose here take it (after a loop correction moved them).
+  void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
   // The references Compute uses now, newest first.
   std::vector<const MaskReference*> References() const;

@@ -69,7 +69,9 @@ class MaskStage {
 
   // A keyframe with its mask and pose becomes a depth-check reference.
   void AddReference(const Frame& frame, const cv::Mat& mask,
-                    const Eigen::Isometry3d& world_from_camera);
+                    const Eigen::Isometry3d& world_from_camera, int keyframe_id);
+  // The references take their keyframes' corrected poses (after a loop correction).
+  void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
   // The figures so far (the score set when truth masks were found for some frame).
   MaskingStatistics statistics() const;

@@ -118,11 +118,8 @@ struct TrackerOptions {
   // distance within redundant_scale_ratio of its own. The seed paper's redundancy rule (paper
   // 000, II.D) applied to tracking keyframes, against every keyframe near the pose. A culled
   // keyframe is not fused; its frames are posed through the keyframe sharing most landmarks with
-  // it. 1 = off. Measured with the defaults (keyframes kept, ATE; scripts/revisit_replay.py for
-  // the replays): 0.9 / 0.95 / 0.98 / off: teddy 23 / 24 / 25 / 25 (4.6 / 4.9 / 4.9 / 4.8 mm),
-  // teddy 4 passes 23 / 25 / 29 / 92 (4.6 / 5.2 / 5.2 / 6.1 mm), bonn_crowd_a 10 / 17 / 23 / 55
-  // (19.5 / 21.2 / 18.9 / 18.0 mm), synthetic walking_xyz map completeness 0.893 / 0.974 /
-  // 0.966 / 0.977 (docs/figures.md).
+  // it. 1 = off. Chosen on teddy, its replays, bonn_crowd_a and the synthetic scenarios
+  // (docs/figures.md).
   double redundant_keyframe_share = 0.98;
   double redundant_view_angle_deg = 15.0;
   double redundant_scale_ratio = 1.25;
@@ -166,8 +163,10 @@ struct TrackerOptions {
   // RGB-D refinement and a projection search around it: at least loop_min_inliers inliers), and
   // a loop is accepted only when loop_consistency keyframes in a row verify the same place. The
   // pose graph over all keyframes (odometry edges, covisibility edges between keyframes sharing
-  // pose_graph_min_shared landmarks, the loop edge) then moves keyframes and landmarks, and the
-  // two copies of the place's landmarks are merged.
+  // pose_graph_min_shared landmarks, the loop edge) is solved on the bundle adjustment's worker
+  // and taken loop_handover_frames later: keyframes and landmarks move (those made meanwhile with
+  // the loop's keyframe), the two copies of the place's landmarks are merged, and a global bundle
+  // adjustment over the local map follows, taken global_bundle_adjustment_handover_frames later.
   PlaceIndexOptions place;
   int place_candidates = 3;
   int place_min_votes = 30;
@@ -177,6 +176,9 @@ struct TrackerOptions {
   int loop_min_separation = 10;
   int pose_graph_min_shared = 100;
   PoseGraphOptions pose_graph;
+  int loop_handover_frames = 5;
+  bool loop_global_bundle_adjustment = true;
+  int global_bundle_adjustment_handover_frames = 30;
   // A verified loop whose correction exceeds what drift could do over the path between its two
   // keyframes is refused (a look-alike place): loop_max_drift_m plus loop_max_drift_share of the
   // path, and loop_max_drift_deg plus loop_max_drift_deg_per_m for each metre of it. stillmap
@@ -300,6 +302,13 @@ struct TrackerOptions {
     visit("pose_graph_min_shared", self.pose_graph_min_shared,
           "landmarks two keyframes share for a covisibility edge of the pose graph");
     visit.Nested("pose_graph_", self.pose_graph);
+    visit("loop_handover_frames", self.loop_handover_frames,
+          "frames after a loop is accepted when its pose graph's result is taken");
+    visit("loop_global_bundle_adjustment", self.loop_global_bundle_adjustment,
+          "after a loop correction, bundle-adjust the whole local map on the worker");
+    visit("global_bundle_adjustment_handover_frames",
+          self.global_bundle_adjustment_handover_frames,
+          "frames after its request when the global bundle adjustment's result is taken");
     visit("loop_max_drift_m", self.loop_max_drift_m,
           "a loop's correction may be this much [m] ...");
     visit("loop_max_drift_share", self.loop_max_drift_share,
@@ -378,7 +387,10 @@ struct TrackerStatistics {
   size_t loops_implausible = 0;    // verified, but asking for more correction than drift explains
   double loop_correction_m = 0.0;  // largest keyframe correction of an accepted loop
   double loop_correction_deg = 0.0;
-  double loop_ms = 0.0;  // place queries, verification and pose graph, on the tracking thread
+  double loop_ms = 0.0;  // place queries and verification, on the tracking thread
+  double loop_solve_ms = 0.0;        // pose graphs, on whichever thread ran them
+  size_t global_bundle_adjustments = 0;
+  double global_bundle_adjustment_ms = 0.0;
   double place_index_mib = 0.0;  // memory of the place index
   size_t bundle_adjustments = 0;
   double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
@@ -386,6 +398,8 @@ struct TrackerStatistics {
   // or busy machine shows here, not in the poses.
   size_t bundle_adjustment_waits = 0;
   double bundle_adjustment_wait_ms = 0.0;
+  size_t loop_waits = 0;  // the same for loop corrections
+  double loop_wait_ms = 0.0;
   size_t observations_rejected = 0;  // by the bundle adjustment's chi-square test
   // Depth self-calibration: the correction in use and the last fit.
   DepthCorrection depth_correction;
@@ -421,6 +435,9 @@ class Tracker {
   // that keyframe corrections carry over. Call after Finish() for the final trajectory.
   Trajectory TrackedTrajectory() const;
 
+  // Loop corrections and global bundle adjustments taken so far: when it changes, keyframes
+  // moved (KeyframePoses).
+  size_t pose_corrections() const;
   TrackerStatistics statistics() const;
 
   // Every keyframe's current pose (camera-to-world) by keyframe id: after Finish, the final
