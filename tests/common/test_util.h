@@ -34,6 +34,8 @@ class TempDir {
 // The folder of the real sequences ($STILLMAP_DATA, else ../shared/data), or nullopt when the
 // named sequence is absent there.
 std::optional<std::string> SharedSequence(const std::string& name);
+// A recorded bag of the shared data's bags/ folder, or nullopt when absent.
+std::optional<std::string> SharedBag(const std::string& name);
 
 // An analytic scene: the plane n . X = d (world frame), textured by a checkerboard.
 struct PlaneScene {

@@ -1,0 +1,68 @@
+// Recorded robot data read as it is (issue 28): a bag's topics and messages, whatever wrote it.
+// A reader streams the messages in file order with one block (a ROS 1 chunk) in memory at a
+// time, and reads one message again from where the scan found it. Damage never throws past the
+// part that reads: a bag cut short ends the scan with a warning that says "truncated" and the
+// time where it ends; a block that cannot be decompressed is skipped with a warning.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace stillmap {
+
+// How the messages are serialized: ROS 1's (little-endian, unaligned) or ROS 2's CDR.
+enum class BagSerialization { kRos1, kCdr };
+
+struct BagTopic {
+  std::string name;
+  std::string type;  // as the bag names it: "sensor_msgs/Image" (ROS 1), ".../msg/Image" (ROS 2)
+};
+
+// Where a message lies, to read it again.
+struct BagPosition {
+  std::uint64_t block = 0;   // ROS 1: the file offset of its chunk record
+  std::uint32_t offset = 0;  // the offset of its record in the block's uncompressed data
+};
+
+struct BagMessage {
+  size_t topic = 0;   // index into topics()
+  double time = 0.0;  // when it was recorded [s] (not its header stamp)
+  BagPosition position;
+  const std::uint8_t* data = nullptr;  // valid during the visit only
+  size_t size = 0;
+};
+
+class BagReader {
+ public:
+  virtual ~BagReader() = default;
+  virtual BagSerialization serialization() const = 0;
+  // The topics known so far: all of them after Scan.
+  virtual const std::vector<BagTopic>& topics() const = 0;
+  // Calls visit for every message in file order.
+  virtual void Scan(const std::function<void(const BagMessage&)>& visit) = 0;
+  // The data of the message at `position` (as a scan gave it). Throws InputError naming the file
+  // when it cannot be read. Safe to call from one thread while no scan runs.
+  virtual std::vector<std::uint8_t> Read(const BagPosition& position) const = 0;
+  // What the last scan met: "truncated ..." for a bag cut short, skipped blocks.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  bool truncated() const { return truncated_; }
+  const std::string& path() const { return path_; }
+
+ protected:
+  explicit BagReader(std::string path) : path_(std::move(path)) {}
+  std::string path_;
+  std::vector<std::string> warnings_;
+  bool truncated_ = false;
+};
+
+// True when the file starts like a bag stillmap reads (by its bytes, not its name).
+bool LooksLikeBag(const std::string& path);
+
+// Opens a bag by its content. Throws InputError naming the file for one that is not a bag (or
+// of a version stillmap does not read), cannot be opened, or whose first records are damaged.
+std::unique_ptr<BagReader> OpenBag(const std::string& path);
+
+}  // namespace stillmap

@@ -1,0 +1,288 @@
+#include "bag/ros1_bag.h"
+
+#include <cstring>
+
+#include "bag/bytes.h"
+#include "bag/decompress.h"
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+namespace {
+
+constexpr std::uint8_t kOpMessage = 0x02;
+constexpr std::uint8_t kOpBagHeader = 0x03;
+constexpr std::uint8_t kOpChunk = 0x05;
+constexpr std::uint8_t kOpConnection = 0x07;
+// Larger record headers or chunks than these are damage, not data (rosbag's own chunks are
+// 768 KiB by default; a header holds a few short fields).
+constexpr std::uint32_t kMaxHeaderBytes = 1U << 20U;
+constexpr std::uint64_t kMaxChunkBytes = 1ULL << 30U;
+
+using Fields = std::map<std::string, std::string>;
+
+// The "name=value" fields of a record header, each preceded by its length.
+bool ParseFields(const std::uint8_t* p, size_t n, Fields* fields) {
+  while (n > 0) {
+    if (n < 4) return false;
+    const std::uint32_t length = Le32(p);
+    p += 4;
+    n -= 4;
+    if (length > n) return false;
+    const char* text = reinterpret_cast<const char*>(p);
+    const char* equals = static_cast<const char*>(std::memchr(text, '=', length));
+    if (equals == nullptr) return false;
+    (*fields)[std::string(text, equals)] = std::string(equals + 1, text + length);
+    p += length;
+    n -= length;
+  }
+  return true;
+}
+
+bool FieldU8(const Fields& fields, const char* name, std::uint8_t* value) {
+  const auto it = fields.find(name);
+  if (it == fields.end() || it->second.size() != 1) return false;
+  *value = static_cast<std::uint8_t>(it->second[0]);
+  return true;
+}
+
+bool FieldU32(const Fields& fields, const char* name, std::uint32_t* value) {
+  const auto it = fields.find(name);
+  if (it == fields.end() || it->second.size() != 4) return false;
+  *value = Le32(reinterpret_cast<const std::uint8_t*>(it->second.data()));
+  return true;
+}
+
+// A ROS 1 time field: seconds and nanoseconds, 32 bits each.
+bool FieldTime(const Fields& fields, const char* name, double* seconds) {
+  const auto it = fields.find(name);
+  if (it == fields.end() || it->second.size() != 8) return false;
+  const auto* p = reinterpret_cast<const std::uint8_t*>(it->second.data());
+  *seconds = static_cast<double>(Le32(p)) + 1e-9 * static_cast<double>(Le32(p + 4));
+  return true;
+}
+
+// A record inside a decompressed chunk: its fields and data span; false when it runs past the
+// chunk or its header is damaged.
+bool ChunkRecord(const std::vector<std::uint8_t>& chunk, size_t offset, Fields* fields,
+                 size_t* data_offset, size_t* data_size) {
+  if (chunk.size() - offset < 4) return false;
+  const std::uint32_t header_size = Le32(chunk.data() + offset);
+  if (header_size > chunk.size() - offset - 4 || chunk.size() - offset - 4 - header_size < 4) {
+    return false;
+  }
+  if (!ParseFields(chunk.data() + offset + 4, header_size, fields)) return false;
+  *data_offset = offset + 4 + header_size + 4;
+  *data_size = Le32(chunk.data() + offset + 4 + header_size);
+  return *data_size <= chunk.size() - *data_offset;
+}
+
+std::string Seconds(double t) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.3f", t);
+  return text;
+}
+
+}  // namespace
+
+Ros1Bag::Ros1Bag(const std::string& path) : BagReader(path), read_file_(path, std::ios::binary) {
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
+  if (!file) throw InputError(path + ": cannot open the bag");
+  file_size_ = static_cast<std::uint64_t>(file.tellg());
+  char magic[kMagicSize] = {};
+  file.seekg(0);
+  file.read(magic, kMagicSize);
+  if (!file || std::memcmp(magic, kMagic, kMagicSize) != 0) {
+    if (std::memcmp(magic, "#ROSBAG V", 9) == 0) {
+      throw InputError(path + ": a ROS 1 bag of format " + Quoted(std::string(magic + 9, 3)) +
+                       "; stillmap reads format 2.0 (convert it with `rosbag fix` on a ROS 1 "
+                       "machine)");
+    }
+    throw InputError(path + ": not a ROS 1 bag (no \"#ROSBAG V2.0\" at its start)");
+  }
+  Record header;
+  std::string damage;
+  std::uint8_t op = 0;
+  if (!ReadRecord(file, kMagicSize, &header, &damage) || !FieldU8(header.fields, "op", &op) ||
+      op != kOpBagHeader) {
+    throw InputError(path + ": the bag header record is damaged" +
+                     (damage.empty() ? std::string() : " (" + damage + ")"));
+  }
+  data_start_ = header.end;
+}
+
+bool Ros1Bag::ReadRecord(std::ifstream& file, std::uint64_t offset, Record* record,
+                         std::string* damage) const {
+  *record = Record();
+  if (file_size_ - offset < 4) return false;
+  std::uint8_t size_bytes[4];
+  file.clear();
+  file.seekg(static_cast<std::streamoff>(offset));
+  file.read(reinterpret_cast<char*>(size_bytes), 4);
+  const std::uint32_t header_size = Le32(size_bytes);
+  if (!file || header_size > kMaxHeaderBytes) {
+    *damage = "a record header of " + std::to_string(header_size) + " bytes";
+    return false;
+  }
+  if (file_size_ - offset - 4 < static_cast<std::uint64_t>(header_size) + 4) return false;
+  std::vector<std::uint8_t> header(header_size + 4);
+  file.read(reinterpret_cast<char*>(header.data()), static_cast<std::streamsize>(header.size()));
+  if (!file || !ParseFields(header.data(), header_size, &record->fields)) {
+    *damage = "a record header that does not parse";
+    return false;
+  }
+  record->data_offset = offset + 4 + header_size + 4;
+  record->data_size = Le32(header.data() + header_size);
+  record->end = record->data_offset + record->data_size;
+  return record->end <= file_size_;
+}
+
+bool Ros1Bag::LoadChunk(std::ifstream& file, const Record& record, std::vector<std::uint8_t>* out,
+                        std::string* error) const {
+  std::uint32_t size = 0;
+  const auto compression = record.fields.find("compression");
+  if (compression == record.fields.end() || !FieldU32(record.fields, "size", &size)) {
+    *error = "a chunk header without compression or size";
+    return false;
+  }
+  if (size > kMaxChunkBytes) {
+    *error = "a chunk of " + std::to_string(size) + " bytes uncompressed";
+    return false;
+  }
+  std::vector<std::uint8_t> data(record.data_size);
+  file.clear();
+  file.seekg(static_cast<std::streamoff>(record.data_offset));
+  file.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(data.size()));
+  if (!file) {
+    *error = "the chunk could not be read";
+    return false;
+  }
+  return DecompressBlock(compression->second, data.data(), data.size(), size, out, error);
+}
+
+void Ros1Bag::AddConnection(const Fields& fields, const std::uint8_t* data, size_t size) {
+  std::uint32_t id = 0;
+  Fields connection;
+  if (!FieldU32(fields, "conn", &id) || !ParseFields(data, size, &connection)) return;
+  if (topic_of_connection_.count(id) > 0) return;
+  const auto topic = fields.find("topic");
+  if (topic == fields.end()) return;
+  size_t index = topics_.size();
+  for (size_t t = 0; t < topics_.size(); ++t) {
+    if (topics_[t].name == topic->second) index = t;
+  }
+  if (index == topics_.size()) topics_.push_back({topic->second, connection["type"]});
+  topic_of_connection_[id] = index;
+}
+
+bool Ros1Bag::ScanChunk(std::uint64_t chunk_offset, const std::vector<std::uint8_t>& chunk,
+                        const std::function<void(const BagMessage&)>& visit, double* last_time) {
+  size_t offset = 0;
+  while (offset < chunk.size()) {
+    Fields fields;
+    size_t data_offset = 0, data_size = 0;
+    std::uint8_t op = 0;
+    if (!ChunkRecord(chunk, offset, &fields, &data_offset, &data_size) ||
+        !FieldU8(fields, "op", &op)) {
+      return false;
+    }
+    if (op == kOpConnection) AddConnection(fields, chunk.data() + data_offset, data_size);
+    std::uint32_t connection = 0;
+    if (op == kOpMessage && FieldU32(fields, "conn", &connection)) {
+      const auto topic = topic_of_connection_.find(connection);
+      BagMessage message;
+      if (topic != topic_of_connection_.end() && FieldTime(fields, "time", &message.time)) {
+        message.topic = topic->second;
+        message.position = {chunk_offset, static_cast<std::uint32_t>(offset)};
+        message.data = chunk.data() + data_offset;
+        message.size = data_size;
+        *last_time = message.time;
+        visit(message);
+      }
+    }
+    offset = data_offset + data_size;
+  }
+  return true;
+}
+
+void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
+  warnings_.clear();
+  truncated_ = false;
+  std::ifstream file(path_, std::ios::binary);
+  if (!file) throw InputError(path_ + ": cannot open the bag");
+  std::uint64_t offset = data_start_;
+  double last_time = 0.0;
+  std::vector<std::uint8_t> chunk;
+  while (offset < file_size_) {
+    Record record;
+    std::string damage;
+    std::uint8_t op = 0;
+    if (!ReadRecord(file, offset, &record, &damage) || !FieldU8(record.fields, "op", &op)) {
+      truncated_ = true;
+      warnings_.push_back(
+          path_ + ": truncated at byte " + std::to_string(offset) + " of " +
+          std::to_string(file_size_) + (damage.empty() ? std::string() : " (" + damage + ")") +
+          ": the recording ends at t = " + Seconds(last_time) + " s; what comes before is read");
+      return;
+    }
+    if (op == kOpChunk) {
+      std::string error;
+      if (!LoadChunk(file, record, &chunk, &error)) {
+        warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
+                            " is skipped: " + error);
+      } else if (!ScanChunk(offset, chunk, visit, &last_time)) {
+        warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
+                            " holds a damaged record; its later messages are skipped");
+      }
+    } else if (op == kOpConnection) {
+      std::vector<std::uint8_t> data(record.data_size);
+      file.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(data.size()));
+      if (file) AddConnection(record.fields, data.data(), data.size());
+    }
+    offset = record.end;
+  }
+}
+
+std::vector<std::uint8_t> Ros1Bag::Read(const BagPosition& position) const {
+  const std::lock_guard<std::mutex> lock(read_mutex_);
+  if (cached_chunk_.empty() || cached_block_ != position.block) {
+    Record record;
+    std::string error;
+    cached_chunk_.clear();
+    if (!ReadRecord(read_file_, position.block, &record, &error) ||
+        !LoadChunk(read_file_, record, &cached_chunk_, &error)) {
+      cached_chunk_.clear();
+      throw InputError(path_ + ": the chunk at byte " + std::to_string(position.block) +
+                       " cannot be read again (" + error + ")");
+    }
+    cached_block_ = position.block;
+  }
+  Fields fields;
+  size_t data_offset = 0, data_size = 0;
+  if (position.offset >= cached_chunk_.size() ||
+      !ChunkRecord(cached_chunk_, position.offset, &fields, &data_offset, &data_size)) {
+    throw InputError(path_ + ": no message at offset " + std::to_string(position.offset) +
+                     " of the chunk at byte " + std::to_string(position.block));
+  }
+  return {cached_chunk_.begin() + static_cast<std::ptrdiff_t>(data_offset),
+          cached_chunk_.begin() + static_cast<std::ptrdiff_t>(data_offset + data_size)};
+}
+
+bool LooksLikeBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  char magic[Ros1Bag::kMagicSize] = {};
+  file.read(magic, Ros1Bag::kMagicSize);
+  return file && std::memcmp(magic, "#ROSBAG V", 9) == 0;
+}
+
+std::unique_ptr<BagReader> OpenBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw InputError(path + ": cannot open the bag");
+  char magic[Ros1Bag::kMagicSize] = {};
+  file.read(magic, Ros1Bag::kMagicSize);
+  if (file && std::memcmp(magic, "#ROSBAG V", 9) == 0) return std::make_unique<Ros1Bag>(path);
+  throw InputError(path +
+                   ": not a bag stillmap reads (expected a ROS 1 .bag; ROS 2 bags are not read "
+                   "yet)");
+}
+
+}  // namespace stillmap

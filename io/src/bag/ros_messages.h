@@ -1,0 +1,71 @@
+// The sensor_msgs messages an RGB-D build needs, decoded from either serialization (ROS 1's, or
+// ROS 2's CDR, little-endian; written by stillmap since neither has a Debian package that reads
+// it without a ROS installation): Image, CompressedImage and CameraInfo, and any message's
+// std_msgs/Header. Image data is referenced, not copied: it lives as long as the message bytes.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/bag_reader.h"
+
+namespace stillmap {
+
+struct RosHeader {
+  double stamp = 0.0;  // [s]
+  std::string frame_id;
+};
+
+struct RosImage {
+  RosHeader header;
+  std::uint32_t height = 0, width = 0;
+  std::string encoding;
+  bool big_endian = false;
+  std::uint32_t step = 0;
+  const std::uint8_t* data = nullptr;
+  size_t size = 0;
+};
+
+struct RosCompressedImage {
+  RosHeader header;
+  std::string format;
+  const std::uint8_t* data = nullptr;
+  size_t size = 0;
+};
+
+struct RosCameraInfo {
+  RosHeader header;
+  std::uint32_t height = 0, width = 0;
+  std::string distortion_model;
+  std::vector<double> d;
+  std::array<double, 9> k{};
+};
+
+// Each returns false with *error saying what does not fit when the bytes are not such a message.
+bool DecodeRosHeader(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                     RosHeader* header, std::string* error);
+bool DecodeRosImage(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                    RosImage* image, std::string* error);
+bool DecodeRosCompressedImage(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                              RosCompressedImage* image, std::string* error);
+bool DecodeRosCameraInfo(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                         RosCameraInfo* info, std::string* error);
+
+// Colour as CV_8UC3 BGR from rgb8, bgr8, rgba8, bgra8 or mono8 (a copy). Throws InputError naming
+// `where` for another encoding or data shorter than its rows.
+cv::Mat ColorFromRosImage(const RosImage& image, const std::string& where);
+// Depth in metres (CV_32FC1, 0 = no reading) from 16UC1 or mono16 (metres_per_unit each: 0.001
+// for ROS's millimetres) or 32FC1 (metres; NaN and inf = no reading).
+cv::Mat DepthFromRosImage(const RosImage& image, double metres_per_unit, const std::string& where);
+// Colour from a JPEG or PNG CompressedImage.
+cv::Mat ColorFromRosCompressed(const RosCompressedImage& image, const std::string& where);
+// Depth from compressed_depth_image_transport's "16UC1; compressedDepth png" (12-byte header,
+// then a 16-bit PNG) or "32FC1; compressedDepth png" (inverse depth quantized by the header's
+// two parameters).
+cv::Mat DepthFromRosCompressed(const RosCompressedImage& image, double metres_per_unit,
+                               const std::string& where);
+
+}  // namespace stillmap
