@@ -62,6 +62,8 @@ struct BuildCommand {
   std::string config_file;
   std::vector<std::string> set_arguments;
   std::string poses;
+  std::vector<std::string> topics;
+  std::string groundtruth;
   bool quiet = false;
   bool verbose = false;
   CLI::App* command = nullptr;
@@ -72,8 +74,15 @@ struct BuildCommand {
         "Build the maps of a TUM-layout sequence: map.ply, map.pcd, map.bt, map.ot, grid.pgm + "
         "grid.yaml, mesh.glb, trajectory.txt, keyframes.txt, renders/, report.json, report.html, "
         "config.yaml; the 3-D outputs in one z-up map frame (map.frame).");
-    command->add_option("SEQUENCE_DIR", request.sequence_dir, "TUM-layout sequence folder")
+    command
+        ->add_option("SEQUENCE_DIR", request.sequence_dir,
+                     "TUM-layout sequence folder, or a recorded ROS 1 .bag")
         ->required();
+    command->add_option("--topic", topics,
+                        "a bag's topic: color=NAME, depth=NAME or camera_info=NAME (repeatable; "
+                        "default: chosen by type, encoding and name; see `stillmap info BAG`)");
+    command->add_option("--groundtruth", groundtruth,
+                        "ground-truth trajectory (TUM format) for ATE and RPE, e.g. for a bag");
     command
         ->add_option("-o,--output", request.output_dir,
                      "output folder (created if needed; not the sequence folder or inside it)")
@@ -110,6 +119,21 @@ struct BuildCommand {
     command->footer(ConfigKeysHelp());
   }
 
+  // --topic KIND=NAME as the sequence.*_topic keys.
+  void ApplyTopics() {
+    for (const std::string& topic : topics) {
+      const size_t equals = topic.find('=');
+      const std::string kind = topic.substr(0, equals);
+      if (equals == std::string::npos ||
+          (kind != "color" && kind != "depth" && kind != "camera_info")) {
+        throw stillmap::InputError("--topic " + stillmap::Quoted(topic) +
+                                   ": expected color=NAME, depth=NAME or camera_info=NAME");
+      }
+      stillmap::ApplySetArgument(&request.config,
+                                 "sequence." + kind + "_topic=" + topic.substr(equals + 1));
+    }
+  }
+
   void Run() {
     // --config is read before anything in the output folder is touched (it may be
     // OUT/config.yaml).
@@ -118,6 +142,8 @@ struct BuildCommand {
       for (const std::string& argument : set_arguments) {
         stillmap::ApplySetArgument(&request.config, argument);
       }
+      ApplyTopics();
+      if (!groundtruth.empty()) request.config.sequence.groundtruth = groundtruth;
     } catch (...) {
       RecoverEarlierSwap();
       throw;
@@ -255,8 +281,13 @@ struct InfoCommand {
 
   void Add(CLI::App& app) {
     command =
-        app.add_subcommand("info", "Describe a sequence: pairs, duration, camera, ground truth.");
-    command->add_option("SEQUENCE_DIR", sequence_dir, "TUM-layout sequence folder")->required();
+        app.add_subcommand("info",
+                           "Describe a sequence: pairs, duration, camera, ground truth; for a "
+                           "bag, its topics and the ones a build would use.");
+    command
+        ->add_option("SEQUENCE_DIR", sequence_dir,
+                     "TUM-layout sequence folder, or a recorded ROS 1 .bag")
+        ->required();
     command->add_option("--camera-preset", camera_preset,
                         stillmap::CameraPresetChoices() + " when the folder has no camera.yaml");
   }

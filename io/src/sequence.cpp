@@ -78,24 +78,30 @@ Sequence Sequence::Open(const std::string& dir, const Camera& camera,
                      std::to_string(options.max_pair_time_difference) +
                      " s (compare the timestamps of rgb.txt and depth.txt)");
   }
-  const fs::path groundtruth = fs::path(dir) / "groundtruth.txt";
+  const std::string groundtruth = options.groundtruth.empty()
+                                      ? (fs::path(dir) / "groundtruth.txt").string()
+                                      : options.groundtruth;
+  if (!options.groundtruth.empty() || PathExists(groundtruth)) {
+    sequence.ReadGroundtruth(groundtruth);
+  }
+  return sequence;
+}
+
+void Sequence::ReadGroundtruth(const std::string& path) {
   const auto holds_a_pose = [](const std::string& line) {
     const std::vector<std::string> fields = SplitFields(line);
     return !fields.empty() && fields[0][0] != '#';
   };
-  if (PathExists(groundtruth.string())) {
-    const std::vector<std::string> lines = ReadTextLines(groundtruth.string(), "ground truth");
-    if (std::none_of(lines.begin(), lines.end(), holds_a_pose)) {
-      sequence.groundtruth_note_ = groundtruth.string() + " holds no poses";
-      return sequence;
-    }
-    Trajectory trajectory = Trajectory::ReadTum(groundtruth.string());
-    if (camera.groundtruth_body_from_camera) {
-      trajectory = trajectory.RightMultiplied(*camera.groundtruth_body_from_camera);
-    }
-    sequence.groundtruth_ = std::move(trajectory);
+  const std::vector<std::string> lines = ReadTextLines(path, "ground truth");
+  if (std::none_of(lines.begin(), lines.end(), holds_a_pose)) {
+    groundtruth_note_ = path + " holds no poses";
+    return;
   }
-  return sequence;
+  Trajectory trajectory = Trajectory::ReadTum(path);
+  if (camera_.groundtruth_body_from_camera) {
+    trajectory = trajectory.RightMultiplied(*camera_.groundtruth_body_from_camera);
+  }
+  groundtruth_ = std::move(trajectory);
 }
 
 Frame Sequence::LoadFrame(size_t index) const {
@@ -103,6 +109,10 @@ Frame Sequence::LoadFrame(size_t index) const {
   Frame frame;
   frame.index = index;
   frame.time = entry.time;
+  if (bag_) {
+    LoadBagFrame(index, &frame);
+    return frame;
+  }
   frame.color = ReadColorImage(entry.color_path);
   frame.depth_m = ReadDepthImage(entry.depth_path, camera_.depth_factor);
   auto check_size = [&](const cv::Mat& image, const std::string& path) {

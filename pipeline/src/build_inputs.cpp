@@ -48,18 +48,31 @@ void PickFrames(const BuildRequest& request, size_t begin, size_t end, BuildInpu
   }
 }
 
-}  // namespace
-
-BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result) {
+// A TUM-layout folder, or a recorded bag (its notes logged, its warnings in the report).
+BuildInputs OpenSequence(const BuildRequest& request, BuildResult* result) {
   const BuildConfig& config = request.config;
+  if (IsBagFile(request.sequence_dir)) {
+    Sequence sequence = Sequence::OpenBag(request.sequence_dir, config.camera, config.sequence);
+    for (const std::string& note : sequence.notes()) spdlog::info("{}", note);
+    for (const std::string& warning : sequence.warnings()) result->warnings.push_back(warning);
+    const Camera camera = sequence.camera();
+    return {camera, std::move(sequence), {}, {}};
+  }
   std::error_code folder_error;
   if (!std::filesystem::is_directory(request.sequence_dir, folder_error)) {
     throw InputError(request.sequence_dir +
                      ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
-                     "depth.txt)");
+                     "depth.txt, or a ROS 1 .bag)");
   }
   const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
-  BuildInputs inputs{camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};
+  return {camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};
+}
+
+}  // namespace
+
+BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result) {
+  const BuildConfig& config = request.config;
+  BuildInputs inputs = OpenSequence(request, result);
   const bool tracking = request.poses == PoseSource::kTracking;
   const std::string& no_poses = inputs.sequence.groundtruth_note();
   if (!tracking && !inputs.sequence.groundtruth()) {

@@ -115,19 +115,27 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
   CameraOverrides overrides;
   overrides.preset = camera_preset;
   std::error_code error;
-  if (!fs::is_directory(sequence_dir, error)) {
-    throw InputError(sequence_dir + ": sequence folder not found");
+  const bool bag = IsBagFile(sequence_dir);
+  if (!bag && !fs::is_directory(sequence_dir, error)) {
+    throw InputError(sequence_dir + ": sequence folder not found (nor a ROS 1 .bag)");
   }
-  if (camera_preset.empty() && !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {
+  if (!bag && camera_preset.empty() &&
+      !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {
     // ResolveCamera's advice names build's --set, which info does not take.
     throw InputError(sequence_dir + ": no camera.yaml; name the camera with --camera-preset " +
                      CameraPresetChoices());
   }
-  const Camera camera = ResolveCamera(sequence_dir, overrides);
-  const Sequence sequence = Sequence::Open(sequence_dir, camera);
+  std::string text;
+  if (bag) {
+    text = DescribeBagTopics(sequence_dir);
+    if (text.find("\nwould refuse:") != std::string::npos) return text;
+  }
+  const Sequence sequence =
+      bag ? Sequence::OpenBag(sequence_dir, overrides)
+          : Sequence::Open(sequence_dir, ResolveCamera(sequence_dir, overrides));
+  const Camera& camera = sequence.camera();
   const auto& frames = sequence.frames();
   const double duration = frames.back().time - frames.front().time;
-  std::string text;
   text += fmt::format("sequence:   {}\n", sequence_dir);
   text += fmt::format("images:     {} color, {} depth, {} pairs within {} s\n",
                       sequence.color_count(), sequence.depth_count(), frames.size(),

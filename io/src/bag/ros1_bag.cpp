@@ -1,5 +1,6 @@
 #include "bag/ros1_bag.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include "bag/bytes.h"
@@ -242,29 +243,38 @@ void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
   }
 }
 
+const std::vector<std::uint8_t>& Ros1Bag::CachedChunkAt(std::uint64_t block) const {
+  for (size_t i = 0; i < cache_.size(); ++i) {
+    if (cache_[i].block != block) continue;
+    std::rotate(cache_.begin(), cache_.begin() + static_cast<std::ptrdiff_t>(i),
+                cache_.begin() + static_cast<std::ptrdiff_t>(i) + 1);
+    return cache_.front().data;
+  }
+  CachedChunk loaded{block, {}};
+  Record record;
+  std::string error;
+  if (!ReadRecord(read_file_, block, &record, &error) ||
+      !LoadChunk(read_file_, record, &loaded.data, &error)) {
+    throw InputError(path_ + ": the chunk at byte " + std::to_string(block) +
+                     " cannot be read again (" + error + ")");
+  }
+  if (cache_.size() == kCachedChunks) cache_.pop_back();
+  cache_.insert(cache_.begin(), std::move(loaded));
+  return cache_.front().data;
+}
+
 std::vector<std::uint8_t> Ros1Bag::Read(const BagPosition& position) const {
   const std::lock_guard<std::mutex> lock(read_mutex_);
-  if (cached_chunk_.empty() || cached_block_ != position.block) {
-    Record record;
-    std::string error;
-    cached_chunk_.clear();
-    if (!ReadRecord(read_file_, position.block, &record, &error) ||
-        !LoadChunk(read_file_, record, &cached_chunk_, &error)) {
-      cached_chunk_.clear();
-      throw InputError(path_ + ": the chunk at byte " + std::to_string(position.block) +
-                       " cannot be read again (" + error + ")");
-    }
-    cached_block_ = position.block;
-  }
+  const std::vector<std::uint8_t>& chunk = CachedChunkAt(position.block);
   Fields fields;
   size_t data_offset = 0, data_size = 0;
-  if (position.offset >= cached_chunk_.size() ||
-      !ChunkRecord(cached_chunk_, position.offset, &fields, &data_offset, &data_size)) {
+  if (position.offset >= chunk.size() ||
+      !ChunkRecord(chunk, position.offset, &fields, &data_offset, &data_size)) {
     throw InputError(path_ + ": no message at offset " + std::to_string(position.offset) +
                      " of the chunk at byte " + std::to_string(position.block));
   }
-  return {cached_chunk_.begin() + static_cast<std::ptrdiff_t>(data_offset),
-          cached_chunk_.begin() + static_cast<std::ptrdiff_t>(data_offset + data_size)};
+  return {chunk.begin() + static_cast<std::ptrdiff_t>(data_offset),
+          chunk.begin() + static_cast<std::ptrdiff_t>(data_offset + data_size)};
 }
 
 bool LooksLikeBag(const std::string& path) {

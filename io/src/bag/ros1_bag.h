@@ -56,10 +56,18 @@ class Ros1Bag : public BagReader {
   std::vector<BagTopic> topics_;
   std::map<std::uint32_t, size_t> topic_of_connection_;
 
+  // The chunks Read decompressed last, most recent first: a colour/depth pair often spans two.
+  static constexpr size_t kCachedChunks = 4;
+  struct CachedChunk {
+    std::uint64_t block = 0;
+    std::vector<std::uint8_t> data;
+  };
+  // The chunk at `block`, decompressed (from the cache when there).
+  const std::vector<std::uint8_t>& CachedChunkAt(std::uint64_t block) const;
+
   mutable std::mutex read_mutex_;  // guards the members below (Read)
   mutable std::ifstream read_file_;
-  mutable std::uint64_t cached_block_ = 0;
-  mutable std::vector<std::uint8_t> cached_chunk_;
+  mutable std::vector<CachedChunk> cache_;
 };
 
 }  // namespace stillmap

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -51,6 +52,11 @@ std::string SequenceName(const std::string& sequence_dir);
 struct SequenceOptions {
   double max_pair_time_difference = 0.02;  // color/depth association window [s] (TUM associate.py)
   double max_groundtruth_gap = 0.1;  // widest ground-truth gap a pose is interpolated across [s]
+  // A ground-truth trajectory (TUM format) instead of the folder's groundtruth.txt; a bag has
+  // none of its own.
+  std::string groundtruth;
+  // A recorded bag's topics (--topic KIND=NAME); empty: chosen by type, encoding and name.
+  std::string color_topic, depth_topic, camera_info_topic;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -59,6 +65,12 @@ struct SequenceOptions {
           "color/depth association window [s] (TUM associate.py: 0.02)");
     visit("max_groundtruth_gap", self.max_groundtruth_gap,
           "widest ground-truth gap a pose is interpolated across [s]");
+    visit("groundtruth", self.groundtruth,
+          "ground-truth trajectory file (TUM format) instead of groundtruth.txt (--groundtruth)");
+    visit("color_topic", self.color_topic, "a bag's colour topic (empty: chosen by itself)");
+    visit("depth_topic", self.depth_topic, "a bag's depth topic (empty: chosen by itself)");
+    visit("camera_info_topic", self.camera_info_topic,
+          "a bag's camera info topic (empty: the one beside the colour topic)");
   }
 };
 
@@ -78,8 +90,25 @@ struct Frame {
   cv::Mat depth_m;    // CV_32FC1 [m], 0 = no reading
 };
 
+class BagFrames;
+
+// True when `path` is a file whose bytes start like a recorded bag (bag_reader.h).
+bool IsBagFile(const std::string& path);
+
+// A bag's topics (name, type, encoding or format, count, rate), then the colour, depth and
+// camera-info topics a build would use, or why it would refuse. Throws InputError for a file
+// that is not a bag.
+std::string DescribeBagTopics(const std::string& path, const SequenceOptions& options = {});
+
 class Sequence {
  public:
+  // A recorded bag (io/bag_reader.h): its colour, depth and camera-info topics (the options' or
+  // chosen by type, encoding and name), paired by header stamp, the camera from its CameraInfo
+  // with `overrides` over it. Throws InputError naming the bag for a missing or ambiguous
+  // stream (listing the topics), depth not registered to colour, or no pair.
+  static Sequence OpenBag(const std::string& path, const CameraOverrides& overrides,
+                          const SequenceOptions& options = {});
+
   // Reads the lists and ground truth of a TUM-layout folder and pairs color with depth. Throws
   // InputError for a missing folder or list, a malformed line, or no pair within the window.
   static Sequence Open(const std::string& dir, const Camera& camera,
@@ -101,8 +130,17 @@ class Sequence {
   // Non-empty when groundtruth.txt is there but holds no poses (groundtruth() is then empty):
   // what to tell the user.
   const std::string& groundtruth_note() const { return groundtruth_note_; }
+  // How the input was read: a bag's topics, a camera setting that overrode its CameraInfo.
+  const std::vector<std::string>& notes() const { return notes_; }
+  // What went wrong in reading it: a recording cut short ("truncated"), damaged parts skipped.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+  bool is_bag() const { return bag_ != nullptr; }
 
  private:
+  // Reads the ground truth at `path` (TUM format) with the camera's body transform.
+  void ReadGroundtruth(const std::string& path);
+  void LoadBagFrame(size_t index, Frame* frame) const;
+
   std::string dir_;
   Camera camera_;
   SequenceOptions options_;
@@ -111,6 +149,8 @@ class Sequence {
   size_t depth_count_ = 0;
   std::optional<Trajectory> groundtruth_;
   std::string groundtruth_note_;
+  std::vector<std::string> notes_, warnings_;
+  std::shared_ptr<const BagFrames> bag_;  // a bag's frames (null for a folder)
 };
 
 }  // namespace stillmap

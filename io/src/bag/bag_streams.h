@@ -1,0 +1,55 @@
+// What a bag holds for an RGB-D build, found in one pass: each image topic's header stamps and
+// message positions, each camera-info topic's first message; and the choice of the colour, depth
+// and camera-info topics, by type, encoding and the names ROS camera drivers use.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "bag/ros_messages.h"
+#include "stillmap/io/bag_reader.h"
+
+namespace stillmap {
+
+enum class BagStreamKind { kOther, kImage, kCompressedImage, kCameraInfo };
+
+struct BagStream {
+  std::string name, type;
+  BagStreamKind kind = BagStreamKind::kOther;
+  std::string detail;  // an image's encoding or a compressed image's format (its first message)
+  size_t count = 0;
+  double first_stamp = 0.0, last_stamp = 0.0;  // header stamps [s] (record times for others)
+  std::vector<double> stamps;                  // images: header stamp per message
+  std::vector<BagPosition> positions;          // images: where each message lies
+  bool has_info = false;
+  RosCameraInfo info;  // camera info: its first message
+};
+
+struct BagContents {
+  std::vector<BagStream> streams;  // per topic of the reader
+  bool truncated = false;
+  std::vector<std::string> warnings;
+};
+
+// Scans the whole bag once. Messages whose header does not decode are counted in a warning.
+BagContents ScanBagContents(BagReader& bag);
+
+// The topics a build uses; empty names are chosen automatically.
+struct BagTopicNames {
+  std::string color, depth, camera_info;
+};
+
+struct BagChoice {
+  size_t color = 0, depth = 0, camera_info = 0;  // indices into BagContents::streams
+};
+
+// Chooses the streams (the named ones when given). Throws InputError naming the bag, saying which
+// stream is missing or ambiguous and listing the topics with their type and count.
+BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& names,
+                           const std::string& path);
+
+// One line per topic: name, type, encoding or format, count and rate.
+std::string DescribeBagStreams(const BagContents& contents);
+
+}  // namespace stillmap
