@@ -113,6 +113,8 @@ void TrackerOptions::Validate() const {
           "tracking.redundant_keyframe_share must lie in (0, 1], "
           "tracking.redundant_view_angle_deg in 0..180 and tracking.redundant_scale_ratio be at "
           "least 1");
+  require(redundant_retire_keyframes >= local_window && redundant_retire_keyframes <= 10000,
+          "tracking.redundant_retire_keyframes must be tracking.local_window..10000");
   require(landmark_merge_distance_m >= 0.0,
           "tracking.landmark_merge_distance_m must not be negative");
   place.Validate();

@@ -70,6 +70,9 @@ struct Keyframe {
   std::vector<Descriptor> descriptors;
   std::vector<int> landmark_of_feature;  // landmark id per feature, -1 none
   bool final = false;
+  // Culled (CullIfRedundant): not fused, no place to recognise, but still a fixed anchor of the
+  // bundle adjustment until EraseRetired takes it out.
+  bool retiring = false;
   // What it saw (SeenDepth), for the redundancy rule: a point counts as seen by this keyframe
   // only at a depth it read there, not behind what stood in front or in a masked region.
   cv::Mat seen_depth;
@@ -310,9 +313,15 @@ struct Tracker::Impl {
   // readings (CV_32FC3: min, max, mean; 0 where fewer than a quarter of the pixels have one).
   cv::Mat SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_mask) const;
   // A keyframe becoming final that keyframes kept before it cover (redundant_keyframe_share) is
-  // culled: its observations go, its frames are handed to the keyframe sharing most landmarks with
-  // it.
+  // culled: it is not fused and leaves the place index, and retires.
   bool CullIfRedundant(size_t position);
+  // Culled keyframes redundant_retire_keyframes behind the newest (all of them when `all`) are
+  // erased: until then the bundle adjustment holds them fixed while it solves the windows near
+  // them.
+  void EraseRetired(bool all);
+  // Erases the culled keyframe at `position`: its observations go, its frames are handed to the
+  // kept keyframe sharing most landmarks with it.
+  void EraseCulled(size_t position);
   // A keyframe's pose, culled ones through the keyframe they were handed to.
   Eigen::Isometry3d CameraFromWorld(int keyframe_id) const;
   int InsertKeyframe(const Eigen::Isometry3d& camera_from_world, FrameData& frame,

@@ -119,14 +119,44 @@ double Tracker::Impl::CoveredShare(const Keyframe& keyframe, Use&& use) const {
 bool Tracker::Impl::CullIfRedundant(size_t position) {
   if (position == 0 || position + 1 >= map_keyframes.size()) return false;  // the map's ends
   const int id = map_keyframes[position];
-  const Keyframe& keyframe = keyframes.at(id);
+  Keyframe& keyframe = keyframes.at(id);
   // Against the keyframes kept before it: a chain of keyframes each covered by the next would
   // otherwise all go.
-  if (CoveredShare(keyframe, [id](int other) { return other < id; }) <=
-      options.redundant_keyframe_share) {
-    return false;
+  const auto kept_before = [this, id](int other) {
+    return other < id && !keyframes.at(other).retiring;
+  };
+  if (CoveredShare(keyframe, kept_before) <= options.redundant_keyframe_share) return false;
+  FinalKeyframe done{
+      id, keyframe.frame_index, keyframe.time, keyframe.camera_from_world.inverse(), {}, true};
+  for (int landmark : keyframe.landmark_of_feature) {
+    if (landmark >= 0) done.landmarks.push_back(landmark);
   }
-  // Its frames go to the keyframe sharing most landmarks with it (else the next one).
+  final_queue.push_back(std::move(done));
+  places.Remove(id);
+  keyframe.retiring = true;
+  ++stats.keyframes_culled;
+  return true;
+}
+
+void Tracker::Impl::EraseRetired(bool all) {
+  const auto keep = static_cast<size_t>(options.redundant_retire_keyframes);
+  for (size_t position = 0; position < next_final;) {
+    const int id = map_keyframes[position];
+    const bool old_enough = all || position + keep < map_keyframes.size();
+    if (!old_enough) break;
+    if (keyframes.at(id).retiring) {
+      EraseCulled(position);
+      --next_final;
+    } else {
+      ++position;
+    }
+  }
+}
+
+void Tracker::Impl::EraseCulled(size_t position) {
+  const int id = map_keyframes[position];
+  const Keyframe& keyframe = keyframes.at(id);
+  // Its frames go to the kept keyframe sharing most landmarks with it (else the next kept one).
   std::map<int, int> shared;
   for (int landmark : keyframe.landmark_of_feature) {
     if (landmark < 0 || landmarks.count(landmark) == 0) continue;
@@ -134,19 +164,18 @@ bool Tracker::Impl::CullIfRedundant(size_t position) {
       if (observation.first != id) ++shared[observation.first];
     }
   }
-  int parent = map_keyframes[position + 1], most = 0;
+  int parent = -1, most = 0;
+  for (size_t p = position + 1; p < map_keyframes.size() && parent < 0; ++p) {
+    if (!keyframes.at(map_keyframes[p]).retiring) parent = map_keyframes[p];
+  }
+  if (parent < 0) parent = map_keyframes[position == 0 ? 1 : position - 1];
   for (const auto& [other, n] : shared) {
-    if (n > most && keyframes.count(other) > 0) {
+    const auto it = keyframes.find(other);
+    if (n > most && it != keyframes.end() && !it->second.retiring) {
       most = n;
       parent = other;
     }
   }
-  FinalKeyframe done{
-      id, keyframe.frame_index, keyframe.time, keyframe.camera_from_world.inverse(), {}, true};
-  for (int landmark : keyframe.landmark_of_feature) {
-    if (landmark >= 0) done.landmarks.push_back(landmark);
-  }
-  final_queue.push_back(std::move(done));
   culled[id] = {parent,
                 keyframe.camera_from_world * keyframes.at(parent).camera_from_world.inverse()};
   for (size_t f = 0; f < keyframe.landmark_of_feature.size(); ++f) {
@@ -158,11 +187,8 @@ bool Tracker::Impl::CullIfRedundant(size_t position) {
                        observations.end());
     if (observations.empty()) EraseLandmark(it->first);
   }
-  places.Remove(id);
   keyframes.erase(id);
   map_keyframes.erase(map_keyframes.begin() + static_cast<std::ptrdiff_t>(position));
-  ++stats.keyframes_culled;
-  return true;
 }
 
 Eigen::Isometry3d Tracker::Impl::CameraFromWorld(int keyframe_id) const {
@@ -235,7 +261,10 @@ void Tracker::Impl::UpdateFinal(bool all) {
   int boundary = all ? INT_MAX : (count > 0 ? map_keyframes[window_first] : INT_MAX);
   boundary = std::min(boundary, all ? INT_MAX : running_window_first);
   while (next_final < map_keyframes.size() && map_keyframes[next_final] < boundary) {
-    if (options.redundant_keyframe_share < 1.0 && CullIfRedundant(next_final)) continue;
+    if (options.redundant_keyframe_share < 1.0 && CullIfRedundant(next_final)) {
+      ++next_final;
+      continue;
+    }
     Keyframe& keyframe = keyframes.at(map_keyframes[next_final]);
     if (!keyframe.final) {
       keyframe.final = true;
@@ -251,6 +280,7 @@ void Tracker::Impl::UpdateFinal(bool all) {
     }
     ++next_final;
   }
+  EraseRetired(all);
 }
 
 }  // namespace stillmap

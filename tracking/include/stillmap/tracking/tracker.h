@@ -117,10 +117,13 @@ struct TrackerOptions {
   // by such a keyframe at the same depth, from a direction within redundant_view_angle_deg and a
   // distance within redundant_scale_ratio of its own. The seed paper's redundancy rule (paper
   // 000, II.D) applied to tracking keyframes, against every keyframe near the pose. A culled
-  // keyframe is not fused; its frames are posed through the keyframe sharing most landmarks with
-  // it. 1 = off. Chosen on teddy, its replays, bonn_crowd_a and the synthetic scenarios
-  // (docs/figures.md).
+  // keyframe is not fused and leaves the place index; it stays a fixed anchor of the bundle
+  // adjustment until redundant_retire_keyframes keyframes are newer (erased at once, it cost
+  // bonn_crowd_a 0.9 mm of ATE), then its frames are posed through the keyframe sharing most
+  // landmarks with it. Share 1 = off. Chosen on teddy, its replays, bonn_crowd_a, the robustness
+  // suite and the synthetic scenarios (docs/figures.md).
   double redundant_keyframe_share = 0.98;
+  int redundant_retire_keyframes = 24;
   double redundant_view_angle_deg = 15.0;
   double redundant_scale_ratio = 1.25;
   double redundant_radius_m = 1.0;
@@ -258,6 +261,8 @@ struct TrackerOptions {
           "similar view: the rays to the point within this angle [deg]");
     visit("redundant_scale_ratio", self.redundant_scale_ratio,
           "similar view: distances to the point within this ratio");
+    visit("redundant_retire_keyframes", self.redundant_retire_keyframes,
+          "a culled keyframe anchors the bundle adjustment until this many keyframes are newer");
     visit("redundant_radius_m", self.redundant_radius_m,
           "keyframes with their centre within this of the pose are near it [m]");
     visit("redundant_axis_angle_deg", self.redundant_axis_angle_deg,
@@ -306,8 +311,7 @@ struct TrackerOptions {
           "frames after a loop is accepted when its pose graph's result is taken");
     visit("loop_global_bundle_adjustment", self.loop_global_bundle_adjustment,
           "after a loop correction, bundle-adjust the whole local map on the worker");
-    visit("global_bundle_adjustment_handover_frames",
-          self.global_bundle_adjustment_handover_frames,
+    visit("global_bundle_adjustment_handover_frames", self.global_bundle_adjustment_handover_frames,
           "frames after its request when the global bundle adjustment's result is taken");
     visit("loop_max_drift_m", self.loop_max_drift_m,
           "a loop's correction may be this much [m] ...");
@@ -387,8 +391,8 @@ struct TrackerStatistics {
   size_t loops_implausible = 0;    // verified, but asking for more correction than drift explains
   double loop_correction_m = 0.0;  // largest keyframe correction of an accepted loop
   double loop_correction_deg = 0.0;
-  double loop_ms = 0.0;  // place queries and verification, on the tracking thread
-  double loop_solve_ms = 0.0;        // pose graphs, on whichever thread ran them
+  double loop_ms = 0.0;        // place queries and verification, on the tracking thread
+  double loop_solve_ms = 0.0;  // pose graphs, on whichever thread ran them
   size_t global_bundle_adjustments = 0;
   double global_bundle_adjustment_ms = 0.0;
   double place_index_mib = 0.0;  // memory of the place index
