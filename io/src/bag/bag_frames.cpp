@@ -47,43 +47,48 @@ void BagFrames::Pair(const BagStream& color, const BagStream& depth,
   }
 }
 
+namespace {
+
+// One image message decoded as its kind says, then converted.
+template <typename FromImage, typename FromCompressed>
+cv::Mat DecodeImage(BagStreamKind kind, const std::vector<std::uint8_t>& bytes,
+                    BagSerialization serialization, const std::string& where, FromImage from_image,
+                    FromCompressed from_compressed) {
+  std::string error;
+  if (kind == BagStreamKind::kImage) {
+    RosImage image;
+    if (!DecodeRosImage(bytes.data(), bytes.size(), serialization, &image, &error)) {
+      throw InputError(where + ": " + error);
+    }
+    return from_image(image);
+  }
+  RosCompressedImage image;
+  if (!DecodeRosCompressedImage(bytes.data(), bytes.size(), serialization, &image, &error)) {
+    throw InputError(where + ": " + error);
+  }
+  return from_compressed(image);
+}
+
+}  // namespace
+
 void BagFrames::Load(size_t index, double time, cv::Mat* color, cv::Mat* depth_m) const {
   char stamp[48];
   std::snprintf(stamp, sizeof(stamp), " at t = %.6f s", time);
   const BagSerialization serialization = reader_->serialization();
-  const std::vector<std::uint8_t> color_bytes = reader_->Read(color_positions_.at(index));
   const std::string color_where = reader_->path() + ": " + color_topic_ + stamp;
-  std::string error;
-  if (color_kind_ == BagStreamKind::kImage) {
-    RosImage image;
-    if (!DecodeRosImage(color_bytes.data(), color_bytes.size(), serialization, &image, &error)) {
-      throw InputError(color_where + ": " + error);
-    }
-    *color = ColorFromRosImage(image, color_where);
-  } else {
-    RosCompressedImage image;
-    if (!DecodeRosCompressedImage(color_bytes.data(), color_bytes.size(), serialization, &image,
-                                  &error)) {
-      throw InputError(color_where + ": " + error);
-    }
-    *color = ColorFromRosCompressed(image, color_where);
-  }
-  const std::vector<std::uint8_t> depth_bytes = reader_->Read(depth_positions_.at(index));
+  *color = DecodeImage(
+      color_kind_, reader_->Read(color_positions_.at(index)), serialization, color_where,
+      [&](const RosImage& image) { return ColorFromRosImage(image, color_where); },
+      [&](const RosCompressedImage& image) { return ColorFromRosCompressed(image, color_where); });
   const std::string depth_where = reader_->path() + ": " + depth_topic_ + stamp;
-  if (depth_kind_ == BagStreamKind::kImage) {
-    RosImage image;
-    if (!DecodeRosImage(depth_bytes.data(), depth_bytes.size(), serialization, &image, &error)) {
-      throw InputError(depth_where + ": " + error);
-    }
-    *depth_m = DepthFromRosImage(image, metres_per_unit_, depth_where);
-  } else {
-    RosCompressedImage image;
-    if (!DecodeRosCompressedImage(depth_bytes.data(), depth_bytes.size(), serialization, &image,
-                                  &error)) {
-      throw InputError(depth_where + ": " + error);
-    }
-    *depth_m = DepthFromRosCompressed(image, metres_per_unit_, depth_where);
-  }
+  *depth_m = DecodeImage(
+      depth_kind_, reader_->Read(depth_positions_.at(index)), serialization, depth_where,
+      [&](const RosImage& image) {
+        return DepthFromRosImage(image, metres_per_unit_, depth_where);
+      },
+      [&](const RosCompressedImage& image) {
+        return DepthFromRosCompressed(image, metres_per_unit_, depth_where);
+      });
 }
 
 }  // namespace stillmap
