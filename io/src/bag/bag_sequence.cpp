@@ -105,12 +105,13 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
   const BagStream& depth = contents.streams[choice.depth];
   const BagStream& info = contents.streams[choice.camera_info];
   // Depth with a camera of its own is not registered to colour.
-  const std::string depth_info = depth.name.substr(0, depth.name.rfind('/')) + "/camera_info";
+  const std::string depth_info = CameraInfoTopicOf(depth.name);
   for (const BagStream& stream : contents.streams) {
     if (stream.name == depth_info && stream.has_info && !SameCamera(stream.info, info.info)) {
-      throw InputError(path + ": depth topic " + depth.name + " has a camera of its own (" +
-                       depth_info + " differs from " + info.name +
-                       "): it is not registered to colour. Record the registered depth "
+      std::string message = path + ": depth topic " + depth.name + " has a camera of its own (";
+      message += depth_info + " differs from " + info.name + "): it is not registered to colour. ";
+      throw InputError(message +
+                       "Record the registered depth "
                        "(realsense2_camera: aligned_depth_to_color; openni: depth_registered) "
                        "and name it with --topic depth=NAME");
     }

@@ -73,6 +73,7 @@ std::vector<size_t> OnePerBase(const BagContents& contents, const std::vector<si
     if (it == by_base.end() || contents.streams[i].kind == BagStreamKind::kImage) by_base[base] = i;
   }
   std::vector<size_t> out;
+  out.reserve(by_base.size());
   for (const auto& entry : by_base) out.push_back(entry.second);
   return out;
 }
@@ -176,8 +177,7 @@ BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& nam
   if (!names.camera_info.empty()) {
     choice.camera_info = Named(contents, names.camera_info, "the camera info", path);
   } else {
-    const std::string wanted =
-        Namespace(BaseTopic(contents.streams[choice.color].name)) + "/camera_info";
+    const std::string wanted = CameraInfoTopicOf(contents.streams[choice.color].name);
     std::vector<size_t> found;
     for (size_t i = 0; i < contents.streams.size(); ++i) {
       if (contents.streams[i].name == wanted && contents.streams[i].has_info) found.push_back(i);
@@ -195,6 +195,10 @@ BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& nam
                      " holds no readable sensor_msgs/CameraInfo");
   }
   return choice;
+}
+
+std::string CameraInfoTopicOf(const std::string& image_topic) {
+  return Namespace(BaseTopic(image_topic)) + "/camera_info";
 }
 
 std::string DescribeBagStreams(const BagContents& contents) {

@@ -49,6 +49,10 @@ struct BagChoice {
 BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& names,
                            const std::string& path);
 
+// The camera-info topic that drivers publish beside an image topic: /x/camera_info for
+// /x/image_raw and its transports (/x/image_raw/compressed).
+std::string CameraInfoTopicOf(const std::string& image_topic);
+
 // One line per topic: name, type, encoding or format, count and rate.
 std::string DescribeBagStreams(const BagContents& contents);
 
