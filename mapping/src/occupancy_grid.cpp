@@ -316,8 +316,15 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
       << "max_height: " << grid.max_height << "\n"
       << "floor_source: \"" << grid.floor.source << "\"\n"
       << "world_from_map: [";
+  // Rounding leaves 1e-17 where a rotation's entry is 0 (cos 90 deg): written as 0 (and 1 as 1).
+  const auto tidy = [](double value) {
+    for (const double exact : {0.0, 1.0, -1.0}) {
+      if (std::abs(value - exact) < 1e-12) return exact;
+    }
+    return value;
+  };
   for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) out << (r + c > 0 ? ", " : "") << m(r, c);
+    for (int c = 0; c < 4; ++c) out << (r + c > 0 ? ", " : "") << tidy(m(r, c));
   }
   out << "]\n";
   if (!out.flush()) throw std::runtime_error(yaml_path + ": could not write the grid description");

@@ -302,6 +302,20 @@ TEST_F(OccupancyGridTest, TheStartCellIsFree) {
   EXPECT_EQ(CellAt(ProjectToGrid(sources, options), 0.75, 2.25), kGridOccupied);
 }
 
+// A quarter turn computed in floating point has 6e-17 where its entries are 0: grid.yaml says 0.
+TEST_F(OccupancyGridTest, WorldFromMapHoldsNoRoundingNoise) {
+  const GridOptions options;
+  OccupancyGrid grid = ProjectToGrid(map_, FindFloor(map_, cameras_up_, options), options);
+  grid.world_from_grid = Eigen::Isometry3d(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()));
+  testing::TempDir dir;
+  WriteGrid(grid, dir / "grid.pgm", dir / "grid.yaml", "grid.pgm");
+  const auto values = YAML::LoadFile(dir / "grid.yaml")["world_from_map"].as<std::vector<double>>();
+  ASSERT_EQ(values.size(), 16u);
+  for (const double value : values) {
+    EXPECT_TRUE(value == 0.0 || value == 1.0 || value == -1.0) << value;
+  }
+}
+
 // The files as map_server (ROS 1 and Nav2) reads them: the YAML keys, and each pixel's value
 // giving the cell's state through occ = (255 - p) / 255 against the thresholds, with the image's
 // bottom-left pixel at `origin`.
