@@ -70,7 +70,7 @@ void EvaluateMapQuality(const BuildInputs& inputs, const BuildRequest& request,
       GroundTruthFromPoses(inputs, request, posed);
   if (!groundtruth_from_map) {
     evaluation.map_quality_note =
-        "not evaluated: the first tracked frame has no ground-truth pose to anchor the map";
+        "not evaluated: no tracked frame has a ground-truth pose to anchor the map";
     return;
   }
   const auto start = std::chrono::steady_clock::now();

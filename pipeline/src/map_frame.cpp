@@ -24,13 +24,15 @@ std::string FloorDescription(const FloorPlane& floor) {
 std::optional<Eigen::Isometry3d> GroundTruthFromPoses(const BuildInputs& inputs,
                                                       const BuildRequest& request,
                                                       const PosedFrames& posed) {
-  if (!inputs.sequence.groundtruth() || posed.trajectory.empty()) return std::nullopt;
-  const StampedPose& first = posed.trajectory.poses().front();
-  const std::optional<Eigen::Isometry3d> world_from_first =
-      inputs.sequence.groundtruth()->Interpolate(first.time,
-                                                 request.config.sequence.max_groundtruth_gap);
-  if (!world_from_first) return std::nullopt;
-  return *world_from_first * first.world_from_camera.inverse();
+  if (!inputs.sequence.groundtruth()) return std::nullopt;
+  // The first tracked frame with a ground-truth pose (the motion capture may start late).
+  for (const StampedPose& tracked : posed.trajectory.poses()) {
+    const std::optional<Eigen::Isometry3d> world_from_camera =
+        inputs.sequence.groundtruth()->Interpolate(tracked.time,
+                                                   request.config.sequence.max_groundtruth_gap);
+    if (world_from_camera) return *world_from_camera * tracked.world_from_camera.inverse();
+  }
+  return std::nullopt;
 }
 
 MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& inputs,
@@ -55,15 +57,15 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
             : GroundTruthFromPoses(inputs, request, posed);
     if (!groundtruth_from_poses) {
       throw std::runtime_error(
-          "map.frame=groundtruth: the first tracked frame has no ground-truth pose to anchor the "
-          "map; use map.frame=floor");
+          "map.frame=groundtruth: no tracked frame has a ground-truth pose to anchor the map; "
+          "use map.frame=floor");
     }
     frame.poses_from_map = groundtruth_from_poses->inverse();
     frame.description =
         request.poses == PoseSource::kGroundTruth
             ? "groundtruth: the ground truth's world frame (groundtruth.txt)"
             : "groundtruth: the ground truth's world frame (groundtruth.txt), the tracked map "
-              "anchored at the first frame's ground-truth pose";
+              "anchored at the ground-truth pose of the first tracked frame that has one";
   }
   frame.map_from_floor = frame.poses_from_map.inverse() * poses_from_floor;
   return frame;

@@ -11,10 +11,11 @@
 
 namespace stillmap {
 
-// The ground truth's world frame in the frame of `posed`: the first posed frame's ground-truth
-// pose times the inverse of its pose. Not the ATE
+// The ground truth's world frame in the frame of `posed`: the ground-truth pose of the first
+// posed frame that has one (the motion capture may start late) times the inverse of its pose.
+// Not the ATE
 // alignment, whose rotation is ill-determined by positions alone when the camera moves little or
-// along a line. Nothing when the first frame has no ground-truth pose.
+// along a line. Nothing when no posed frame has a ground-truth pose.
 std::optional<Eigen::Isometry3d> GroundTruthFromPoses(const BuildInputs& inputs,
                                                       const BuildRequest& request,
                                                       const PosedFrames& posed);

@@ -353,8 +353,9 @@ void AddMapQuality(const BuildResult& result, json* report) {
   const MapQuality& quality = *evaluation.map_quality;
   (*report)["map_quality"] = {
       {"groundtruth", evaluation.static_groundtruth},
-      {"aligned_by", result.tracked() ? "the ground-truth pose of the first tracked frame"
-                                      : "nothing: the poses are the ground truth"},
+      {"aligned_by", result.tracked()
+                         ? "the ground-truth pose of the first tracked frame that has one"
+                         : "nothing: the poses are the ground truth"},
       {"map_points", quality.map_points},
       {"groundtruth_points", quality.groundtruth_points},
       {"accuracy_mean_m", quality.accuracy_mean},

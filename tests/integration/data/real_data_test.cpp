@@ -102,6 +102,37 @@ TEST(BuildTest, TrackingRealTeddyMeetsTheAccuracyTarget) {
   EXPECT_LT(*summary.AteRmse(), 0.006);
 }
 
+// teddy's motion capture starts after its first frame: map.frame=groundtruth anchors the tracked
+// map at the first tracked frame that has a ground-truth pose, so that frame's pose in
+// trajectory.txt is its ground-truth pose.
+TEST(BuildTest, GroundTruthMapFrameAnchorsOnTheFirstFrameWithAPose) {
+  const auto sequence = testing::SharedSequence("tum_fr3_teddy_200");
+  if (!sequence) {
+    GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA or ../shared/data)";
+  }
+  testing::TempDir dir;
+  BuildRequest request;
+  request.sequence_dir = *sequence;
+  request.output_dir = dir / "out";
+  request.detector = "none";
+  ApplySetArgument(&request.config, "map.frame=groundtruth");
+  ApplySetArgument(&request.config, "sequence.max_frames=40");
+  const BuildResult result = RunBuild(request);
+  const Trajectory tracked = Trajectory::ReadTum(dir / "out/trajectory.txt");
+  const Sequence truth = Sequence::Open(*sequence, LoadCameraYaml(*sequence + "/camera.yaml"));
+  ASSERT_FALSE(truth.groundtruth()->Interpolate(tracked.poses().front().time, 0.1).has_value())
+      << "the first frame has a ground-truth pose: the case is not tested";
+  for (const StampedPose& pose : tracked.poses()) {
+    const auto world_from_camera = truth.groundtruth()->Interpolate(pose.time, 0.1);
+    if (!world_from_camera) continue;
+    EXPECT_LT((world_from_camera->translation() - pose.world_from_camera.translation()).norm(),
+              1e-6);
+    break;
+  }
+  EXPECT_NE(result.map_frame.description.find("first tracked frame that has one"),
+            std::string::npos);
+}
+
 // Real data with people: Bonn crowd (three people walking through the view), tracked with the
 // geometric dynamic rejection only and the defaults, which include the depth self-calibration.
 // The target is an ATE RMSE of at most 2 cm (ORB-SLAM2 here: 0.44 to 1.74 m, it follows
