@@ -76,7 +76,7 @@ struct BuildCommand {
         "config.yaml; the 3-D outputs in one z-up map frame (map.frame).");
     command
         ->add_option("SEQUENCE_DIR", request.sequence_dir,
-                     "TUM-layout sequence folder, or a recorded ROS 1 .bag")
+                     "TUM-layout sequence folder, or a recorded ROS 1 .bag or MCAP file")
         ->required();
     command->add_option("--topic", topics,
                         "a bag's topic: color=NAME, depth=NAME or camera_info=NAME (repeatable; "
@@ -286,7 +286,7 @@ struct InfoCommand {
                            "bag, its topics and the ones a build would use.");
     command
         ->add_option("SEQUENCE_DIR", sequence_dir,
-                     "TUM-layout sequence folder, or a recorded ROS 1 .bag")
+                     "TUM-layout sequence folder, or a recorded ROS 1 .bag or MCAP file")
         ->required();
     command->add_option("--camera-preset", camera_preset,
                         stillmap::CameraPresetChoices() + " when the folder has no camera.yaml");

@@ -14,7 +14,7 @@ packages=(
   libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev libjpeg-dev libpng-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   # recorded bags: their block compressions
-  libbz2-dev liblz4-dev
+  libbz2-dev liblz4-dev libzstd-dev zlib1g-dev
   # tests: scripts/revisit_replay.py makes the revisit replays
   python3
   # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)

@@ -62,7 +62,7 @@ BuildInputs OpenSequence(const BuildRequest& request, BuildResult* result) {
   if (!std::filesystem::is_directory(request.sequence_dir, folder_error)) {
     throw InputError(request.sequence_dir +
                      ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
-                     "depth.txt, or a ROS 1 .bag)");
+                     "depth.txt, or a ROS 1 .bag or MCAP file)");
   }
   const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
   return {camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};

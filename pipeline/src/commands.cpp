@@ -117,7 +117,7 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
   std::error_code error;
   const bool bag = IsBagFile(sequence_dir);
   if (!bag && !fs::is_directory(sequence_dir, error)) {
-    throw InputError(sequence_dir + ": sequence folder not found (nor a ROS 1 .bag)");
+    throw InputError(sequence_dir + ": sequence folder not found (nor a ROS 1 .bag or MCAP file)");
   }
   if (!bag && camera_preset.empty() &&
       !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {

@@ -1,7 +1,7 @@
 // Damaged recorded bags (issue 28) through the binary: byte flips, cuts, zeroed spans and
-// impossible lengths in a copy of a shared ROS 1 bag (lz4 chunks). Every run ends with exit 0, 1
-// or 2 within the time limit (run it under the sanitizer preset too: scripts/sanitize.sh), an
-// error names the bag, and no library's own message reaches the user.
+// impossible lengths in copies of a shared ROS 1 bag (lz4 chunks) and MCAP file (zstd chunks).
+// Every run ends with exit 0, 1 or 2 within the time limit (run it under the sanitizer preset too:
+// scripts/sanitize.sh), an error names the bag, and no library's own message reaches the user.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -54,12 +54,12 @@ std::vector<char> Damaged(std::vector<char> bag, Generator& generator) {
   return bag;
 }
 
-TEST(HostileBagTest, DamagedBagsNeverCrashAndAreNamed) {
-  const std::optional<std::string> source = testing::SharedBag("teddy_realsense_lz4.bag");
-  if (!source) GTEST_SKIP() << "bags/teddy_realsense_lz4.bag not in ../shared/data";
+void ExpectDamagedCopiesHandled(const std::string& name, size_t family) {
+  const std::optional<std::string> source = testing::SharedBag(name);
+  if (!source) GTEST_SKIP() << "bags/" << name << " not in ../shared/data";
   const std::vector<char> bag = ReadBytes(*source);
   testing::TempDir dir;
-  Generator generator(28);
+  Generator generator(family);
   for (size_t variant = 0; variant < kVariants; ++variant) {
     const std::vector<char> damaged = Damaged(bag, generator);
     const std::string path = dir / ("case" + std::to_string(variant) + ".bag");
@@ -81,6 +81,14 @@ TEST(HostileBagTest, DamagedBagsNeverCrashAndAreNamed) {
     }
     std::filesystem::remove(path);
   }
+}
+
+TEST(HostileBagTest, DamagedRosOneBagsNeverCrashAndAreNamed) {
+  ExpectDamagedCopiesHandled("teddy_realsense_lz4.bag", 28);
+}
+
+TEST(HostileBagTest, DamagedMcapFilesNeverCrashAndAreNamed) {
+  ExpectDamagedCopiesHandled("teddy_realsense.mcap", 29);
 }
 
 }  // namespace

@@ -158,6 +158,47 @@ TEST_F(BagReaderTest, ABagCutShortReadsWhatItHoldsAndSaysTruncated) {
   EXPECT_LT(kept, 31u);
 }
 
+// MCAP (ROS 2, CDR messages) with zstd chunks and with lz4 chunks: the same stamps and images.
+TEST_F(BagReaderTest, McapWithZstdAndLz4ChunksGivesTheSequencesImages) {
+  const auto rgb = ListOf(sequence_, "rgb.txt"), depths = ListOf(sequence_, "depth.txt");
+  for (const char* name : {"teddy_realsense.mcap", "teddy_realsense_lz4_bgr.mcap"}) {
+    const std::optional<std::string> path = testing::SharedBag(name);
+    if (!path) GTEST_SKIP() << "bags/" << name << " not in ../shared/data";
+    ASSERT_TRUE(LooksLikeBag(*path));
+    const std::unique_ptr<BagReader> bag = OpenBag(*path);
+    ASSERT_EQ(bag->serialization(), BagSerialization::kCdr);
+    const Scanned scanned = ScanAll(*bag);
+    EXPECT_FALSE(bag->truncated()) << name;
+    EXPECT_TRUE(bag->warnings().empty()) << name;
+    const auto& depth = scanned.data.at("/camera/camera/aligned_depth_to_color/image_raw");
+    ASSERT_GE(depth.size(), 8u) << name;
+    RosImage image;
+    std::string error;
+    ASSERT_TRUE(
+        DecodeRosImage(depth[0].data(), depth[0].size(), BagSerialization::kCdr, &image, &error))
+        << error;
+    cv::Mat truth;
+    cv::imread(sequence_ + "/" + depths.at(Stamp(image.header.stamp)), cv::IMREAD_UNCHANGED)
+        .convertTo(truth, CV_32F, 1.0 / 5000.0);
+    // 16UC1 rounds to the millimetre; 32FC1 holds the metres.
+    EXPECT_LE(cv::norm(DepthFromRosImage(image, 0.001, "test"), truth, cv::NORM_INF), 0.0005 + 1e-6)
+        << name;
+    const BagMessage& last =
+        scanned.by_topic.at("/camera/camera/aligned_depth_to_color/image_raw").back();
+    EXPECT_EQ(bag->Read(last.position), depth.back()) << name;
+    const auto raw = scanned.data.find("/camera/camera/color/image_raw");
+    if (raw != scanned.data.end()) {
+      RosImage color;
+      ASSERT_TRUE(DecodeRosImage(raw->second[0].data(), raw->second[0].size(),
+                                 BagSerialization::kCdr, &color, &error));
+      EXPECT_EQ(color.encoding, "bgr8");
+      const cv::Mat expected =
+          cv::imread(sequence_ + "/" + rgb.at(Stamp(color.header.stamp)), cv::IMREAD_COLOR);
+      EXPECT_EQ(cv::norm(ColorFromRosImage(color, "test"), expected, cv::NORM_INF), 0.0);
+    }
+  }
+}
+
 TEST(BagOpenTest, NotABagIsRefusedNamingTheFile) {
   testing::TempDir dir;
   const std::string path = dir / "garbage.bag";

@@ -2,6 +2,7 @@
 
 #include <bzlib.h>
 #include <lz4frame.h>
+#include <zstd.h>
 
 #include <cstring>
 
@@ -64,12 +65,27 @@ bool Lz4Frame(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* 
   return ok;
 }
 
+bool Zstd(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* out,
+          std::string* error) {
+  const size_t written = ZSTD_decompress(out->data(), out->size(), data, size);
+  if (ZSTD_isError(written) != 0U) {
+    *error = std::string("zstd data damaged (") + ZSTD_getErrorName(written) + ")";
+    return false;
+  }
+  if (written != out->size()) {
+    *error = "zstd data gave " + std::to_string(written) + " bytes, the header says " +
+             std::to_string(out->size());
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool DecompressBlock(const std::string& compression, const std::uint8_t* data, size_t size,
                      size_t uncompressed_size, std::vector<std::uint8_t>* out, std::string* error) {
   out->assign(uncompressed_size, 0);
-  if (compression == "none") {
+  if (compression == "none" || compression.empty()) {
     if (size != uncompressed_size) {
       *error = "an uncompressed block of " + std::to_string(size) + " bytes, the header says " +
                std::to_string(uncompressed_size);
@@ -80,6 +96,7 @@ bool DecompressBlock(const std::string& compression, const std::uint8_t* data, s
   }
   if (compression == "bz2") return Bz2(data, size, out, error);
   if (compression == "lz4") return Lz4Frame(data, size, out, error);
+  if (compression == "zstd") return Zstd(data, size, out, error);
   *error = "unknown compression \"" + compression + "\"";
   return false;
 }

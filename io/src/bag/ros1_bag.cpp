@@ -5,6 +5,7 @@
 
 #include "bag/bytes.h"
 #include "bag/decompress.h"
+#include "bag/mcap_bag.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -281,7 +282,8 @@ bool LooksLikeBag(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   char magic[Ros1Bag::kMagicSize] = {};
   file.read(magic, Ros1Bag::kMagicSize);
-  return file && std::memcmp(magic, "#ROSBAG V", 9) == 0;
+  return file && (std::memcmp(magic, "#ROSBAG V", 9) == 0 ||
+                  std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0);
 }
 
 std::unique_ptr<BagReader> OpenBag(const std::string& path) {
@@ -289,10 +291,13 @@ std::unique_ptr<BagReader> OpenBag(const std::string& path) {
   if (!file) throw InputError(path + ": cannot open the bag");
   char magic[Ros1Bag::kMagicSize] = {};
   file.read(magic, Ros1Bag::kMagicSize);
-  if (file && std::memcmp(magic, "#ROSBAG V", 9) == 0) return std::make_unique<Ros1Bag>(path);
+  if (std::memcmp(magic, "#ROSBAG V", 9) == 0) return std::make_unique<Ros1Bag>(path);
+  if (std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0) {
+    return std::make_unique<McapBag>(path);
+  }
   throw InputError(path +
-                   ": not a bag stillmap reads (expected a ROS 1 .bag; ROS 2 bags are not read "
-                   "yet)");
+                   ": not a bag stillmap reads (expected a ROS 1 .bag or an MCAP file; ROS 2 "
+                   "sqlite3 bags are not read yet)");
 }
 
 }  // namespace stillmap

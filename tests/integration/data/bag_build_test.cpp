@@ -1,4 +1,5 @@
-// Recorded bags in (issue 28), through the binary: the shared ROS 1 clips of tum_fr3_teddy_200
+// Recorded bags in (issue 28), through the binary: the shared ROS 1 and MCAP clips of
+// tum_fr3_teddy_200
 // (written by ROS's own writer, no camera.yaml) build like the folder's same frames; `info` names
 // the topics a build would use; a bag cut short maps what it holds and says "truncated"; a topic
 // that is not there is refused naming it and listing the bag's topics.
@@ -63,8 +64,9 @@ class BagBuildTest : public ::testing::Test {
   testing::TempDir dir_;
 };
 
-TEST_F(BagBuildTest, RosOneBagsBuildLikeTheFolder) {
-  for (const char* name : {"teddy_tum_raw.bag", "teddy_realsense_lz4.bag"}) {
+TEST_F(BagBuildTest, BagsBuildLikeTheFolder) {
+  for (const char* name : {"teddy_tum_raw.bag", "teddy_realsense_lz4.bag", "teddy_realsense.mcap",
+                           "teddy_realsense_lz4_bgr.mcap"}) {
     const std::optional<std::string> bag = testing::SharedBag(name);
     if (!bag) GTEST_SKIP() << "bags/" << name << " not in ../shared/data";
     const std::string out = dir_ / (std::string(name) + ".out");
