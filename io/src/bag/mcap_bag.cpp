@@ -66,24 +66,10 @@ class Fields {
   size_t at_ = 0;
 };
 
-std::string Seconds(double t) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3f", t);
-  return text;
-}
-
 }  // namespace
 
 McapBag::McapBag(const std::string& path) : BagReader(path), read_file_(path, std::ios::binary) {
-  std::ifstream file(path, std::ios::binary | std::ios::ate);
-  if (!file) throw InputError(path + ": cannot open the bag");
-  file_size_ = static_cast<std::uint64_t>(file.tellg());
-  char magic[kMagicSize] = {};
-  file.seekg(0);
-  file.read(magic, kMagicSize);
-  if (!file || std::memcmp(magic, kMagic, kMagicSize) != 0) {
-    throw InputError(path + ": not an MCAP file (no MCAP magic at its start)");
-  }
+  file_size_ = CheckMagic(kMagic, kMagicSize, "an MCAP file (no MCAP magic at its start)");
 }
 
 void McapBag::Record(std::uint8_t op, const std::uint8_t* content, size_t size,
@@ -177,10 +163,7 @@ void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
     file.read(reinterpret_cast<char*>(head), sizeof(head));
     const std::uint64_t length = Le64(head + 1);
     if (!file || length > file_size_ - offset - sizeof(head)) {
-      truncated_ = true;
-      warnings_.push_back(path_ + ": truncated at byte " + std::to_string(offset) + " of " +
-                          std::to_string(file_size_) + ": the recording ends at t = " +
-                          Seconds(last_time_) + " s; what comes before is read");
+      WarnTruncated(offset, file_size_, last_time_);
       return;
     }
     const std::uint8_t op = head[0];
@@ -215,28 +198,20 @@ void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
 }
 
 const std::vector<std::uint8_t>& McapBag::CachedChunkAt(std::uint64_t block) const {
-  for (size_t i = 0; i < cache_.size(); ++i) {
-    if (cache_[i].block != block) continue;
-    std::rotate(cache_.begin(), cache_.begin() + static_cast<std::ptrdiff_t>(i),
-                cache_.begin() + static_cast<std::ptrdiff_t>(i) + 1);
-    return cache_.front().data;
-  }
-  CachedChunk loaded{block, {}};
-  std::uint8_t head[9] = {};
-  read_file_.clear();
-  read_file_.seekg(static_cast<std::streamoff>(block));
-  read_file_.read(reinterpret_cast<char*>(head), sizeof(head));
-  const std::uint64_t length = Le64(head + 1);
-  std::string error = "a record that runs past the file";
-  if (!read_file_ || head[0] != kOpChunk || block > file_size_ - sizeof(head) ||
-      length > file_size_ - block - sizeof(head) ||
-      !LoadChunk(read_file_, block + sizeof(head), length, &loaded.data, &error)) {
-    throw InputError(path_ + ": the chunk at byte " + std::to_string(block) +
-                     " cannot be read again (" + error + ")");
-  }
-  if (cache_.size() == kCachedChunks) cache_.pop_back();
-  cache_.insert(cache_.begin(), std::move(loaded));
-  return cache_.front().data;
+  return cache_.Get(block, [this](std::uint64_t at, std::vector<std::uint8_t>* data) {
+    std::uint8_t head[9] = {};
+    read_file_.clear();
+    read_file_.seekg(static_cast<std::streamoff>(at));
+    read_file_.read(reinterpret_cast<char*>(head), sizeof(head));
+    const std::uint64_t length = Le64(head + 1);
+    std::string error = "a record that runs past the file";
+    if (!read_file_ || head[0] != kOpChunk || at > file_size_ - sizeof(head) ||
+        length > file_size_ - at - sizeof(head) ||
+        !LoadChunk(read_file_, at + sizeof(head), length, data, &error)) {
+      throw InputError(path_ + ": the chunk at byte " + std::to_string(at) +
+                       " cannot be read again (" + error + ")");
+    }
+  });
 }
 
 std::vector<std::uint8_t> McapBag::Read(const BagPosition& position) const {

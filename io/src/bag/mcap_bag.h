@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "bag/chunk_cache.h"
 #include "stillmap/io/bag_reader.h"
 
 namespace stillmap {
@@ -42,14 +43,9 @@ class McapBag : public BagReader {
   std::map<std::uint16_t, size_t> topic_of_channel_;
   double last_time_ = 0.0;
 
-  static constexpr size_t kCachedChunks = 4;
-  struct CachedChunk {
-    std::uint64_t block = 0;
-    std::vector<std::uint8_t> data;
-  };
   mutable std::mutex read_mutex_;  // guards the members below (Read)
   mutable std::ifstream read_file_;
-  mutable std::vector<CachedChunk> cache_;
+  mutable ChunkCache cache_;
 };
 
 }  // namespace stillmap

@@ -78,29 +78,18 @@ bool ChunkRecord(const std::vector<std::uint8_t>& chunk, size_t offset, Fields* 
   return *data_size <= chunk.size() - *data_offset;
 }
 
-std::string Seconds(double t) {
-  char text[32];
-  std::snprintf(text, sizeof(text), "%.3f", t);
-  return text;
-}
-
 }  // namespace
 
 Ros1Bag::Ros1Bag(const std::string& path) : BagReader(path), read_file_(path, std::ios::binary) {
-  std::ifstream file(path, std::ios::binary | std::ios::ate);
-  if (!file) throw InputError(path + ": cannot open the bag");
-  file_size_ = static_cast<std::uint64_t>(file.tellg());
   char magic[kMagicSize] = {};
-  file.seekg(0);
-  file.read(magic, kMagicSize);
-  if (!file || std::memcmp(magic, kMagic, kMagicSize) != 0) {
-    if (std::memcmp(magic, "#ROSBAG V", 9) == 0) {
-      throw InputError(path + ": a ROS 1 bag of format " + Quoted(std::string(magic + 9, 3)) +
-                       "; stillmap reads format 2.0 (convert it with `rosbag fix` on a ROS 1 "
-                       "machine)");
-    }
-    throw InputError(path + ": not a ROS 1 bag (no \"#ROSBAG V2.0\" at its start)");
+  std::ifstream(path, std::ios::binary).read(magic, kMagicSize);
+  if (std::memcmp(magic, "#ROSBAG V", 9) == 0 && std::memcmp(magic, kMagic, kMagicSize) != 0) {
+    throw InputError(path + ": a ROS 1 bag of format " + Quoted(std::string(magic + 9, 3)) +
+                     "; stillmap reads format 2.0 (convert it with `rosbag fix` on a ROS 1 "
+                     "machine)");
   }
+  file_size_ = CheckMagic(kMagic, kMagicSize, "a ROS 1 bag (no \"#ROSBAG V2.0\" at its start)");
+  std::ifstream file(path, std::ios::binary);
   Record header;
   std::string damage;
   std::uint8_t op = 0;
@@ -219,11 +208,7 @@ void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
     std::string damage;
     std::uint8_t op = 0;
     if (!ReadRecord(file, offset, &record, &damage) || !FieldU8(record.fields, "op", &op)) {
-      truncated_ = true;
-      warnings_.push_back(
-          path_ + ": truncated at byte " + std::to_string(offset) + " of " +
-          std::to_string(file_size_) + (damage.empty() ? std::string() : " (" + damage + ")") +
-          ": the recording ends at t = " + Seconds(last_time) + " s; what comes before is read");
+      WarnTruncated(offset, file_size_, last_time, damage);
       return;
     }
     if (op == kOpChunk) {
@@ -245,23 +230,15 @@ void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
 }
 
 const std::vector<std::uint8_t>& Ros1Bag::CachedChunkAt(std::uint64_t block) const {
-  for (size_t i = 0; i < cache_.size(); ++i) {
-    if (cache_[i].block != block) continue;
-    std::rotate(cache_.begin(), cache_.begin() + static_cast<std::ptrdiff_t>(i),
-                cache_.begin() + static_cast<std::ptrdiff_t>(i) + 1);
-    return cache_.front().data;
-  }
-  CachedChunk loaded{block, {}};
-  Record record;
-  std::string error;
-  if (!ReadRecord(read_file_, block, &record, &error) ||
-      !LoadChunk(read_file_, record, &loaded.data, &error)) {
-    throw InputError(path_ + ": the chunk at byte " + std::to_string(block) +
-                     " cannot be read again (" + error + ")");
-  }
-  if (cache_.size() == kCachedChunks) cache_.pop_back();
-  cache_.insert(cache_.begin(), std::move(loaded));
-  return cache_.front().data;
+  return cache_.Get(block, [this](std::uint64_t at, std::vector<std::uint8_t>* data) {
+    Record record;
+    std::string error;
+    if (!ReadRecord(read_file_, at, &record, &error) ||
+        !LoadChunk(read_file_, record, data, &error)) {
+      throw InputError(path_ + ": the chunk at byte " + std::to_string(at) +
+                       " cannot be read again (" + error + ")");
+    }
+  });
 }
 
 std::vector<std::uint8_t> Ros1Bag::Read(const BagPosition& position) const {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bag/chunk_cache.h"
 #include "stillmap/io/bag_reader.h"
 
 namespace stillmap {
@@ -56,18 +57,12 @@ class Ros1Bag : public BagReader {
   std::vector<BagTopic> topics_;
   std::map<std::uint32_t, size_t> topic_of_connection_;
 
-  // The chunks Read decompressed last, most recent first: a colour/depth pair often spans two.
-  static constexpr size_t kCachedChunks = 4;
-  struct CachedChunk {
-    std::uint64_t block = 0;
-    std::vector<std::uint8_t> data;
-  };
   // The chunk at `block`, decompressed (from the cache when there).
   const std::vector<std::uint8_t>& CachedChunkAt(std::uint64_t block) const;
 
   mutable std::mutex read_mutex_;  // guards the members below (Read)
   mutable std::ifstream read_file_;
-  mutable std::vector<CachedChunk> cache_;
+  mutable ChunkCache cache_;
 };
 
 }  // namespace stillmap

@@ -53,6 +53,12 @@ class BagReader {
 
  protected:
   explicit BagReader(std::string path) : path_(std::move(path)) {}
+  // The file's size; throws InputError naming it when it cannot be opened, or when it does not
+  // start with `magic` (`what` says what it should have been).
+  std::uint64_t CheckMagic(const char* magic, size_t magic_size, const std::string& what) const;
+  // Ends a scan at `offset` of `file_size`: a warning with "truncated" and the last time read.
+  void WarnTruncated(std::uint64_t offset, std::uint64_t file_size, double last_time,
+                     const std::string& damage = {});
   std::string path_;
   std::vector<std::string> warnings_;
   bool truncated_ = false;
