@@ -110,8 +110,8 @@ bool Tracker::Impl::GlobalAdjustmentRunning() const {
 }
 
 void Tracker::Impl::RequestAdjustment(bool global) {
-  std::optional<WindowAdjustment> adjustment = PrepareAdjustment(
-      global ? map_keyframes.size() : static_cast<size_t>(options.local_window));
+  std::optional<WindowAdjustment> adjustment =
+      PrepareAdjustment(global ? map_keyframes.size() : static_cast<size_t>(options.local_window));
   if (!adjustment) return;
   adjustment->global = global;
   adjustment->handover_serial =
