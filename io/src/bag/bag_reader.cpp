@@ -4,6 +4,8 @@
 #include <cstring>
 #include <fstream>
 
+#include "bag/mcap_bag.h"
+#include "bag/ros1_bag.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -30,6 +32,28 @@ void BagReader::WarnTruncated(std::uint64_t offset, std::uint64_t file_size, dou
   warnings_.push_back(path_ + ": truncated at byte " + std::to_string(offset) + " of " +
                       std::to_string(file_size) + (damage.empty() ? "" : " (" + damage + ")") +
                       ": the recording ends at t = " + seconds + " s; what comes before is read");
+}
+
+bool LooksLikeBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  char magic[Ros1Bag::kMagicSize] = {};
+  file.read(magic, Ros1Bag::kMagicSize);
+  return file && (std::memcmp(magic, "#ROSBAG V", 9) == 0 ||
+                  std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0);
+}
+
+std::unique_ptr<BagReader> OpenBag(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw InputError(path + ": cannot open the bag");
+  char magic[Ros1Bag::kMagicSize] = {};
+  file.read(magic, Ros1Bag::kMagicSize);
+  if (std::memcmp(magic, "#ROSBAG V", 9) == 0) return std::make_unique<Ros1Bag>(path);
+  if (std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0) {
+    return std::make_unique<McapBag>(path);
+  }
+  throw InputError(path +
+                   ": not a bag stillmap reads (expected a ROS 1 .bag or an MCAP file; ROS 2 "
+                   "sqlite3 bags are not read yet)");
 }
 
 }  // namespace stillmap

@@ -5,7 +5,6 @@
 
 #include "bag/bytes.h"
 #include "bag/decompress.h"
-#include "bag/mcap_bag.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -253,28 +252,6 @@ std::vector<std::uint8_t> Ros1Bag::Read(const BagPosition& position) const {
   }
   return {chunk.begin() + static_cast<std::ptrdiff_t>(data_offset),
           chunk.begin() + static_cast<std::ptrdiff_t>(data_offset + data_size)};
-}
-
-bool LooksLikeBag(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  char magic[Ros1Bag::kMagicSize] = {};
-  file.read(magic, Ros1Bag::kMagicSize);
-  return file && (std::memcmp(magic, "#ROSBAG V", 9) == 0 ||
-                  std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0);
-}
-
-std::unique_ptr<BagReader> OpenBag(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw InputError(path + ": cannot open the bag");
-  char magic[Ros1Bag::kMagicSize] = {};
-  file.read(magic, Ros1Bag::kMagicSize);
-  if (std::memcmp(magic, "#ROSBAG V", 9) == 0) return std::make_unique<Ros1Bag>(path);
-  if (std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0) {
-    return std::make_unique<McapBag>(path);
-  }
-  throw InputError(path +
-                   ": not a bag stillmap reads (expected a ROS 1 .bag or an MCAP file; ROS 2 "
-                   "sqlite3 bags are not read yet)");
 }
 
 }  // namespace stillmap
