@@ -13,14 +13,22 @@ void KeyframeSelectionOptions::Validate() const {
   if (!(max_shared_landmarks > 0.0 && max_shared_landmarks <= 1.0)) {
     throw InputError("keyframes.max_shared_landmarks must be in (0, 1]");
   }
+  revisit.Validate();
 }
 
 std::string KeyframeSelectionOptions::Describe() const {
   if (!enabled) return "off: every tracking keyframe is fused";
-  return fmt::format(
+  std::string rule = fmt::format(
       "invalid when more than {} of the frame is masked; redundant when more than {} of its "
       "landmarks are seen by the keyframes selected before",
       max_masked_share, max_shared_landmarks);
+  if (revisit.enabled) {
+    rule += fmt::format(
+        "; a keyframe fuses only the depth cells that fused keyframes made {} or more keyframes "
+        "before it did not see at that depth from within {} degrees",
+        revisit.keyframes_apart, revisit.view_angle_deg);
+  }
+  return rule;
 }
 
 KeyframeSelector::KeyframeSelector(const KeyframeSelectionOptions& options) : options_(options) {}

@@ -16,6 +16,8 @@ KeyframeFuser::KeyframeFuser(const Camera& camera, const BuildConfig& config,
       // 4 m), far below any sensor's noise.
       depth_unit_m_(config.mapping.back_projection.max_depth / 60000.0),
       selector_(config.selection),
+      revisits_(camera, config.selection.revisit, config.mapping.back_projection.min_depth,
+                config.mapping.back_projection.max_depth),
       factors_(camera) {
   if (masks.enabled() && config.map_recheck && config.masking.depth_check) {
     recheck_.emplace(masks.masker()->geometry(), config.masking);
@@ -61,6 +63,7 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
       // The depth corrected as the tracker's self-calibration has it now (the poses are
       // consistent with it).
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
+      LeaveOutSeenBefore(keyframe.id, &input);
       mapper_.Integrate(input);
       fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
       if (keep_for_refusion_) Store(keyframe.id, input);
@@ -74,6 +77,15 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
     waiting_.erase(it);
   }
   fuse_ms_ += MillisecondsSince(start);
+}
+
+void KeyframeFuser::LeaveOutSeenBefore(int keyframe_id, MapperFrame* input) {
+  CellView view =
+      revisits_.MakeView(keyframe_id, input->depth_m, input->mask, input->world_from_camera);
+  const cv::Mat seen = revisits_.SeenBefore(view);
+  revisits_.Remember(std::move(view));  // all it saw, for the keyframes after it
+  if (seen.empty()) return;
+  input->mask = input->mask.empty() ? seen : (input->mask | seen);
 }
 
 void KeyframeFuser::Store(int keyframe_id, const MapperFrame& input) {
@@ -103,6 +115,7 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     if (change.translation().norm() > 0.001 || angle_deg > 0.05) ++moved;
     stored.world_from_camera = it->second;
   }
+  revisits_.Repose(world_from_keyframe);
   if (moved == 0) return 0;
   mapper_.Reset();
   fused_poses_.clear();
@@ -121,7 +134,8 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
 }
 
 SelectionFigures KeyframeFuser::figures() const {
-  return {selector_.invalid(), selector_.redundant(), recheck_additions_};
+  return {selector_.invalid(), selector_.redundant(), recheck_additions_,
+          revisits_.cells_left_out()};
 }
 
 }  // namespace stillmap

@@ -10,6 +10,7 @@
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/keyframe_selection.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/mapping/revisit_cells.h"
 #include "stillmap/pipeline/build_result.h"
 #include "stillmap/pipeline/config.h"
 #include "stillmap/tracking/depth_correction.h"
@@ -64,6 +65,8 @@ class KeyframeFuser {
     std::vector<unsigned char> color_jpeg;  // BGR
   };
   void Store(int keyframe_id, const MapperFrame& input);
+  // Masks the depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells).
+  void LeaveOutSeenBefore(int keyframe_id, MapperFrame* input);
 
   Mapper& mapper_;
   bool keep_for_refusion_ = false;
@@ -72,6 +75,7 @@ class KeyframeFuser {
   double refuse_ms_ = 0.0;
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
+  RevisitCells revisits_;
   DepthFactorImages factors_;
   std::map<int, Waiting> waiting_;  // by keyframe id, i.e. in time order
   std::vector<StampedPose> fused_poses_;

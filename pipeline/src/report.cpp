@@ -66,6 +66,8 @@ json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
           // Culled by the tracker when final: keyframes kept before them saw their view.
           {"culled", result.tracking ? result.tracking->statistics.keyframes_culled : 0},
           {"map_recheck_added_pixels", result.selection.recheck_additions},
+          // Depth cells (16 px) of keyframes on revisits left out: an earlier visit fused them.
+          {"revisit_cells_left_out", result.selection.revisit_cells_left_out},
           {"selection", result.tracked() ? config.selection.Describe()
                                          : "none: with known poses every frame is fused"}};
 }

@@ -43,7 +43,8 @@ BuildResult Build(const std::string& sequence, const std::string& output,
 }
 
 // Teddy played forward, back, forward and back: the passes after the first track against the
-// map the first made, and add (almost) no keyframes and no second copy of the walls.
+// map the first made, and add (almost) no keyframes and no second copy of the walls (the
+// keyframes they keep fuse only the depth cells the first pass did not see).
 TEST(RevisitTest, RealTeddyFourPassesGrowWithThePlaceNotTheRecording) {
   const std::optional<std::string> sequence = testing::SharedSequence("tum_fr3_teddy_200");
   if (!sequence) {
@@ -66,6 +67,8 @@ TEST(RevisitTest, RealTeddyFourPassesGrowWithThePlaceNotTheRecording) {
   ASSERT_TRUE(four.evaluation.ate.has_value());
   EXPECT_LE(four.evaluation.ate->translation.rmse, 0.006);
   EXPECT_GT(four.tracking->statistics.keyframes_culled, 0u);
+  // The keyframes the returns kept fused only what the first pass had not seen.
+  EXPECT_GT(four.selection.revisit_cells_left_out, once.selection.revisit_cells_left_out);
 }
 
 // Around the room and over the start again: the loop is found, verified and closed, the map is

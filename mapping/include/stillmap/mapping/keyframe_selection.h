@@ -5,6 +5,8 @@
 #include <unordered_set>
 #include <vector>
 
+#include "stillmap/mapping/revisit_cells.h"
+
 namespace stillmap {
 
 struct KeyframeSelectionOptions {
@@ -16,6 +18,8 @@ struct KeyframeSelectionOptions {
   // of 23 keyframes and leaves 78.6 % completeness; 0.8 gives 85-92 % from run to run, 0.9 fuses
   // 16 of 24 for 98.0 % completeness and 0.34 % ghosts.
   double max_shared_landmarks = 0.9;
+  // What a fused keyframe made on a revisit adds (revisit_cells.h).
+  RevisitOptions revisit;
 
   // Throws InputError naming the key (keyframes.*) of the first impossible value.
   void Validate() const;
@@ -31,6 +35,7 @@ struct KeyframeSelectionOptions {
     visit("max_shared_landmarks", self.max_shared_landmarks,
           "redundant: more than this share of its landmarks is seen by the selected keyframes "
           "(paper 000: 0.5)");
+    visit.Nested("revisit_", self.revisit);
   }
 };
 

@@ -1,0 +1,102 @@
+// What a keyframe adds to the map when the camera comes back (issue 27). Keyframes of one visit
+// are adjusted together and fuse into the same voxels; a keyframe made on a later visit carries
+// the drift between the visits, so fusing all of its view lays a second copy of the walls a few
+// millimetres beside the first. Here its depth cells (16 px) that a keyframe fused on an earlier
+// visit saw at the same depth, from a similar direction and distance, are left out: the seed
+// paper's redundancy rule (paper 000, section II.D) applied cell by cell to revisits. A cell the
+// earlier keyframe saw at another depth (a person since gone, a ghost, a moved chair) stays in.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+
+namespace stillmap {
+
+struct RevisitOptions {
+  bool enabled = true;  // false: a keyframe on a revisit fuses all of its view
+  // An earlier visit: a keyframe made at least this many keyframes before (the tracker's local
+  // bundle adjustment window, tracking.local_window: keyframes nearer than that were adjusted
+  // together and fuse into the same voxels).
+  int keyframes_apart = 8;
+  // Seen from a similar direction [deg] and distance (ratio) by the earlier keyframe: the values
+  // of the tracker's keyframe culling (tracking.redundant_view_angle_deg, redundant_scale_ratio).
+  double view_angle_deg = 15.0;
+  double scale_ratio = 1.25;
+
+  // Throws InputError naming the key (keyframes.revisit_*) of the first impossible value.
+  void Validate() const;
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("enabled", self.enabled,
+          "a keyframe on a revisit fuses only the depth cells an earlier visit did not see");
+    visit("keyframes_apart", self.keyframes_apart,
+          "an earlier visit: keyframes made at least this many keyframes before (tracking's local "
+          "window)");
+    visit("view_angle_deg", self.view_angle_deg,
+          "seen by the earlier keyframe from within this angle [deg] (tracking's culling value)");
+    visit("scale_ratio", self.scale_ratio,
+          "seen by the earlier keyframe from a distance within this ratio (tracking's culling "
+          "value)");
+  }
+};
+
+// A keyframe's view in cells: CV_32FC4 (nearest, farthest, mean depth [m], share of its pixels
+// read and not masked) per 16 x 16 px cell; zeros where no pixel was read.
+struct CellView {
+  int keyframe_id = 0;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+  cv::Mat cells;
+};
+
+class RevisitCells {
+ public:
+  static constexpr int kCell = 16;           // [px]
+  static constexpr float kReadCell = 0.25f;  // a cell is left out only if this share was read
+  static constexpr float kFullCell = 0.9f;   // an earlier cell saw its place if this share was
+
+  // Depth readings outside min_depth..max_depth [m] are not fused, so they count as not read
+  // (BackProjectionOptions).
+  RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
+               double max_depth);
+
+  // The view of a keyframe: depth_m (CV_32FC1 [m], 0 = none) without the pixels of `mask`
+  // (CV_8UC1, non-zero = left out; or empty).
+  CellView MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
+                    const Eigen::Isometry3d& world_from_camera) const;
+
+  // The pixels of `view` that keyframes remembered from earlier visits saw (CV_8UC1, 255 = seen,
+  // whole cells), or an empty matrix when there are none.
+  cv::Mat SeenBefore(const CellView& view);
+
+  // Remembers a fused keyframe's view for the keyframes after it.
+  void Remember(CellView view);
+
+  // After a loop correction: the remembered keyframes take their poses in `world_from_keyframe`
+  // (by keyframe id; others keep theirs).
+  void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+
+  size_t cells_left_out() const { return cells_left_out_; }
+  size_t bytes() const;
+
+ private:
+  bool CellSeenBefore(const CellView& view, int row, int column,
+                      const std::vector<const CellView*>& earlier) const;
+  bool Covered(const Eigen::Vector3d& point_in_world, const Eigen::Vector3d& centre,
+               const CellView& other) const;
+
+  Camera camera_;
+  RevisitOptions options_;
+  float min_depth_ = 0.0f, max_depth_ = 0.0f;  // [m]
+  std::vector<CellView> remembered_;           // in keyframe order
+  size_t cells_left_out_ = 0;
+};
+
+}  // namespace stillmap

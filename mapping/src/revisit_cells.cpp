@@ -1,0 +1,158 @@
+#include "stillmap/mapping/revisit_cells.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+
+void RevisitOptions::Validate() const {
+  if (keyframes_apart < 1) throw InputError("keyframes.revisit_keyframes_apart must be at least 1");
+  if (!(view_angle_deg >= 0.0 && view_angle_deg <= 180.0)) {
+    throw InputError("keyframes.revisit_view_angle_deg must lie in 0..180");
+  }
+  if (!(scale_ratio >= 1.0)) throw InputError("keyframes.revisit_scale_ratio must be at least 1");
+}
+
+RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
+                           double max_depth)
+    : camera_(camera),
+      options_(options),
+      min_depth_(static_cast<float>(min_depth)),
+      max_depth_(static_cast<float>(max_depth)) {}
+
+CellView RevisitCells::MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
+                                const Eigen::Isometry3d& world_from_camera) const {
+  const int rows = (depth_m.rows + kCell - 1) / kCell;
+  const int columns = (depth_m.cols + kCell - 1) / kCell;
+  CellView view{keyframe_id, world_from_camera, world_from_camera.inverse(),
+                cv::Mat(rows, columns, CV_32FC4, cv::Scalar(0))};
+  std::vector<float> low(static_cast<size_t>(columns)), high(low.size()), sum(low.size());
+  std::vector<int> count(low.size());
+  for (int row = 0; row < rows; ++row) {
+    std::fill(low.begin(), low.end(), 1e9f);
+    std::fill(high.begin(), high.end(), 0.0f);
+    std::fill(sum.begin(), sum.end(), 0.0f);
+    std::fill(count.begin(), count.end(), 0);
+    const int row_end = std::min(depth_m.rows, (row + 1) * kCell);
+    for (int v = row * kCell; v < row_end; ++v) {
+      const float* z = depth_m.ptr<float>(v);
+      const std::uint8_t* masked = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(v);
+      for (int u = 0; u < depth_m.cols; ++u) {
+        if (!(z[u] >= min_depth_ && z[u] <= max_depth_) || (masked != nullptr && masked[u] != 0)) {
+          continue;
+        }
+        const auto c = static_cast<size_t>(u / kCell);
+        low[c] = std::min(low[c], z[u]);
+        high[c] = std::max(high[c], z[u]);
+        sum[c] += z[u];
+        ++count[c];
+      }
+    }
+    for (int c = 0; c < columns; ++c) {
+      const auto i = static_cast<size_t>(c);
+      if (count[i] == 0) continue;
+      const int pixels =
+          (row_end - row * kCell) * (std::min(depth_m.cols, (c + 1) * kCell) - c * kCell);
+      view.cells.at<cv::Vec4f>(row, c) = {
+          low[i], high[i], sum[i] / static_cast<float>(count[i]),
+          static_cast<float>(count[i]) / static_cast<float>(pixels)};
+    }
+  }
+  return view;
+}
+
+bool RevisitCells::Covered(const Eigen::Vector3d& point_in_world, const Eigen::Vector3d& centre,
+                           const CellView& other) const {
+  const Eigen::Vector3d p = other.camera_from_world * point_in_world;
+  if (!(p.z() > 0.0)) return false;
+  const double u = camera_.fx * p.x() / p.z() + camera_.cx;
+  const double v = camera_.fy * p.y() / p.z() + camera_.cy;
+  if (!(u >= 0.0 && v >= 0.0 && u < other.cells.cols * kCell && v < other.cells.rows * kCell)) {
+    return false;
+  }
+  // It read a surface at that depth there (5 % and 3 cm of slack, as the tracker's culling), over
+  // all of the cell: a cell partly masked (a person passing) did not see the wall behind them.
+  const cv::Vec4f& seen =
+      other.cells.at<cv::Vec4f>(static_cast<int>(v) / kCell, static_cast<int>(u) / kCell);
+  if (seen[3] < kFullCell || p.z() < 0.95 * seen[0] - 0.03 || p.z() > 1.05 * seen[1] + 0.03) {
+    return false;
+  }
+  // From a similar distance and direction: the earlier view sampled the surface as densely.
+  const Eigen::Vector3d ray = point_in_world - centre;
+  const Eigen::Vector3d other_ray = point_in_world - other.world_from_camera.translation();
+  const double range = ray.norm(), other_range = other_ray.norm();
+  const double ratio = other_range / range;
+  if (ratio > options_.scale_ratio || ratio < 1.0 / options_.scale_ratio) return false;
+  const double min_cosine = std::cos(options_.view_angle_deg * M_PI / 180.0);
+  return other_ray.dot(ray) >= min_cosine * other_range * range;
+}
+
+bool RevisitCells::CellSeenBefore(const CellView& view, int row, int column,
+                                  const std::vector<const CellView*>& earlier) const {
+  const double depth = view.cells.at<cv::Vec4f>(row, column)[2];
+  const Eigen::Vector3d centre = view.world_from_camera.translation();
+  // Its middle and four points near its corners, at its mean depth, each seen by one of them.
+  constexpr double kCorner = 0.5 * kCell - 1.0;
+  const double u0 = (column + 0.5) * kCell, v0 = (row + 0.5) * kCell;
+  for (const auto& [du, dv] : {std::pair{0.0, 0.0},
+                               {-kCorner, -kCorner},
+                               {kCorner, -kCorner},
+                               {-kCorner, kCorner},
+                               {kCorner, kCorner}}) {
+    const double u = u0 + du, v = v0 + dv;
+    const Eigen::Vector3d point =
+        view.world_from_camera *
+        (depth * Eigen::Vector3d((u - camera_.cx) / camera_.fx, (v - camera_.cy) / camera_.fy, 1));
+    const auto sees = [&](const CellView* other) { return Covered(point, centre, *other); };
+    if (std::none_of(earlier.begin(), earlier.end(), sees)) return false;
+  }
+  return true;
+}
+
+cv::Mat RevisitCells::SeenBefore(const CellView& view) {
+  if (!options_.enabled) return {};
+  std::vector<const CellView*> earlier;
+  for (const CellView& other : remembered_) {
+    if (other.keyframe_id <= view.keyframe_id - options_.keyframes_apart) {
+      earlier.push_back(&other);
+    }
+  }
+  if (earlier.empty()) return {};
+  cv::Mat seen(camera_.height, camera_.width, CV_8UC1, cv::Scalar(0));
+  const cv::Rect image(0, 0, camera_.width, camera_.height);
+  size_t left_out = 0;
+  for (int row = 0; row < view.cells.rows; ++row) {
+    for (int column = 0; column < view.cells.cols; ++column) {
+      const cv::Vec4f& cell = view.cells.at<cv::Vec4f>(row, column);
+      if (cell[3] < kReadCell) continue;
+      if (!CellSeenBefore(view, row, column, earlier)) continue;
+      seen(cv::Rect(column * kCell, row * kCell, kCell, kCell) & image).setTo(255);
+      ++left_out;
+    }
+  }
+  if (left_out == 0) return {};
+  cells_left_out_ += left_out;
+  return seen;
+}
+
+void RevisitCells::Remember(CellView view) { remembered_.push_back(std::move(view)); }
+
+void RevisitCells::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  for (CellView& view : remembered_) {
+    const auto it = world_from_keyframe.find(view.keyframe_id);
+    if (it == world_from_keyframe.end()) continue;
+    view.world_from_camera = it->second;
+    view.camera_from_world = it->second.inverse();
+  }
+}
+
+size_t RevisitCells::bytes() const {
+  size_t bytes = 0;
+  for (const CellView& view : remembered_) bytes += view.cells.total() * view.cells.elemSize();
+  return bytes;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,144 @@
+// RevisitCells against exact geometry: a wall 2 m in front of the first keyframe, rendered by
+// ray casting for every later view.
+#include "stillmap/mapping/revisit_cells.h"
+
+#include <gtest/gtest.h>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+namespace {
+
+Camera TestCamera() {
+  Camera camera;
+  camera.fx = camera.fy = 525.0;
+  camera.cx = 319.5;
+  camera.cy = 239.5;
+  return camera;
+}
+
+// Depth [m] of the plane z = wall_z (world) seen from `world_from_camera`; pixels with
+// u < box_columns read `box_depth_m` instead (something new in front of the wall).
+cv::Mat RenderWall(const Camera& camera, const Eigen::Isometry3d& world_from_camera,
+                   double wall_z = 2.0, int box_columns = 0, float box_depth_m = 0.0f) {
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0));
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const Eigen::Vector3d ray((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1.0);
+      const Eigen::Vector3d direction = world_from_camera.linear() * ray;
+      const double along = (wall_z - world_from_camera.translation().z()) / direction.z();
+      if (along > 0.0) depth.at<float>(v, u) = static_cast<float>(along);  // ray.z() == 1
+      if (u < box_columns) depth.at<float>(v, u) = box_depth_m;
+    }
+  }
+  return depth;
+}
+
+Eigen::Isometry3d At(double x, double z = 0.0, double yaw_deg = 0.0) {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(yaw_deg * M_PI / 180.0, Eigen::Vector3d::UnitY()).matrix();
+  pose.translation() = Eigen::Vector3d(x, 0.0, z);
+  return pose;
+}
+
+// Keyframe 0 at the origin, remembered; returns the cells seen before of keyframe `id` at `pose`.
+cv::Mat SeenAfterFirst(RevisitCells* cells, const Camera& camera, int id,
+                       const Eigen::Isometry3d& pose, const cv::Mat& depth) {
+  cells->Remember(cells->MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0)));
+  return cells->SeenBefore(cells->MakeView(id, depth, cv::Mat(), pose));
+}
+
+TEST(RevisitCellsTest, ARevisitDriftedByACentimetreAddsNothing) {
+  const Camera camera = TestCamera();
+  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+  const Eigen::Isometry3d drifted = At(0.01);
+  const cv::Mat seen = SeenAfterFirst(&cells, camera, 10, drifted, RenderWall(camera, drifted));
+  ASSERT_FALSE(seen.empty());
+  // 1 cm at 2 m is 2.6 px: the last column of cells reaches past the first view's edge.
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(0, 0, camera.width - 16, camera.height))),
+            (camera.width - 16) * camera.height);
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(camera.width - 16, 0, 16, camera.height))), 0);
+  EXPECT_EQ(cells.cells_left_out(), 39u * 30u);
+}
+
+TEST(RevisitCellsTest, KeyframesOfTheSameVisitFuseAll) {
+  const Camera camera = TestCamera();
+  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);  // keyframes_apart 8
+  EXPECT_TRUE(SeenAfterFirst(&cells, camera, 7, At(0.0), RenderWall(camera, At(0.0))).empty());
+  EXPECT_EQ(cells.cells_left_out(), 0u);
+}
+
+TEST(RevisitCellsTest, WhatTheEarlierVisitSawAtAnotherDepthStays) {
+  const Camera camera = TestCamera();
+  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+  // A box 0.8 m in front of the wall over the left 160 columns (10 cells).
+  const cv::Mat seen =
+      SeenAfterFirst(&cells, camera, 10, At(0.0), RenderWall(camera, At(0.0), 2.0, 160, 1.2f));
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(0, 0, 160, camera.height))), 0);
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(160, 0, camera.width - 160, camera.height))),
+            (camera.width - 160) * camera.height);
+}
+
+TEST(RevisitCellsTest, ACellTheEarlierViewSawOnlyInPartStays) {
+  const Camera camera = TestCamera();
+  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+  // A person masked over 4 px of each cell of the first view's top row of cells.
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  for (int u = 0; u < camera.width; u += 16) mask(cv::Rect(u, 0, 4, 16)).setTo(255);
+  cells.Remember(cells.MakeView(0, RenderWall(camera, At(0.0)), mask, At(0.0)));
+  const cv::Mat seen =
+      cells.SeenBefore(cells.MakeView(10, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0)));
+  ASSERT_FALSE(seen.empty());
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(0, 0, camera.width, 16))), 0);
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(0, 16, camera.width, camera.height - 16))),
+            camera.width * (camera.height - 16));
+}
+
+TEST(RevisitCellsTest, TheSameWallFromAnotherDirectionOrDistanceStays) {
+  const Camera camera = TestCamera();
+  {
+    RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+    // 1.2 m to the side, turned 31 degrees towards the first view's centre: 31 > 15 degrees.
+    const Eigen::Isometry3d aside = At(1.2, 0.0, -31.0);
+    EXPECT_TRUE(SeenAfterFirst(&cells, camera, 10, aside, RenderWall(camera, aside)).empty());
+  }
+  {
+    RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+    // 1 m nearer: half the distance, beyond the scale ratio of 1.25.
+    const Eigen::Isometry3d nearer = At(0.0, 1.0);
+    EXPECT_TRUE(SeenAfterFirst(&cells, camera, 10, nearer, RenderWall(camera, nearer)).empty());
+  }
+}
+
+TEST(RevisitCellsTest, ALoopCorrectionMovesTheRememberedViews) {
+  const Camera camera = TestCamera();
+  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+  cells.Remember(cells.MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0)));
+  // Corrected: keyframe 0 was in fact 0.3 m to the right, so it saw the wall's right part only.
+  cells.Repose({{0, At(0.3)}});
+  const cv::Mat seen =
+      cells.SeenBefore(cells.MakeView(10, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0)));
+  ASSERT_FALSE(seen.empty());
+  // 0.3 m at 2 m is 79 px: the left 64 px (4 cells) were not in its view.
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(0, 0, 64, camera.height))), 0);
+  EXPECT_EQ(cv::countNonZero(seen(cv::Rect(96, 0, camera.width - 96, camera.height))),
+            (camera.width - 96) * camera.height);
+}
+
+TEST(RevisitCellsTest, SwitchedOffLeavesNothingOutAndBadValuesAreRefused) {
+  const Camera camera = TestCamera();
+  RevisitOptions off;
+  off.enabled = false;
+  RevisitCells cells(camera, off, 0.1, 4.0);
+  EXPECT_TRUE(SeenAfterFirst(&cells, camera, 10, At(0.0), RenderWall(camera, At(0.0))).empty());
+  RevisitOptions bad;
+  bad.keyframes_apart = 0;
+  EXPECT_THROW(bad.Validate(), InputError);
+  bad = RevisitOptions{};
+  bad.scale_ratio = 0.9;
+  EXPECT_THROW(bad.Validate(), InputError);
+}
+
+}  // namespace
+}  // namespace stillmap
