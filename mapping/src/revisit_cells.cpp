@@ -27,7 +27,7 @@ CellView RevisitCells::MakeView(int keyframe_id, const cv::Mat& depth_m, const c
                                 const Eigen::Isometry3d& world_from_camera) const {
   const int rows = (depth_m.rows + kCell - 1) / kCell;
   const int columns = (depth_m.cols + kCell - 1) / kCell;
-  CellView view{keyframe_id, world_from_camera, world_from_camera.inverse(),
+  CellView view{keyframe_id, world_from_camera, world_from_camera.inverse(), depth_m.size(),
                 cv::Mat(rows, columns, CV_32FC4, cv::Scalar(0))};
   std::vector<float> low(static_cast<size_t>(columns)), high(low.size()), sum(low.size());
   std::vector<int> count(low.size());
@@ -121,8 +121,8 @@ cv::Mat RevisitCells::SeenBefore(const CellView& view) {
     }
   }
   if (earlier.empty()) return {};
-  cv::Mat seen(camera_.height, camera_.width, CV_8UC1, cv::Scalar(0));
-  const cv::Rect image(0, 0, camera_.width, camera_.height);
+  cv::Mat seen(view.image_size, CV_8UC1, cv::Scalar(0));
+  const cv::Rect image({0, 0}, view.image_size);
   size_t left_out = 0;
   for (int row = 0; row < view.cells.rows; ++row) {
     for (int column = 0; column < view.cells.cols; ++column) {

@@ -53,6 +53,7 @@ struct CellView {
   int keyframe_id = 0;
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+  cv::Size image_size;  // of the depth it was made from [px]
   cv::Mat cells;
 };
 
