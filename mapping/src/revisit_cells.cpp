@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 
+#include "stillmap/io/depth_cells.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -18,50 +18,12 @@ void RevisitOptions::Validate() const {
 
 RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
                            double max_depth)
-    : camera_(camera),
-      options_(options),
-      min_depth_(static_cast<float>(min_depth)),
-      max_depth_(static_cast<float>(max_depth)) {}
+    : camera_(camera), options_(options), min_depth_(min_depth), max_depth_(max_depth) {}
 
 CellView RevisitCells::MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
                                 const Eigen::Isometry3d& world_from_camera) const {
-  const int rows = (depth_m.rows + kCell - 1) / kCell;
-  const int columns = (depth_m.cols + kCell - 1) / kCell;
-  CellView view{keyframe_id, world_from_camera, world_from_camera.inverse(), depth_m.size(),
-                cv::Mat(rows, columns, CV_32FC4, cv::Scalar(0))};
-  std::vector<float> low(static_cast<size_t>(columns)), high(low.size()), sum(low.size());
-  std::vector<int> count(low.size());
-  for (int row = 0; row < rows; ++row) {
-    std::fill(low.begin(), low.end(), 1e9f);
-    std::fill(high.begin(), high.end(), 0.0f);
-    std::fill(sum.begin(), sum.end(), 0.0f);
-    std::fill(count.begin(), count.end(), 0);
-    const int row_end = std::min(depth_m.rows, (row + 1) * kCell);
-    for (int v = row * kCell; v < row_end; ++v) {
-      const float* z = depth_m.ptr<float>(v);
-      const std::uint8_t* masked = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(v);
-      for (int u = 0; u < depth_m.cols; ++u) {
-        if (!(z[u] >= min_depth_ && z[u] <= max_depth_) || (masked != nullptr && masked[u] != 0)) {
-          continue;
-        }
-        const auto c = static_cast<size_t>(u / kCell);
-        low[c] = std::min(low[c], z[u]);
-        high[c] = std::max(high[c], z[u]);
-        sum[c] += z[u];
-        ++count[c];
-      }
-    }
-    for (int c = 0; c < columns; ++c) {
-      const auto i = static_cast<size_t>(c);
-      if (count[i] == 0) continue;
-      const int pixels =
-          (row_end - row * kCell) * (std::min(depth_m.cols, (c + 1) * kCell) - c * kCell);
-      view.cells.at<cv::Vec4f>(row, c) = {
-          low[i], high[i], sum[i] / static_cast<float>(count[i]),
-          static_cast<float>(count[i]) / static_cast<float>(pixels)};
-    }
-  }
-  return view;
+  return {keyframe_id, world_from_camera, world_from_camera.inverse(), depth_m.size(),
+          DepthCells(depth_m, mask, kCell, min_depth_, max_depth_)};
 }
 
 bool RevisitCells::Covered(const Eigen::Vector3d& point_in_world, const Eigen::Vector3d& centre,

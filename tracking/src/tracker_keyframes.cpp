@@ -1,5 +1,6 @@
 #include <cmath>
 
+#include "stillmap/io/depth_cells.h"
 #include "tracker_impl.h"
 
 namespace stillmap {
@@ -38,30 +39,13 @@ cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_m
   const int columns = (camera.width + kDepthCell - 1) / kDepthCell;
   cv::Mat seen(rows, columns, CV_32FC3, cv::Scalar::all(0.0));
   if (depth_m.empty()) return seen;
-  std::vector<float> low(static_cast<size_t>(columns)), high(low.size()), sum(low.size());
-  std::vector<int> count(low.size());
+  const cv::Mat cells = DepthCells(depth_m, ignore_mask, kDepthCell, options.min_landmark_depth,
+                                   options.max_landmark_depth);
   for (int row = 0; row < rows; ++row) {
-    std::fill(low.begin(), low.end(), 1e9f);
-    std::fill(high.begin(), high.end(), 0.0f);
-    std::fill(sum.begin(), sum.end(), 0.0f);
-    std::fill(count.begin(), count.end(), 0);
-    for (int v = row * kDepthCell; v < std::min(depth_m.rows, (row + 1) * kDepthCell); ++v) {
-      const float* z = depth_m.ptr<float>(v);
-      const std::uint8_t* ignored =
-          ignore_mask.empty() ? nullptr : ignore_mask.ptr<std::uint8_t>(v);
-      for (int u = 0; u < depth_m.cols; ++u) {
-        if (!UsableDepth(z[u]) || (ignored != nullptr && ignored[u] != 0)) continue;
-        const auto c = static_cast<size_t>(u / kDepthCell);
-        low[c] = std::min(low[c], z[u]);
-        high[c] = std::max(high[c], z[u]);
-        sum[c] += z[u];
-        ++count[c];
-      }
-    }
-    for (int c = 0; c < columns; ++c) {
-      const auto i = static_cast<size_t>(c);
-      if (4 * count[i] < kDepthCell * kDepthCell) continue;
-      seen.at<cv::Vec3f>(row, c) = {low[i], high[i], sum[i] / static_cast<float>(count[i])};
+    for (int column = 0; column < columns; ++column) {
+      const cv::Vec4f& cell = cells.at<cv::Vec4f>(row, column);
+      if (cell[3] < 0.25f) continue;  // a quarter of the cell read, or it counts as unseen
+      seen.at<cv::Vec3f>(row, column) = {cell[0], cell[1], cell[2]};
     }
   }
   return seen;

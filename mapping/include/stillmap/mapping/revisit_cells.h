@@ -47,8 +47,8 @@ struct RevisitOptions {
   }
 };
 
-// A keyframe's view in cells: CV_32FC4 (nearest, farthest, mean depth [m], share of its pixels
-// read and not masked) per 16 x 16 px cell; zeros where no pixel was read.
+// A keyframe's view in cells (DepthCells: nearest, farthest, mean depth [m], share of the cell
+// read and not masked, per 16 x 16 px cell).
 struct CellView {
   int keyframe_id = 0;
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
@@ -95,8 +95,8 @@ class RevisitCells {
 
   Camera camera_;
   RevisitOptions options_;
-  float min_depth_ = 0.0f, max_depth_ = 0.0f;  // [m]
-  std::vector<CellView> remembered_;           // in keyframe order
+  double min_depth_ = 0.0, max_depth_ = 0.0;  // [m]
+  std::vector<CellView> remembered_;          // in keyframe order
   size_t cells_left_out_ = 0;
 };
 
