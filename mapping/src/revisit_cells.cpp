@@ -18,7 +18,11 @@ void RevisitOptions::Validate() const {
 
 RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
                            double max_depth)
-    : camera_(camera), options_(options), min_depth_(min_depth), max_depth_(max_depth) {}
+    : camera_(camera),
+      options_(options),
+      min_depth_(min_depth),
+      max_depth_(max_depth),
+      min_cosine_(std::cos(options.view_angle_deg * M_PI / 180.0)) {}
 
 CellView RevisitCells::MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
                                 const Eigen::Isometry3d& world_from_camera) const {
@@ -48,8 +52,7 @@ bool RevisitCells::Covered(const Eigen::Vector3d& point_in_world, const Eigen::V
   const double range = ray.norm(), other_range = other_ray.norm();
   const double ratio = other_range / range;
   if (ratio > options_.scale_ratio || ratio < 1.0 / options_.scale_ratio) return false;
-  const double min_cosine = std::cos(options_.view_angle_deg * M_PI / 180.0);
-  return other_ray.dot(ray) >= min_cosine * other_range * range;
+  return other_ray.dot(ray) >= min_cosine_ * other_range * range;
 }
 
 bool RevisitCells::CellSeenBefore(const CellView& view, int row, int column,
@@ -109,12 +112,6 @@ void RevisitCells::Repose(const std::map<int, Eigen::Isometry3d>& world_from_key
     view.world_from_camera = it->second;
     view.camera_from_world = it->second.inverse();
   }
-}
-
-size_t RevisitCells::bytes() const {
-  size_t bytes = 0;
-  for (const CellView& view : remembered_) bytes += view.cells.total() * view.cells.elemSize();
-  return bytes;
 }
 
 }  // namespace stillmap

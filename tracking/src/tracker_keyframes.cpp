@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 
 #include "stillmap/io/depth_cells.h"
@@ -41,8 +42,8 @@ cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_m
   if (depth_m.empty()) return seen;
   const cv::Mat cells = DepthCells(depth_m, ignore_mask, kDepthCell, options.min_landmark_depth,
                                    options.max_landmark_depth);
-  for (int row = 0; row < rows; ++row) {
-    for (int column = 0; column < columns; ++column) {
+  for (int row = 0; row < std::min(rows, cells.rows); ++row) {
+    for (int column = 0; column < std::min(columns, cells.cols); ++column) {
       const cv::Vec4f& cell = cells.at<cv::Vec4f>(row, column);
       if (cell[3] < 0.25f) continue;  // a quarter of the cell read, or it counts as unseen
       seen.at<cv::Vec3f>(row, column) = {cell[0], cell[1], cell[2]};

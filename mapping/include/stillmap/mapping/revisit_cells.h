@@ -85,7 +85,6 @@ class RevisitCells {
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
   size_t cells_left_out() const { return cells_left_out_; }
-  size_t bytes() const;
 
  private:
   bool CellSeenBefore(const CellView& view, int row, int column,
@@ -96,6 +95,7 @@ class RevisitCells {
   Camera camera_;
   RevisitOptions options_;
   double min_depth_ = 0.0, max_depth_ = 0.0;  // [m]
+  double min_cosine_ = 1.0;                   // of options_.view_angle_deg
   std::vector<CellView> remembered_;          // in keyframe order
   size_t cells_left_out_ = 0;
 };
