@@ -104,7 +104,7 @@ cv::Mat DecodeJpeg(const std::string& path, const std::vector<unsigned char>& by
                      " pixels a side");
   }
   if (outcome == Outcome::kError || warnings > 0) {
-    throw InputError(path + ": corrupt JPEG (libjpeg: " + error.message +
+    throw InputError(path + ": corrupt JPEG (damaged data: " + error.message +
                      "); re-extract or re-encode the file");
   }
   return image.channels() == 4 ? CmykToBgr(image, inverted_cmyk) : image;

@@ -51,7 +51,7 @@ void PickFrames(const BuildRequest& request, size_t begin, size_t end, BuildInpu
 // A TUM-layout folder, or a recorded bag (its notes logged, its warnings in the report).
 BuildInputs OpenSequence(const BuildRequest& request, BuildResult* result) {
   const BuildConfig& config = request.config;
-  if (IsBagFile(request.sequence_dir)) {
+  if (IsBag(request.sequence_dir)) {
     Sequence sequence = Sequence::OpenBag(request.sequence_dir, config.camera, config.sequence);
     for (const std::string& note : sequence.notes()) spdlog::info("{}", note);
     for (const std::string& warning : sequence.warnings()) result->warnings.push_back(warning);
@@ -62,7 +62,7 @@ BuildInputs OpenSequence(const BuildRequest& request, BuildResult* result) {
   if (!std::filesystem::is_directory(request.sequence_dir, folder_error)) {
     throw InputError(request.sequence_dir +
                      ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
-                     "depth.txt, or a ROS 1 .bag or MCAP file)");
+                     "depth.txt, a ROS 1 .bag, an .mcap or .db3 file, or a ROS 2 bag folder)");
   }
   const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
   return {camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};

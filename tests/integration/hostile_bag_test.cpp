@@ -1,5 +1,6 @@
 // Damaged recorded bags (issue 28) through the binary: byte flips, cuts, zeroed spans and
-// impossible lengths in copies of a shared ROS 1 bag (lz4 chunks) and MCAP file (zstd chunks).
+// impossible lengths in copies of a shared ROS 1 bag (lz4 chunks), MCAP file (zstd chunks) and
+// ROS 2 sqlite3 file.
 // Every run ends with exit 0, 1 or 2 within the time limit (run it under the sanitizer preset too:
 // scripts/sanitize.sh), an error names the bag, and no library's own message reaches the user.
 #include <gtest/gtest.h>
@@ -89,6 +90,10 @@ TEST(HostileBagTest, DamagedRosOneBagsNeverCrashAndAreNamed) {
 
 TEST(HostileBagTest, DamagedMcapFilesNeverCrashAndAreNamed) {
   ExpectDamagedCopiesHandled("teddy_realsense.mcap", 29);
+}
+
+TEST(HostileBagTest, DamagedSqliteBagsNeverCrashAndAreNamed) {
+  ExpectDamagedCopiesHandled("teddy_realsense_db3/teddy_realsense_db3_0.db3", 30);
 }
 
 }  // namespace

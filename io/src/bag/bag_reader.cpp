@@ -2,10 +2,13 @@
 
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
+#include "bag/bag_folder.h"
 #include "bag/mcap_bag.h"
 #include "bag/ros1_bag.h"
+#include "bag/sqlite_bag.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -26,34 +29,65 @@ std::uint64_t BagReader::CheckMagic(const char* magic, size_t magic_size,
 
 void BagReader::WarnTruncated(std::uint64_t offset, std::uint64_t file_size, double last_time,
                               const std::string& damage) {
+  WarnTruncated("at byte " + std::to_string(offset) + " of " + std::to_string(file_size) +
+                    (damage.empty() ? "" : " (" + damage + ")"),
+                last_time);
+}
+
+void BagReader::WarnTruncated(const std::string& where, double last_time) {
   char seconds[32];
   std::snprintf(seconds, sizeof(seconds), "%.3f", last_time);
   truncated_ = true;
-  warnings_.push_back(path_ + ": truncated at byte " + std::to_string(offset) + " of " +
-                      std::to_string(file_size) + (damage.empty() ? "" : " (" + damage + ")") +
-                      ": the recording ends at t = " + seconds + " s; what comes before is read");
+  warnings_.push_back(path_ + ": truncated " + where + ": the recording ends at t = " + seconds +
+                      " s; what comes before is read");
 }
 
-bool LooksLikeBag(const std::string& path) {
+namespace {
+
+enum class BagKind { kNone, kRos1, kMcap, kSqlite };
+
+BagKind KindByMagic(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) return BagKind::kNone;
   std::ifstream file(path, std::ios::binary);
-  char magic[Ros1Bag::kMagicSize] = {};
-  file.read(magic, Ros1Bag::kMagicSize);
-  return file && (std::memcmp(magic, "#ROSBAG V", 9) == 0 ||
-                  std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0);
+  char magic[SqliteBag::kMagicSize] = {};
+  file.read(magic, sizeof(magic));
+  const auto read = static_cast<size_t>(file.gcount());
+  if (read >= 9 && std::memcmp(magic, "#ROSBAG V", 9) == 0) return BagKind::kRos1;
+  if (read >= McapBag::kMagicSize &&
+      std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0) {
+    return BagKind::kMcap;
+  }
+  if (read >= SqliteBag::kMagicSize &&
+      std::memcmp(magic, SqliteBag::kMagic, SqliteBag::kMagicSize) == 0) {
+    return BagKind::kSqlite;
+  }
+  return BagKind::kNone;
+}
+
+}  // namespace
+
+bool LooksLikeBag(const std::string& path) {
+  return KindByMagic(path) != BagKind::kNone || IsBagFolder(path);
 }
 
 std::unique_ptr<BagReader> OpenBag(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw InputError(path + ": cannot open the bag");
-  char magic[Ros1Bag::kMagicSize] = {};
-  file.read(magic, Ros1Bag::kMagicSize);
-  if (std::memcmp(magic, "#ROSBAG V", 9) == 0) return std::make_unique<Ros1Bag>(path);
-  if (std::memcmp(magic, McapBag::kMagic, McapBag::kMagicSize) == 0) {
-    return std::make_unique<McapBag>(path);
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) return std::make_unique<BagFolder>(path);
+  if (!std::ifstream(path, std::ios::binary)) throw InputError(path + ": cannot open the bag");
+  switch (KindByMagic(path)) {
+    case BagKind::kRos1:
+      return std::make_unique<Ros1Bag>(path);
+    case BagKind::kMcap:
+      return std::make_unique<McapBag>(path);
+    case BagKind::kSqlite:
+      return std::make_unique<SqliteBag>(path);
+    case BagKind::kNone:
+      break;
   }
   throw InputError(path +
-                   ": not a bag stillmap reads (expected a ROS 1 .bag or an MCAP file; ROS 2 "
-                   "sqlite3 bags are not read yet)");
+                   ": not a bag stillmap reads (expected a ROS 1 .bag, an MCAP file, a ROS 2 "
+                   "sqlite3 .db3 file or a ROS 2 bag folder)");
 }
 
 }  // namespace stillmap

@@ -69,10 +69,7 @@ Camera WithOverrides(Camera camera, const CameraOverrides& overrides,
 
 }  // namespace
 
-bool IsBagFile(const std::string& path) {
-  std::error_code error;
-  return std::filesystem::is_regular_file(path, error) && LooksLikeBag(path);
-}
+bool IsBag(const std::string& path) { return LooksLikeBag(path); }
 
 std::string DescribeBagTopics(const std::string& path, const SequenceOptions& options) {
   std::unique_ptr<BagReader> reader = stillmap::OpenBag(path);

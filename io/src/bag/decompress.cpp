@@ -4,7 +4,10 @@
 #include <lz4frame.h>
 #include <zstd.h>
 
+#include <cstdint>
 #include <cstring>
+
+#include "bag/bytes.h"
 
 namespace stillmap {
 namespace {
@@ -27,6 +30,75 @@ bool Bz2(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* out,
     return false;
   }
   return true;
+}
+
+// LZ4's end-of-block rules (the last match starts 12 bytes or more before the block's end), which
+// liblz4's decoder enforces, are broken by some writers: @mcap/core's JavaScript lz4 wrote chunks
+// with a match 10 bytes before a block's end, intact by their CRC, which liblz4 refuses. This
+// decoder of the block format (https://github.com/lz4/lz4/blob/dev/doc/lz4_Block_format.md)
+// checks only what keeps it inside its buffers; it runs after liblz4 refused, and the caller
+// still checks the size (and MCAP the CRC). Linked blocks read back into the frame's earlier
+// output, which this decoder keeps whole.
+bool Lz4Sequences(const std::uint8_t* in, size_t size, size_t history_start,
+                  std::vector<std::uint8_t>* out, size_t* written) {
+  auto length = [&](size_t* at, size_t value) {
+    if (value != 15) return value;
+    while (*at < size) {
+      const std::uint8_t more = in[(*at)++];
+      value += more;
+      if (more != 255) return value;
+    }
+    return SIZE_MAX;
+  };
+  size_t at = 0;
+  std::uint8_t* const begin = out->data();
+  const size_t capacity = out->size();
+  while (at < size) {
+    const std::uint8_t token = in[at++];
+    const size_t literals = length(&at, token >> 4U);
+    if (literals > size - at || literals > capacity - *written) return false;
+    std::memcpy(begin + *written, in + at, literals);
+    at += literals;
+    *written += literals;
+    if (at == size) return true;  // the last sequence has no match
+    if (size - at < 2) return false;
+    const size_t offset = in[at] | (static_cast<size_t>(in[at + 1]) << 8U);
+    at += 2;
+    const size_t match = length(&at, token & 0xFU);
+    if (match == SIZE_MAX || match + 4 > capacity - *written) return false;
+    if (offset == 0 || offset > *written - history_start) return false;
+    for (size_t i = 0; i < match + 4; ++i, ++*written) begin[*written] = begin[*written - offset];
+  }
+  return false;
+}
+
+bool Lz4FrameByHand(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* out) {
+  size_t at = 0, written = 0;
+  while (at <= size && size - at >= 7 && Le32(data + at) == 0x184D2204U) {
+    const std::uint8_t flags = data[at + 4];
+    at += 7 + ((flags & 0x08U) != 0 ? 8 : 0) + ((flags & 0x01U) != 0 ? 4 : 0);
+    const bool block_checksum = (flags & 0x10U) != 0, independent = (flags & 0x20U) != 0;
+    const size_t frame_start = written;
+    while (true) {
+      if (size < 4 || at > size - 4) return false;
+      const std::uint32_t word = Le32(data + at);
+      at += 4;
+      if (word == 0) break;
+      const size_t block = word & 0x7FFFFFFFU;
+      if (block > size - at) return false;
+      if ((word & 0x80000000U) != 0) {
+        if (block > out->size() - written) return false;
+        std::memcpy(out->data() + written, data + at, block);
+        written += block;
+      } else if (!Lz4Sequences(data + at, block, independent ? written : frame_start, out,
+                               &written)) {
+        return false;
+      }
+      at += block + (block_checksum ? 4 : 0);
+    }
+    at += (flags & 0x04U) != 0 ? 4 : 0;
+  }
+  return at == size && written == out->size();
 }
 
 bool Lz4Frame(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* out,
@@ -57,6 +129,7 @@ bool Lz4Frame(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* 
     }
   }
   LZ4F_freeDecompressionContext(context);
+  if (!ok && Lz4FrameByHand(data, size, out)) return true;
   if (ok && written != out->size()) {
     *error = "lz4 data gave " + std::to_string(written) + " bytes, the header says " +
              std::to_string(out->size());

@@ -23,8 +23,9 @@ struct BagTopic {
 
 // Where a message lies, to read it again.
 struct BagPosition {
-  std::uint64_t block = 0;   // ROS 1: the file offset of its chunk record
+  std::uint64_t block = 0;   // ROS 1, MCAP: the file offset of its chunk; sqlite3: its row id
   std::uint32_t offset = 0;  // the offset of its record in the block's uncompressed data
+  std::uint32_t part = 0;    // a split bag: which of its files
 };
 
 struct BagMessage {
@@ -59,16 +60,22 @@ class BagReader {
   // Ends a scan at `offset` of `file_size`: a warning with "truncated" and the last time read.
   void WarnTruncated(std::uint64_t offset, std::uint64_t file_size, double last_time,
                      const std::string& damage = {});
+  // The same where no byte offset is known: `where` says where the bag ends ("after row 7").
+  void WarnTruncated(const std::string& where, double last_time);
   std::string path_;
   std::vector<std::string> warnings_;
   bool truncated_ = false;
 };
 
-// True when the file starts like a bag stillmap reads (by its bytes, not its name).
+// True when `path` is a file that starts like a bag stillmap reads (by its bytes, not its name:
+// ROS 1, MCAP or SQLite), or a ROS 2 bag folder (metadata.yaml, or .db3/.mcap files and no
+// TUM lists).
 bool LooksLikeBag(const std::string& path);
 
-// Opens a bag by its content. Throws InputError naming the file for one that is not a bag (or
-// of a version stillmap does not read), cannot be opened, or whose first records are damaged.
+// Opens a bag by its content: a ROS 1 .bag, an .mcap or .db3 file, or a ROS 2 bag folder (its
+// files in metadata.yaml's order, as one bag). Throws InputError naming the file for one that is
+// not a bag (or of a version stillmap does not read), cannot be opened, or whose first records
+// are damaged.
 std::unique_ptr<BagReader> OpenBag(const std::string& path);
 
 }  // namespace stillmap

@@ -92,8 +92,9 @@ struct Frame {
 
 class BagFrames;
 
-// True when `path` is a file whose bytes start like a recorded bag (bag_reader.h).
-bool IsBagFile(const std::string& path);
+// True when `path` is a recorded bag: a file whose bytes start like one, or a ROS 2 bag folder
+// (bag_reader.h).
+bool IsBag(const std::string& path);
 
 // A bag's topics (name, type, encoding or format, count, rate), then the colour, depth and
 // camera-info topics a build would use, or why it would refuse. Throws InputError for a file
