@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "bag/bytes.h"
+#include "bag/rvl.h"
 #include "jpeg_decoder.h"
 #include "png_decoder.h"
 #include "stillmap/io/error.h"
@@ -230,24 +231,53 @@ cv::Mat ColorFromRosCompressed(const RosCompressedImage& image, const std::strin
   return decoded;
 }
 
-cv::Mat DepthFromRosCompressed(const RosCompressedImage& image, double metres_per_unit,
-                               const std::string& where) {
-  // compressed_depth_image_transport: a ConfigHeader (int32 format, float depthParam[2]), then
-  // the PNG of the 16-bit values.
+namespace {
+
+// compressed_depth_image_transport's 16-bit values after its 12-byte ConfigHeader: a PNG, or
+// (rvl) the image's int32 columns and rows, then RVL.
+cv::Mat CompressedDepthValues(const RosCompressedImage& image, const std::string& where) {
   constexpr size_t kConfigHeader = 12;
-  const bool png = image.format.find("compressedDepth") != std::string::npos &&
-                   image.format.find("rvl") == std::string::npos;
-  if (!png) {
+  const bool rvl = image.format.find("compressedDepth rvl") != std::string::npos;
+  const bool png = !rvl && image.format.find("compressedDepth") != std::string::npos;
+  if (!png && !rvl) {
     throw InputError(where + ": compressed depth " + Quoted(image.format) +
-                     " is not read (compressedDepth png)");
+                     " is not read (compressedDepth png or rvl)");
+  }
+  if (rvl) {
+    if (image.size < kConfigHeader + 8) {
+      throw InputError(where + ": compressedDepth rvl data without its header and size");
+    }
+    const std::uint32_t cols = Le32(image.data + kConfigHeader);
+    const std::uint32_t rows = Le32(image.data + kConfigHeader + 4);
+    constexpr std::uint64_t kMaxPixels = 4096ULL * 4096ULL;  // a few bytes of RVL can claim more
+    if (cols == 0 || rows == 0 || static_cast<std::uint64_t>(cols) * rows > kMaxPixels) {
+      throw InputError(where + ": compressedDepth rvl image of " + std::to_string(cols) + "x" +
+                       std::to_string(rows) + " pixels");
+    }
+    cv::Mat raw(static_cast<int>(rows), static_cast<int>(cols), CV_16UC1);
+    if (!DecodeRvl(image.data + kConfigHeader + 8, image.size - kConfigHeader - 8,
+                   raw.ptr<std::uint16_t>(), raw.total())) {
+      throw InputError(where + ": compressedDepth rvl data damaged (it does not decode to " +
+                       std::to_string(cols) + "x" + std::to_string(rows) + " pixels)");
+    }
+    return raw;
   }
   if (image.size < kConfigHeader + 8 ||
       std::memcmp(image.data + kConfigHeader, "\x89PNG", 4) != 0) {
     throw InputError(where + ": compressedDepth data without its 12-byte header and PNG");
   }
   const std::vector<unsigned char> bytes(image.data + kConfigHeader, image.data + image.size);
-  const cv::Mat raw = DecodePng(where, bytes);
+  cv::Mat raw = DecodePng(where, bytes);
   if (raw.type() != CV_16UC1) throw InputError(where + ": compressedDepth PNG is not 16-bit gray");
+  return raw;
+}
+
+}  // namespace
+
+cv::Mat DepthFromRosCompressed(const RosCompressedImage& image, double metres_per_unit,
+                               const std::string& where) {
+  // The ConfigHeader: int32 format, float depthParam[2] (the inverse depth's quantization).
+  const cv::Mat raw = CompressedDepthValues(image, where);
   cv::Mat depth_m;
   if (image.format.rfind("32FC1", 0) == 0) {
     // Inverse depth, quantized: z = a / (v - b), 0 = no reading.

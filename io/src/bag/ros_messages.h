@@ -63,8 +63,8 @@ cv::Mat DepthFromRosImage(const RosImage& image, double metres_per_unit, const s
 // Colour from a JPEG or PNG CompressedImage.
 cv::Mat ColorFromRosCompressed(const RosCompressedImage& image, const std::string& where);
 // Depth from compressed_depth_image_transport's "16UC1; compressedDepth png" (12-byte header,
-// then a 16-bit PNG) or "32FC1; compressedDepth png" (inverse depth quantized by the header's
-// two parameters).
+// then a 16-bit PNG), "16UC1; compressedDepth rvl" (12-byte header, columns and rows, then RVL),
+// or their 32FC1 forms (inverse depth quantized by the header's two parameters).
 cv::Mat DepthFromRosCompressed(const RosCompressedImage& image, double metres_per_unit,
                                const std::string& where);
 
