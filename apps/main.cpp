@@ -16,6 +16,7 @@
 #include "stillmap/pipeline/build_pipeline.h"
 #include "stillmap/pipeline/commands.h"
 #include "stillmap/pipeline/library_messages.h"
+#include "stillmap/pipeline/model_search.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report.h"
 #include "stillmap/synth/synthetic.h"
@@ -76,7 +77,8 @@ struct BuildCommand {
         "config.yaml; the 3-D outputs in one z-up map frame (map.frame).");
     command
         ->add_option("SEQUENCE_DIR", request.sequence_dir,
-                     "TUM-layout sequence folder, or a recorded ROS 1 .bag or MCAP file")
+                     "TUM-layout sequence folder, or a recorded bag: a ROS 1 .bag, an .mcap or "
+                     ".db3 file, or a ROS 2 bag folder")
         ->required();
     command->add_option("--topic", topics,
                         "a bag's topic: color=NAME, depth=NAME or camera_info=NAME (repeatable; "
@@ -102,8 +104,10 @@ struct BuildCommand {
                      "(per-pixel), both")
         ->check(CLI::IsMember({"auto", "none", "yolox", "deeplab", "both"}));
     command->add_option("--models", request.models_dir,
-                        "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: "
-                        "$STILLMAP_MODELS, else ../shared/models when present)");
+                        "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: the first "
+                        "that holds one of $STILLMAP_MODELS, ~/.local/share/stillmap/models, "
+                        "PREFIX/share/stillmap/models, BIN/models, ../shared/models; "
+                        "scripts/fetch-models gets them)");
     command
         ->add_option(
             "--threads", request.threads,
@@ -160,13 +164,12 @@ struct BuildCommand {
     request.detector = run.detector;
     request.models_dir = run.models;
     request.threads = run.threads;
-    std::error_code models_error;
-    if (request.models_dir.empty() && request.detector != "none") {
-      const char* from_environment = std::getenv("STILLMAP_MODELS");
-      if (from_environment != nullptr && *from_environment != '\0') {
-        request.models_dir = from_environment;
-      } else if (std::filesystem::is_directory("../shared/models", models_error)) {
-        request.models_dir = "../shared/models";
+    if (!request.models_dir.empty()) {
+      request.models_found_by = command->count("--models") > 0 ? "--models" : "run.models";
+    } else if (request.detector != "none") {
+      if (const auto found = stillmap::FindModels()) {
+        request.models_dir = found->path;
+        request.models_found_by = found->found_by;
       }
     }
     request.show_progress = !quiet && stillmap::StderrIsTerminal();
@@ -286,13 +289,17 @@ struct InfoCommand {
                            "bag, its topics and the ones a build would use.");
     command
         ->add_option("SEQUENCE_DIR", sequence_dir,
-                     "TUM-layout sequence folder, or a recorded ROS 1 .bag or MCAP file")
+                     "TUM-layout sequence folder, or a recorded bag: a ROS 1 .bag, an .mcap or "
+                     ".db3 file, or a ROS 2 bag folder")
         ->required();
     command->add_option("--camera-preset", camera_preset,
                         stillmap::CameraPresetChoices() + " when the folder has no camera.yaml");
   }
 
-  void Run() const { std::cout << stillmap::DescribeSequence(sequence_dir, camera_preset); }
+  void Run() const {
+    std::cout << stillmap::DescribeSequence(sequence_dir, camera_preset);
+    std::cout << "detector:   " << stillmap::DescribeDefaultDetector() << "\n";
+  }
 };
 
 int Run(int argc, char** argv) {

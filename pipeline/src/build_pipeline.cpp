@@ -20,6 +20,7 @@
 #include "stillmap/io/error.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/timing.h"
+#include "stillmap/pipeline/model_search.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report.h"
 #include "stillmap/pipeline/report_html.h"
@@ -102,10 +103,11 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
                             config.yolox, config.deeplab);
     if (request.detector == "auto" && detector == nullptr && config.masking.semantics) {
       result->warnings.push_back(
-          (request.models_dir.empty() ? std::string("no models folder")
+          (request.models_dir.empty() ? "no detector model in " + DescribeModelSearchPath()
                                       : "no YOLOX-Nano model under '" + request.models_dir + "'") +
           ": moving objects are found by geometry only, and people who stand still stay in the "
-          "map (pass --models DIR holding yolox_nano/, or --detector none to silence this)");
+          "map (scripts/fetch-models gets the model; or pass --models DIR holding yolox_nano/, "
+          "or --detector none to silence this)");
     }
   }
   // One thread runs the same schedule (the detector when its result is due): the same masks.
@@ -115,6 +117,10 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
   result->masking.enabled = masks->enabled();
   result->masking.detector = masks->detector_name();
   result->masking.semantics = masks->semantics();
+  if (masks->semantics()) {
+    result->masking.models_dir = request.models_dir;
+    result->masking.models_found_by = request.models_found_by;
+  }
   return masks;
 }
 

@@ -78,6 +78,9 @@ json MaskingJson(const MaskingFigures& masking, const DynamicMaskOptions& option
   const MaskingStatistics& s = masking.statistics;
   out["detector"] = masking.detector;
   out["semantics"] = masking.semantics;
+  if (masking.semantics) {
+    out["models"] = {{"folder", masking.models_dir}, {"found_by", masking.models_found_by}};
+  }
   out["depth_check"] = options.depth_check;
   out["flow_check"] = options.flow_check;
   out["outline"] = OutlineModeName(options.outline);
@@ -485,6 +488,11 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
       fmt::format("keyframes: {} fused, {} invalid, {} redundant; mean masked share {:.1f} %",
                   result.frames.fused, result.selection.invalid, result.selection.redundant,
                   100.0 * result.masking.statistics.MeanShare()));
+  if (result.masking.semantics) {
+    lines.push_back(fmt::format("detector: {} (models in {}, found through {})",
+                                result.masking.detector, result.masking.models_dir,
+                                result.masking.models_found_by));
+  }
   if (const std::optional<MaskScore>& score = result.masking.statistics.score) {
     lines.push_back(fmt::format("masks vs masks/: precision {:.3f}, recall {:.3f}, IoU {:.3f}",
                                 score->Precision(), score->Recall(), score->Iou()));

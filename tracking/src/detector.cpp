@@ -368,8 +368,9 @@ std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::strin
   }
   if (models_dir.empty()) {
     throw InputError("--detector " + name +
-                     " needs the models: pass --models DIR (the folder holding yolox_nano/ and "
-                     "deeplabv3_mnv2_voc/) or set STILLMAP_MODELS");
+                     " needs the models and none were found: run scripts/fetch-models, or pass "
+                     "--models DIR (the folder holding yolox_nano/ and deeplabv3_mnv2_voc/) or "
+                     "set STILLMAP_MODELS");
   }
   if (name == "yolox") return MakeYoloxDetector(models_dir, levels, yolox);
   if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels, deeplab);

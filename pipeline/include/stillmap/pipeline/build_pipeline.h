@@ -19,6 +19,7 @@ struct BuildRequest {
   PoseSource poses = PoseSource::kTracking;
   std::string detector = "auto";  // auto (yolox when models_dir has it), none, yolox, deeplab, both
   std::string models_dir;         // holds yolox_nano/ and deeplabv3_mnv2_voc/
+  std::string models_found_by;    // how: "--models", "$STILLMAP_MODELS", ... (model_search.h)
   int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
   bool show_progress = false;  // a progress line on stderr
   std::string command_line;    // as typed, for the report (empty: a library call)

@@ -68,7 +68,9 @@ struct SelectionFigures {
 struct MaskingFigures {
   bool enabled = false;
   std::string detector = "none";
-  bool semantics = false;  // a detector ran
+  bool semantics = false;       // a detector ran
+  std::string models_dir;       // where its weights came from
+  std::string models_found_by;  // "--models", "$STILLMAP_MODELS", ... (model_search.h)
   MaskingStatistics statistics;
 };
 
