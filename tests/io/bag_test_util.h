@@ -1,4 +1,5 @@
-// What the bag reader tests share: the sequence's lists by stamp, and a whole scan kept.
+// What the bag reader tests share: the sequence's lists by stamp, a whole scan kept, and a CDR
+// writer for messages made in a test.
 #pragma once
 
 #include <cstdio>
@@ -45,5 +46,27 @@ inline Scanned ScanAll(BagReader& bag) {
   });
   return scanned;
 }
+
+// A little-endian CDR writer: each primitive aligned to its size from after the 4-byte header.
+class Cdr {
+ public:
+  Cdr() : bytes_{0x00, 0x01, 0x00, 0x00} {}
+  void U32(std::uint32_t value) { Put(&value, 4); }
+  void F64(double value) { Put(&value, 8); }
+  void String(const std::string& text) {
+    U32(static_cast<std::uint32_t>(text.size() + 1));
+    bytes_.insert(bytes_.end(), text.begin(), text.end());
+    bytes_.push_back(0);
+  }
+  const std::vector<std::uint8_t>& bytes() const { return bytes_; }
+
+ private:
+  void Put(const void* value, size_t size) {
+    while ((bytes_.size() - 4) % size != 0) bytes_.push_back(0);
+    const auto* p = static_cast<const std::uint8_t*>(value);
+    bytes_.insert(bytes_.end(), p, p + size);
+  }
+  std::vector<std::uint8_t> bytes_;
+};
 
 }  // namespace stillmap

@@ -5,13 +5,17 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <opencv2/imgcodecs.hpp>
 
 #include "bag/ros_messages.h"
 #include "bag_test_util.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/sequence.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -131,6 +135,99 @@ TEST_F(SqliteBagTest, AFileCutShortReadsWhatItHoldsAndSaysTruncated) {
   ASSERT_NE(depth, scanned.data.end());
   EXPECT_GT(depth->second.size(), 5u);
   EXPECT_LT(depth->second.size(), 31u);
+}
+
+// Rewrites the blobs of one topic's messages with `edit`.
+void EditMessages(const std::string& path, int topic_id,
+                  const std::function<void(std::vector<std::uint8_t>*)>& edit) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* select = nullptr;
+  sqlite3_stmt* update = nullptr;
+  sqlite3_prepare_v2(db, "SELECT id, data FROM messages WHERE topic_id = ?", -1, &select, nullptr);
+  sqlite3_prepare_v2(db, "UPDATE messages SET data = ? WHERE id = ?", -1, &update, nullptr);
+  sqlite3_bind_int(select, 1, topic_id);
+  while (sqlite3_step(select) == SQLITE_ROW) {
+    const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(select, 1));
+    std::vector<std::uint8_t> bytes(data, data + sqlite3_column_bytes(select, 1));
+    edit(&bytes);
+    sqlite3_reset(update);
+    sqlite3_bind_blob(update, 1, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
+    sqlite3_bind_int64(update, 2, sqlite3_column_int64(select, 0));
+    EXPECT_EQ(sqlite3_step(update), SQLITE_DONE);
+  }
+  sqlite3_finalize(select);
+  sqlite3_finalize(update);
+  sqlite3_close(db);
+}
+
+void Replace(std::vector<std::uint8_t>* bytes, const std::string& text, const std::string& to) {
+  const std::vector<std::uint8_t> from(text.begin(), text.end());  // bytes, not signed chars
+  const auto at = std::search(bytes->begin(), bytes->end(), from.begin(), from.end());
+  ASSERT_NE(at, bytes->end()) << from.size() << " bytes not in " << bytes->size();
+  std::copy(to.begin(), to.end(), at);
+}
+
+std::string DoubleBytes(double value) {
+  std::string bytes(sizeof(value), '\0');
+  std::memcpy(bytes.data(), &value, sizeof(value));
+  return bytes;
+}
+
+// The Jazzy teddy bag with its depth camera made another (frame /openni_dep_optical_frame, fx 540):
+// refused without /tf_static, naming both frames; registered into colour with it.
+TEST(SqliteBagRegistrationTest, DepthWithItsOwnCameraNeedsTfStaticAndIsRegisteredWithIt) {
+  const std::optional<std::string> folder = testing::SharedBag("teddy_tum_jazzy_db3");
+  if (!folder) GTEST_SKIP() << "bags/teddy_tum_jazzy_db3 not shared";
+  testing::TempDir dir;
+  const std::string bag = dir / "own_depth.db3";
+  fs::copy_file(*folder + "/teddy_tum_jazzy_db3_0.db3", bag);
+  EditMessages(bag, 3, [](std::vector<std::uint8_t>* bytes) {  // /camera/depth/camera_info
+    Replace(bytes, "/openni_rgb_optical_frame", "/openni_dep_optical_frame");
+    Replace(bytes, DoubleBytes(535.4), DoubleBytes(540.0));
+  });
+  try {
+    Sequence::OpenBag(bag, {});
+    ADD_FAILURE() << "depth with a camera of its own was taken without /tf_static";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("no /tf_static transform"), std::string::npos) << what;
+    EXPECT_NE(what.find("/openni_dep_optical_frame"), std::string::npos) << what;
+    EXPECT_NE(what.find("aligned_depth_to_color"), std::string::npos) << what;
+  }
+  Cdr tf;
+  tf.U32(1);
+  tf.U32(1341841873);
+  tf.U32(0);
+  tf.String("/openni_rgb_optical_frame");
+  tf.String("/openni_dep_optical_frame");
+  for (const double value : {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0}) tf.F64(value);
+  Execute(bag,
+          "INSERT INTO topics (id, name, type, serialization_format, offered_qos_profiles, "
+          "type_description_hash) VALUES (9, '/tf_static', 'tf2_msgs/msg/TFMessage', 'cdr', "
+          "'', '')");
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(bag.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* insert = nullptr;
+  sqlite3_prepare_v2(db, "INSERT INTO messages (topic_id, timestamp, data) VALUES (9, 1, ?)", -1,
+                     &insert, nullptr);
+  sqlite3_bind_blob(insert, 1, tf.bytes().data(), static_cast<int>(tf.bytes().size()),
+                    SQLITE_TRANSIENT);
+  EXPECT_EQ(sqlite3_step(insert), SQLITE_DONE);
+  sqlite3_finalize(insert);
+  sqlite3_close(db);
+  const Sequence sequence = Sequence::OpenBag(bag, {});
+  bool said = false;
+  for (const std::string& note : sequence.notes()) {
+    said = said || note.find("registered into colour with /tf_static") != std::string::npos;
+  }
+  EXPECT_TRUE(said);
+  const Frame frame = sequence.LoadFrame(0);
+  ASSERT_EQ(frame.depth_m.size(), frame.color.size());
+  // fx 540 against 535.4: the depth image shrinks about the centre by 0.85 %; its readings stay.
+  const Frame as_recorded = Sequence::OpenBag(*folder, {}).LoadFrame(0);
+  EXPECT_GT(cv::countNonZero(frame.depth_m), cv::countNonZero(as_recorded.depth_m) * 95 / 100);
+  EXPECT_LT(cv::countNonZero(frame.depth_m), cv::countNonZero(as_recorded.depth_m) * 101 / 100);
 }
 
 TEST(SqliteBagOpenTest, ADatabaseThatIsNoBagAndABrokenFolderAreRefusedByName) {

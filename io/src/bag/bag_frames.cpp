@@ -89,6 +89,7 @@ void BagFrames::Load(size_t index, double time, cv::Mat* color, cv::Mat* depth_m
       [&](const RosCompressedImage& image) {
         return DepthFromRosCompressed(image, metres_per_unit_, depth_where);
       });
+  if (registration_ != nullptr) *depth_m = registration_->Register(*depth_m, depth_where);
 }
 
 }  // namespace stillmap

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "bag/bag_streams.h"
+#include "bag/depth_registration.h"
 #include "stillmap/io/sequence.h"
 
 namespace stillmap {
@@ -18,8 +19,12 @@ class BagFrames {
   // fills *frames (no paths) and keeps each pair's positions.
   void Pair(const BagStream& color, const BagStream& depth, double max_pair_time_difference,
             std::vector<FrameEntry>* frames);
-  // Decodes pair `index` (colour BGR, depth in metres). Throws InputError naming the bag, the
-  // topic and the stamp for a message that does not decode.
+  // Depth from a camera of its own: registered into colour as each pair is loaded.
+  void RegisterDepth(std::unique_ptr<DepthRegistration> registration) {
+    registration_ = std::move(registration);
+  }
+  // Decodes pair `index` (colour BGR, depth in metres, registered when RegisterDepth was called).
+  // Throws InputError naming the bag, the topic and the stamp for a message that does not decode.
   void Load(size_t index, double time, cv::Mat* color, cv::Mat* depth_m) const;
 
  private:
@@ -28,6 +33,7 @@ class BagFrames {
   BagStreamKind color_kind_, depth_kind_;
   double metres_per_unit_;
   std::vector<BagPosition> color_positions_, depth_positions_;  // per pair
+  std::unique_ptr<DepthRegistration> registration_;
 };
 
 }  // namespace stillmap

@@ -67,6 +67,39 @@ Camera WithOverrides(Camera camera, const CameraOverrides& overrides,
   return camera;
 }
 
+// Depth with a camera of its own (its CameraInfo differs from colour's) is registered into colour
+// through /tf_static; none is needed when it shares colour's camera.
+std::unique_ptr<DepthRegistration> RegistrationOf(const BagContents& contents,
+                                                  const BagStream& depth, const BagStream& info,
+                                                  const std::string& path,
+                                                  std::vector<std::string>* notes) {
+  const std::string depth_info = CameraInfoTopicOf(depth.name);
+  const BagStream* own = nullptr;
+  for (const BagStream& stream : contents.streams) {
+    if (stream.name == depth_info && stream.has_info && !SameCamera(stream.info, info.info)) {
+      own = &stream;
+    }
+  }
+  if (own == nullptr) return nullptr;
+  const std::string& depth_frame = own->info.header.frame_id;
+  const std::string& color_frame = info.info.header.frame_id;
+  const std::optional<Eigen::Isometry3d> color_from_depth =
+      FindStaticTransform(contents.static_transforms, color_frame, depth_frame);
+  if (!color_from_depth) {
+    throw InputError(path + ": depth topic " + depth.name + " has a camera of its own (" +
+                     depth_info + " differs from " + info.name + ") and no /tf_static transform " +
+                     "links its frame " + Quoted(depth_frame) + " to colour's " +
+                     Quoted(color_frame) +
+                     ". Record the registered depth (realsense2_camera: aligned_depth_to_color; "
+                     "openni: depth_registered; Azure Kinect: depth_to_rgb) and name it with "
+                     "--topic depth=NAME, or record /tf_static too");
+  }
+  notes->push_back("depth " + depth.name + " registered into colour with /tf_static (" +
+                   depth_frame + " in " + color_frame + ")");
+  return std::make_unique<DepthRegistration>(own->info, info.info, *color_from_depth,
+                                             path + ": " + depth_info);
+}
+
 }  // namespace
 
 bool IsBag(const std::string& path) { return LooksLikeBag(path); }
@@ -101,22 +134,14 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
   const BagStream& color = contents.streams[choice.color];
   const BagStream& depth = contents.streams[choice.depth];
   const BagStream& info = contents.streams[choice.camera_info];
-  // Depth with a camera of its own is not registered to colour.
-  const std::string depth_info = CameraInfoTopicOf(depth.name);
-  for (const BagStream& stream : contents.streams) {
-    if (stream.name == depth_info && stream.has_info && !SameCamera(stream.info, info.info)) {
-      std::string message = path + ": depth topic " + depth.name + " has a camera of its own (";
-      message += depth_info + " differs from " + info.name + "): it is not registered to colour. ";
-      throw InputError(message +
-                       "Record the registered depth "
-                       "(realsense2_camera: aligned_depth_to_color; openni: depth_registered) "
-                       "and name it with --topic depth=NAME");
-    }
-  }
+  std::vector<std::string> notes;
+  std::unique_ptr<DepthRegistration> registration =
+      RegistrationOf(contents, depth, info, path, &notes);
   Sequence sequence;
   sequence.dir_ = path;
   sequence.options_ = options;
   sequence.warnings_ = contents.warnings;
+  sequence.notes_ = notes;
   sequence.notes_.push_back("topics: colour " + color.name + ", depth " + depth.name + ", camera " +
                             info.name);
   Camera camera = overrides.preset.empty() ? CameraFromInfo(info.info, path + ": " + info.name)
@@ -130,6 +155,7 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
   sequence.camera_ = camera;
   auto frames =
       std::make_shared<BagFrames>(std::move(reader), color, depth, 1.0 / camera.depth_factor);
+  if (registration != nullptr) frames->RegisterDepth(std::move(registration));
   frames->Pair(color, depth, options.max_pair_time_difference, &sequence.frames_);
   sequence.color_count_ = color.count;
   sequence.depth_count_ = depth.count;

@@ -100,7 +100,7 @@ size_t PickOne(const BagContents& contents, const std::vector<size_t>& found, co
 
 BagContents ScanBagContents(BagReader& bag) {
   BagContents contents;
-  size_t undecoded = 0;
+  size_t undecoded = 0, undecoded_transforms = 0;
   bag.Scan([&](const BagMessage& message) {
     if (contents.streams.size() < bag.topics().size()) {
       for (size_t t = contents.streams.size(); t < bag.topics().size(); ++t) {
@@ -114,6 +114,12 @@ BagContents ScanBagContents(BagReader& bag) {
     BagStream& stream = contents.streams[message.topic];
     std::string error;
     double stamp = message.time;
+    if (stream.kind == BagStreamKind::kOther && stream.name == "/tf_static" &&
+        stream.type.find("TFMessage") != std::string::npos &&
+        !DecodeRosTfMessage(message.data, message.size, bag.serialization(),
+                            &contents.static_transforms, &error)) {
+      ++undecoded_transforms;
+    }
     if (stream.kind == BagStreamKind::kCameraInfo && !stream.has_info) {
       stream.has_info = DecodeRosCameraInfo(message.data, message.size, bag.serialization(),
                                             &stream.info, &error);
@@ -149,6 +155,10 @@ BagContents ScanBagContents(BagReader& bag) {
   if (undecoded > 0) {
     contents.warnings.push_back(bag.path() + ": " + std::to_string(undecoded) +
                                 " image messages without a readable header are left out");
+  }
+  if (undecoded_transforms > 0) {
+    contents.warnings.push_back(bag.path() + ": " + std::to_string(undecoded_transforms) +
+                                " /tf_static messages that do not decode are left out");
   }
   return contents;
 }

@@ -27,7 +27,8 @@ struct BagStream {
 };
 
 struct BagContents {
-  std::vector<BagStream> streams;  // per topic of the reader
+  std::vector<BagStream> streams;               // per topic of the reader
+  std::vector<RosTransform> static_transforms;  // every /tf_static message's
   bool truncated = false;
   std::vector<std::string> warnings;
 };

@@ -151,6 +151,32 @@ bool DecodeRosCameraInfo(const std::uint8_t* data, size_t size, BagSerialization
   return true;
 }
 
+bool DecodeRosTfMessage(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                        std::vector<RosTransform>* transforms, std::string* error) {
+  Cursor cursor(data, size, serialization);
+  std::uint32_t count = 0;
+  constexpr std::uint32_t kMaxTransforms = 10000;
+  if (!cursor.U32(&count) || count > kMaxTransforms) {
+    return Fail(error, "not a tf2_msgs/TFMessage (no transform count)");
+  }
+  for (std::uint32_t i = 0; i < count; ++i) {
+    RosHeader header;
+    RosTransform transform;
+    if (!Header(cursor, serialization, &header) || !cursor.String(&transform.child)) {
+      return Fail(error, "not a tf2_msgs/TFMessage (a transform's frames run past the message)");
+    }
+    for (double& value : transform.translation) {
+      if (!cursor.F64(&value)) return Fail(error, "not a tf2_msgs/TFMessage (no translation)");
+    }
+    for (double& value : transform.rotation) {
+      if (!cursor.F64(&value)) return Fail(error, "not a tf2_msgs/TFMessage (no rotation)");
+    }
+    transform.parent = header.frame_id;
+    transforms->push_back(std::move(transform));
+  }
+  return true;
+}
+
 cv::Mat ColorFromRosImage(const RosImage& image, const std::string& where) {
   struct Layout {
     const char* encoding;

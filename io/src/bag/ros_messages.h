@@ -44,6 +44,13 @@ struct RosCameraInfo {
   std::array<double, 9> k{};
 };
 
+// One geometry_msgs/TransformStamped of a tf2_msgs/TFMessage: the pose of `child` in `parent`.
+struct RosTransform {
+  std::string parent, child;
+  std::array<double, 3> translation{};  // [m]
+  std::array<double, 4> rotation{};     // quaternion x, y, z, w
+};
+
 // Each returns false with *error saying what does not fit when the bytes are not such a message.
 bool DecodeRosHeader(const std::uint8_t* data, size_t size, BagSerialization serialization,
                      RosHeader* header, std::string* error);
@@ -53,6 +60,9 @@ bool DecodeRosCompressedImage(const std::uint8_t* data, size_t size, BagSerializ
                               RosCompressedImage* image, std::string* error);
 bool DecodeRosCameraInfo(const std::uint8_t* data, size_t size, BagSerialization serialization,
                          RosCameraInfo* info, std::string* error);
+// A tf2_msgs/TFMessage (what /tf_static carries): its transforms appended to *transforms.
+bool DecodeRosTfMessage(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                        std::vector<RosTransform>* transforms, std::string* error);
 
 // Colour as CV_8UC3 BGR from rgb8, bgr8, rgba8, bgra8 or mono8 (a copy). Throws InputError naming
 // `where` for another encoding or data shorter than its rows.
