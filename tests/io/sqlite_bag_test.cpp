@@ -230,6 +230,24 @@ TEST(SqliteBagRegistrationTest, DepthWithItsOwnCameraNeedsTfStaticAndIsRegistere
   EXPECT_LT(cv::countNonZero(frame.depth_m), cv::countNonZero(as_recorded.depth_m) * 101 / 100);
 }
 
+TEST_F(SqliteBagTest, ABagWithoutDepthIsRefusedNamingDepthAndListingItsTopics) {
+  testing::TempDir dir;
+  const std::string bag = dir / "no_depth.db3";
+  fs::copy_file(folder_ + "/teddy_realsense_db3_0.db3", bag);
+  Execute(bag,
+          "DELETE FROM messages WHERE topic_id IN (SELECT id FROM topics WHERE name LIKE "
+          "'%depth%'); DELETE FROM topics WHERE name LIKE '%depth%'");
+  try {
+    Sequence::OpenBag(bag, {});
+    ADD_FAILURE() << "a bag without depth was opened";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("no_depth.db3: no depth stream"), std::string::npos) << what;
+    EXPECT_NE(what.find("/camera/camera/color/image_raw/compressed"), std::string::npos) << what;
+    EXPECT_NE(what.find("30 messages"), std::string::npos) << what;
+  }
+}
+
 TEST(SqliteBagOpenTest, ADatabaseThatIsNoBagAndABrokenFolderAreRefusedByName) {
   testing::TempDir dir;
   const std::string other = dir / "other.db3";
