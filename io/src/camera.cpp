@@ -18,7 +18,18 @@ bool Camera::HasDistortion() const {
   for (double k : distortion) {
     if (k != 0.0) return true;
   }
+  for (double k : rational) {
+    if (k != 0.0) return true;
+  }
   return false;
+}
+
+std::vector<double> Camera::Coefficients() const {
+  std::vector<double> coefficients(distortion.begin(), distortion.end());
+  if (rational[0] != 0.0 || rational[1] != 0.0 || rational[2] != 0.0) {
+    coefficients.insert(coefficients.end(), rational.begin(), rational.end());
+  }
+  return coefficients;
 }
 
 std::vector<Eigen::Vector2f> PixelRays(const Camera& camera) {
@@ -42,8 +53,7 @@ std::vector<Eigen::Vector2f> PixelRays(const Camera& camera) {
     }
   }
   const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
-  cv::undistortPoints(pixels, undistorted, k, distortion);
+  cv::undistortPoints(pixels, undistorted, k, camera.Coefficients());
   for (const cv::Point2f& ray : undistorted) rays.emplace_back(ray.x, ray.y);
   return rays;
 }
@@ -58,6 +68,9 @@ PixelProjection::PixelProjection(const Camera& camera)
       p1_(static_cast<float>(camera.distortion[2])),
       p2_(static_cast<float>(camera.distortion[3])),
       k3_(static_cast<float>(camera.distortion[4])),
+      k4_(static_cast<float>(camera.rational[0])),
+      k5_(static_cast<float>(camera.rational[1])),
+      k6_(static_cast<float>(camera.rational[2])),
       distorted_(camera.HasDistortion()) {}
 
 namespace {
@@ -69,6 +82,7 @@ namespace {
 // does not converge).
 std::string DistortionProblem(const Camera& camera) {
   const auto& d = camera.distortion;
+  const auto& q = camera.rational;
   double corner_radius = 0.0;  // distorted normalized radius of the farthest corner
   std::vector<cv::Point2d> border;
   for (int i = 0; i <= 8; ++i) {
@@ -84,7 +98,8 @@ std::string DistortionProblem(const Camera& camera) {
   bool reached = false;
   for (double r = 1e-3; r <= 20.0 && !reached; r += 1e-3) {  // up to 87 degrees off axis
     const double r2 = r * r;
-    const double radial = r * (1.0 + r2 * (d[0] + r2 * (d[1] + r2 * d[4])));
+    const double radial = r * (1.0 + r2 * (d[0] + r2 * (d[1] + r2 * d[4]))) /
+                          (1.0 + r2 * (q[0] + r2 * (q[1] + r2 * q[2])));
     if (!(radial > previous)) {
       return "its radial term turns back at " +
              std::to_string(static_cast<int>(std::atan(r) * 180.0 / M_PI)) +
@@ -95,7 +110,7 @@ std::string DistortionProblem(const Camera& camera) {
   }
   if (!reached) return "the image's corners lie beyond 87 degrees off axis";
   const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> coefficients(d.begin(), d.end());
+  const std::vector<double> coefficients = camera.Coefficients();
   std::vector<cv::Point2d> rays, back;
   cv::undistortPoints(border, rays, k, coefficients);
   std::vector<cv::Point3d> points;
@@ -131,7 +146,7 @@ void Camera::Validate(const std::string& source) const {
   if (!(cx >= 0.0 && cx <= width && cy >= 0.0 && cy <= height)) {
     fail("the principal point (cx, cy) must lie inside the image");
   }
-  for (double k : distortion) {
+  for (double k : Coefficients()) {
     if (!std::isfinite(k)) fail("distortion coefficients must be finite");
   }
   if (HasDistortion()) {

@@ -44,7 +44,7 @@ DepthBackProjector::DepthBackProjector(const Camera& camera, const BackProjectio
       pixels.emplace_back(static_cast<float>(u), static_cast<float>(v));
   }
   const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+  const std::vector<double> distortion = camera.Coefficients();
   std::vector<cv::Point2f> rays;
   // Iterative undistortion; the default 5 iterations leave ~0.1 px at the Bonn corners.
   cv::undistortPoints(pixels, rays, k, distortion, cv::noArray(), cv::noArray(),

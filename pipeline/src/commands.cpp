@@ -117,7 +117,9 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
   std::error_code error;
   const bool bag = IsBag(sequence_dir);
   if (!bag && !fs::is_directory(sequence_dir, error)) {
-    throw InputError(sequence_dir + ": sequence folder not found (nor a ROS 1 .bag, an .mcap or .db3 file, or a ROS 2 bag folder)");
+    throw InputError(sequence_dir +
+                     ": sequence folder not found (nor a ROS 1 .bag, an .mcap or .db3 file, or a "
+                     "ROS 2 bag folder)");
   }
   if (!bag && camera_preset.empty() &&
       !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {
@@ -144,7 +146,7 @@ std::string DescribeSequence(const std::string& sequence_dir, const std::string&
                       duration > 0 ? static_cast<double>(frames.size() - 1) / duration : 0.0);
   text += fmt::format("camera:     {}x{} fx {} fy {} cx {} cy {} distortion [{}] depth_factor {}\n",
                       camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy,
-                      fmt::join(camera.distortion, ", "), camera.depth_factor);
+                      fmt::join(camera.Coefficients(), ", "), camera.depth_factor);
   if (sequence.groundtruth()) {
     size_t covered = 0;
     for (const FrameEntry& frame : frames) {

@@ -41,7 +41,7 @@ json CameraJson(const Camera& camera) {
           {"fy", camera.fy},
           {"cx", camera.cx},
           {"cy", camera.cy},
-          {"distortion", camera.distortion},
+          {"distortion", camera.Coefficients()},
           {"depth_factor", camera.depth_factor},
           {"groundtruth_body_from_camera", camera.groundtruth_body_from_camera.has_value()}};
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <opencv2/calib3d.hpp>
 #include <vector>
 
 #include "stillmap/io/error.h"
@@ -101,6 +102,49 @@ TEST(CameraTest, PixelRaysProjectBackOntoTheirPixels) {
   }
   EXPECT_NEAR(KinectDepthSigma(0.4f), 0.0012f, 1e-7f);
   EXPECT_NEAR(KinectDepthSigma(3.0f), 0.0012f + 0.0019f * 2.6f * 2.6f, 1e-6f);
+}
+
+// OpenCV's rational model (ROS rational_polynomial, as an Azure Kinect's CameraInfo gives it):
+// PixelProjection agrees with cv::projectPoints given all eight coefficients, and each pixel's
+// ray projects back onto it; plumb_bob cameras keep OpenCV's five.
+TEST(CameraTest, RationalDistortionProjectsAsOpenCvDoes) {
+  Camera camera;
+  camera.width = 640;
+  camera.height = 576;
+  camera.fx = 504.0;
+  camera.fy = 504.2;
+  camera.cx = 321.1;
+  camera.cy = 333.6;
+  camera.distortion = {0.45, -2.6, 0.0004, -0.0002, 1.5};
+  camera.rational = {0.33, -2.45, 1.43};
+  camera.depth_factor = 1000.0;
+  ASSERT_NO_THROW(camera.Validate("azure"));
+  ASSERT_EQ(camera.Coefficients().size(), 8u);
+  EXPECT_EQ(CameraPreset("bonn").Coefficients().size(), 5u);
+  const PixelProjection project(camera);
+  std::vector<cv::Point3d> points;
+  for (double x = -0.6; x <= 0.6; x += 0.05) {
+    for (double y = -0.5; y <= 0.5; y += 0.05) points.emplace_back(x, y, 1.0);
+  }
+  std::vector<cv::Point2d> expected;
+  const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, camera.Coefficients(),
+                    expected);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector2f pixel =
+        project(static_cast<float>(points[i].x), static_cast<float>(points[i].y));
+    EXPECT_NEAR(pixel.x(), expected[i].x, 0.01);
+    EXPECT_NEAR(pixel.y(), expected[i].y, 0.01);
+  }
+  const std::vector<Eigen::Vector2f> rays = PixelRays(camera);
+  float worst = 0.0f;
+  for (int v = 0; v < camera.height; v += 9) {
+    for (int u = 0; u < camera.width; u += 9) {
+      const Eigen::Vector2f& ray = rays[static_cast<size_t>(v) * 640 + static_cast<size_t>(u)];
+      worst = std::max(worst, (project(ray.x(), ray.y()) - Eigen::Vector2f(u, v)).norm());
+    }
+  }
+  EXPECT_LT(worst, 0.2f);
 }
 
 // Every preset passes; cameras that would ruin a run silently are refused by name: non-finite or

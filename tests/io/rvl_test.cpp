@@ -33,7 +33,9 @@ class RvlWriter {
       Put(values);
       for (size_t i = 0; i < values; ++i, ++at) {
         const int delta = pixels[at] - previous;
-        Put(static_cast<std::uint32_t>((delta << 1) ^ (delta >> 31)));
+        // Zigzag: 2 |d| for d >= 0, 2 |d| - 1 for d < 0 (no shift of a negative value).
+        Put(delta >= 0 ? 2U * static_cast<std::uint32_t>(delta)
+                       : 2U * static_cast<std::uint32_t>(-delta) - 1U);
         previous = pixels[at];
       }
     }

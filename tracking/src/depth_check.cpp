@@ -31,7 +31,7 @@ std::vector<DepthCheck> CheckDepth(const std::vector<Eigen::Vector3d>& points_in
   }
   if (in_current.empty()) return checks;
   const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+  const std::vector<double> distortion = camera.Coefficients();
   std::vector<cv::Point2d> pixels;
   cv::projectPoints(in_current, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, distortion, pixels);
   for (size_t j = 0; j < index.size(); ++j) {

@@ -107,7 +107,7 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   std::vector<cv::Point2f> pixels, rays;
   for (const cv::KeyPoint& keypoint : features.keypoints) pixels.push_back(keypoint.pt);
   const cv::Matx33d k(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> distortion(camera.distortion.begin(), camera.distortion.end());
+  const std::vector<double> distortion = camera.Coefficients();
   cv::undistortPoints(pixels, rays, k, distortion);
   for (size_t i = 0; i < features.keypoints.size(); ++i) {
     features.normalized.emplace_back(rays[i].x, rays[i].y);

@@ -17,8 +17,8 @@ bool SameCamera(const RosCameraInfo& a, const RosCameraInfo& b) {
   return true;
 }
 
-// The camera of a CameraInfo message: K and plumb_bob distortion (rational_polynomial when its
-// k4..k6 are zero).
+// The camera of a CameraInfo message: K, and plumb_bob (k1 k2 p1 p2 k3) or rational_polynomial
+// (k1 k2 p1 p2 k3 k4 k5 k6) distortion.
 Camera CameraFromInfo(const RosCameraInfo& info, const std::string& where) {
   Camera camera;
   camera.width = static_cast<int>(info.width);
@@ -29,19 +29,18 @@ Camera CameraFromInfo(const RosCameraInfo& info, const std::string& where) {
   camera.cy = info.k[5];
   const bool plumb_bob = info.distortion_model == "plumb_bob" || info.d.empty();
   const bool rational = info.distortion_model == "rational_polynomial";
-  bool fits = plumb_bob && info.d.size() <= 5;
-  if (rational) {
-    fits = true;
-    for (size_t i = 5; i < info.d.size(); ++i) fits = fits && info.d[i] == 0.0;
-  }
+  bool fits = plumb_bob ? info.d.size() <= 5 : rational;
+  for (size_t i = 8; rational && i < info.d.size(); ++i) fits = fits && info.d[i] == 0.0;
   if (!fits) {
     throw InputError(where + ": distortion model " + Quoted(info.distortion_model) + " with " +
                      std::to_string(info.d.size()) +
-                     " coefficients is not read (plumb_bob k1 k2 p1 p2 k3); give the camera with "
-                     "--set camera.fx=... camera.fy=... camera.cx=... camera.cy=... "
-                     "camera.distortion=...");
+                     " coefficients is not read (plumb_bob k1 k2 p1 p2 k3, rational_polynomial "
+                     "k1 k2 p1 p2 k3 k4 k5 k6); give the camera with --set camera.fx=... "
+                     "camera.fy=... camera.cx=... camera.cy=... camera.distortion=...");
   }
   for (size_t i = 0; i < std::min<size_t>(5, info.d.size()); ++i) camera.distortion[i] = info.d[i];
+  for (size_t i = 5; i < std::min<size_t>(8, info.d.size()); ++i)
+    camera.rational[i - 5] = info.d[i];
   camera.depth_factor = 1000.0;  // REP 118: 16-bit depth in millimetres
   return camera;
 }
@@ -62,6 +61,7 @@ Camera WithOverrides(Camera camera, const CameraOverrides& overrides,
   take(overrides.cx, camera.cx, "camera.cx");
   take(overrides.cy, camera.cy, "camera.cy");
   take(overrides.distortion, camera.distortion, "camera.distortion");
+  if (overrides.distortion) camera.rational = {};  // the given k1..k3 model replaces the bag's
   take(overrides.depth_factor, camera.depth_factor, "camera.depth_factor");
   if (!given.empty()) notes->push_back(given + " given: used instead of the bag's CameraInfo");
   return camera;

@@ -11,15 +11,17 @@
 namespace stillmap {
 namespace {
 
-// The camera's distortion as plumb_bob's five coefficients; refuses what that cannot express.
-std::array<double, 5> PlumbBob(const RosCameraInfo& info, const std::string& where) {
-  std::array<double, 5> d{};
+// The camera's distortion as OpenCV's rational model k1 k2 p1 p2 k3 k4 k5 k6 (plumb_bob's has
+// k4..k6 zero); refuses what that cannot express.
+std::array<double, 8> Rational(const RosCameraInfo& info, const std::string& where) {
+  std::array<double, 8> d{};
   for (size_t i = 0; i < info.d.size(); ++i) {
-    if (i < 5) {
+    if (i < 8) {
       d[i] = info.d[i];
     } else if (info.d[i] != 0.0) {
-      throw InputError(where + ": distortion " + Quoted(info.distortion_model) +
-                       " with non-zero k4..k6 cannot be registered (plumb_bob k1 k2 p1 p2 k3)");
+      throw InputError(where + ": distortion " + Quoted(info.distortion_model) + " with " +
+                       std::to_string(info.d.size()) +
+                       " coefficients cannot be registered (k1 k2 p1 p2 k3 k4 k5 k6)");
     }
   }
   return d;
@@ -49,9 +51,9 @@ DepthRegistration::DepthRegistration(const RosCameraInfo& depth, const RosCamera
       fy_(static_cast<float>(color.k[4])),
       cx_(static_cast<float>(color.k[2])),
       cy_(static_cast<float>(color.k[5])) {
-  const std::array<double, 5> color_d = PlumbBob(color, where);
-  for (size_t i = 0; i < 5; ++i) distortion_[i] = static_cast<float>(color_d[i]);
-  const std::array<double, 5> depth_d = PlumbBob(depth, where);
+  const std::array<double, 8> color_d = Rational(color, where);
+  for (size_t i = 0; i < 8; ++i) distortion_[i] = static_cast<float>(color_d[i]);
+  const std::array<double, 8> depth_d = Rational(depth, where);
   std::vector<cv::Point2f> corners;
   corners.reserve(static_cast<size_t>(depth_width_ + 1) * (depth_height_ + 1));
   for (int v = 0; v <= depth_height_; ++v) {
@@ -66,8 +68,9 @@ DepthRegistration::DepthRegistration(const RosCameraInfo& depth, const RosCamera
 cv::Point2f DepthRegistration::Project(const Eigen::Vector3f& point) const {
   const float x = point.x() / point.z(), y = point.y() / point.z();
   const float r2 = x * x + y * y;
-  const auto& [k1, k2, p1, p2, k3] = distortion_;
-  const float radial = 1.0f + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const auto& [k1, k2, p1, p2, k3, k4, k5, k6] = distortion_;
+  const float radial =
+      (1.0f + r2 * (k1 + r2 * (k2 + r2 * k3))) / (1.0f + r2 * (k4 + r2 * (k5 + r2 * k6)));
   const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
   const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
   return {fx_ * xd + cx_, fy_ * yd + cy_};

@@ -35,7 +35,7 @@ class DepthRegistration {
   Eigen::Matrix3f rotation_;
   Eigen::Vector3f translation_;
   float fx_, fy_, cx_, cy_;
-  std::array<float, 5> distortion_{};  // colour camera's k1 k2 p1 p2 k3
+  std::array<float, 8> distortion_{};  // colour camera's k1 k2 p1 p2 k3 k4 k5 k6
 };
 
 // The pose of frame `source` in frame `target` from static transforms, chained through the

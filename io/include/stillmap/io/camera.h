@@ -22,13 +22,18 @@ struct Camera {
   double cx = 0.0;                     // principal point x [px]
   double cy = 0.0;                     // principal point y [px]
   std::array<double, 5> distortion{};  // OpenCV k1 k2 p1 p2 k3
-  double depth_factor = 5000.0;        // depth PNG value per metre
+  // OpenCV's rational model k4 k5 k6 (ROS rational_polynomial, e.g. Azure Kinect's CameraInfo):
+  // the radial factor's denominator 1 + k4 r^2 + k5 r^4 + k6 r^6. Zero for plumb_bob.
+  std::array<double, 3> rational{};
+  double depth_factor = 5000.0;  // depth PNG value per metre
   // When set, groundtruth.txt gives the pose of a motion-capture body, and
   // world_from_camera = world_from_body * body_from_camera (the Bonn sequences need it).
   std::optional<Eigen::Isometry3d> groundtruth_body_from_camera;
 
   // True when any distortion coefficient is non-zero.
   bool HasDistortion() const;
+  // The coefficients as OpenCV takes them: k1 k2 p1 p2 k3, then k4 k5 k6 when any is non-zero.
+  std::vector<double> Coefficients() const;
   // Throws InputError naming `source` and the first impossible value.
   void Validate(const std::string& source) const;
 };
@@ -50,7 +55,8 @@ class PixelProjection {
   Eigen::Vector2f operator()(float x, float y) const {
     if (distorted_) {
       const float r2 = x * x + y * y;
-      const float radial = 1.0f + r2 * (k1_ + r2 * (k2_ + r2 * k3_));
+      const float radial =
+          (1.0f + r2 * (k1_ + r2 * (k2_ + r2 * k3_))) / (1.0f + r2 * (k4_ + r2 * (k5_ + r2 * k6_)));
       const float xd = x * radial + 2.0f * p1_ * x * y + p2_ * (r2 + 2.0f * x * x);
       const float yd = y * radial + p1_ * (r2 + 2.0f * y * y) + 2.0f * p2_ * x * y;
       x = xd;
@@ -61,7 +67,7 @@ class PixelProjection {
 
  private:
   float fx_, fy_, cx_, cy_;
-  float k1_, k2_, p1_, p2_, k3_;
+  float k1_, k2_, p1_, p2_, k3_, k4_, k5_, k6_;
   bool distorted_;
 };
 
