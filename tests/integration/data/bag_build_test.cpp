@@ -65,8 +65,9 @@ class BagBuildTest : public ::testing::Test {
 };
 
 TEST_F(BagBuildTest, BagsBuildLikeTheFolder) {
-  for (const char* name : {"teddy_tum_raw.bag", "teddy_realsense_lz4.bag", "teddy_realsense.mcap",
-                           "teddy_realsense_lz4_bgr.mcap"}) {
+  for (const char* name :
+       {"teddy_tum_raw.bag", "teddy_realsense_lz4.bag", "teddy_realsense.mcap",
+        "teddy_realsense_lz4_bgr.mcap", "teddy_realsense_db3", "teddy_tum_jazzy_db3"}) {
     const std::optional<std::string> bag = testing::SharedBag(name);
     if (!bag) GTEST_SKIP() << "bags/" << name << " not in ../shared/data";
     const std::string out = dir_ / (std::string(name) + ".out");
