@@ -123,12 +123,7 @@ std::vector<std::string> BagFolder::FilesByName() {
 void BagFolder::JoinTopics(size_t part) {
   std::vector<size_t> indices;
   for (const BagTopic& topic : parts_[part]->topics()) {
-    size_t index = topics_.size();
-    for (size_t t = 0; t < topics_.size(); ++t) {
-      if (topics_[t].name == topic.name) index = t;
-    }
-    if (index == topics_.size()) topics_.push_back(topic);
-    indices.push_back(index);
+    indices.push_back(JoinTopic(&topics_, topic));
   }
   topic_of_part_topic_.resize(parts_.size());
   topic_of_part_topic_[part] = std::move(indices);

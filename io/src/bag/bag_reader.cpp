@@ -42,6 +42,14 @@ void BagReader::WarnTruncated(const std::string& where, double last_time) {
                       " s; what comes before is read");
 }
 
+size_t JoinTopic(std::vector<BagTopic>* topics, const BagTopic& topic) {
+  for (size_t t = 0; t < topics->size(); ++t) {
+    if ((*topics)[t].name == topic.name) return t;
+  }
+  topics->push_back(topic);
+  return topics->size() - 1;
+}
+
 namespace {
 
 enum class BagKind { kNone, kRos1, kMcap, kSqlite };

@@ -84,12 +84,7 @@ void McapBag::Record(std::uint8_t op, const std::uint8_t* content, size_t size,
     std::string topic;
     if (!fields.U16(&id) || !fields.U16(&schema) || !fields.String(&topic)) return;
     if (topic_of_channel_.count(id) > 0) return;
-    size_t index = topics_.size();
-    for (size_t t = 0; t < topics_.size(); ++t) {
-      if (topics_[t].name == topic) index = t;
-    }
-    if (index == topics_.size()) topics_.push_back({topic, schema_name_[schema]});
-    topic_of_channel_[id] = index;
+    topic_of_channel_[id] = JoinTopic(&topics_, {topic, schema_name_[schema]});
   } else if (op == kOpMessage) {
     std::uint16_t channel = 0;
     std::uint32_t sequence = 0;

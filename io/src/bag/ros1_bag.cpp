@@ -156,11 +156,7 @@ void Ros1Bag::AddConnection(const Fields& fields, const std::uint8_t* data, size
   if (topic_of_connection_.count(id) > 0) return;
   const auto topic = fields.find("topic");
   if (topic == fields.end()) return;
-  size_t index = topics_.size();
-  for (size_t t = 0; t < topics_.size(); ++t) {
-    if (topics_[t].name == topic->second) index = t;
-  }
-  if (index == topics_.size()) topics_.push_back({topic->second, connection["type"]});
+  const size_t index = JoinTopic(&topics_, {topic->second, connection["type"]});
   topic_of_connection_[id] = index;
 }
 

@@ -91,12 +91,7 @@ void SqliteBag::ReadTopics() {
                                 ", not cdr: its messages are left out");
       continue;
     }
-    size_t index = topics_.size();
-    for (size_t t = 0; t < topics_.size(); ++t) {
-      if (topics_[t].name == name) index = t;
-    }
-    if (index == topics_.size()) topics_.push_back({name, type});
-    topic_of_id_[id] = index;
+    topic_of_id_[id] = JoinTopic(&topics_, {name, type});
   }
   if (step != SQLITE_DONE) {
     throw InputError(path_ + ": the sqlite3 bag's topics table cannot be read (" +

@@ -67,6 +67,10 @@ class BagReader {
   bool truncated_ = false;
 };
 
+// The index of the topic named `topic.name` in *topics, appended first when it is new: topics
+// are one per name, however many connections or channels or files carry them.
+size_t JoinTopic(std::vector<BagTopic>* topics, const BagTopic& topic);
+
 // True when `path` is a file that starts like a bag stillmap reads (by its bytes, not its name:
 // ROS 1, MCAP or SQLite), or a ROS 2 bag folder (metadata.yaml, or .db3/.mcap files and no
 // TUM lists).
