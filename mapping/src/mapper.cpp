@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/cloud_files.h"
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/timing.h"
 
@@ -84,7 +85,16 @@ void Mapper::Integrate(const MapperFrame& frame) {
     fusion_job_.get();
     statistics_.wait_ms += MillisecondsSince(start);
   }
-  fusion_job_ = std::async(std::launch::async, [this, frame] { Fuse(frame); });
+  fusion_job_ = std::async(std::launch::async, [this, frame] {
+    const double cpu = ThreadCpuMs();
+    Fuse(frame);
+    AddBackgroundCpu(ThreadCpuMs() - cpu);
+  });
+}
+
+void Mapper::AddBackgroundCpu(double ms) {
+  const std::lock_guard<std::mutex> lock(cpu_mutex_);
+  statistics_.background_cpu_ms += ms;
 }
 
 void Mapper::Fuse(const MapperFrame& frame) {
@@ -102,8 +112,10 @@ void Mapper::Fuse(const MapperFrame& frame) {
     const Eigen::Vector3f origin = frame.world_from_camera.translation().cast<float>();
     auto insert = [this, origin] {
       const auto job_start = std::chrono::steady_clock::now();
+      const double cpu = ThreadCpuMs();
       occupancy_->InsertScan(occupancy_points_, origin);
       statistics_.occupancy_ms += MillisecondsSince(job_start);
+      if (options_.in_background) AddBackgroundCpu(ThreadCpuMs() - cpu);
     };
     if (options_.in_background) {
       occupancy_job_ = std::async(std::launch::async, insert);

@@ -17,6 +17,7 @@
 #include "frame_reader.h"
 #include "map_outputs.h"
 #include "pose_loops.h"
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/timing.h"
@@ -137,6 +138,7 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
   PosedFrames posed = result->tracked() ? RunTrackedLoop(inputs, request, stages, result)
                                         : RunGroundTruthLoop(inputs, config, stages);
   progress.Finish();
+  result->timings.reader_cpu_ms = reader.ahead_cpu_ms();
   result->timings.load_wait_ms = reader.wait_ms();
   result->timings.flow_ms = reader.flow_ms();
   const StreamChecks& checks = reader.checks();
@@ -180,6 +182,8 @@ const std::vector<std::string>& BuildOutputNames() {
 
 BuildResult RunBuild(const BuildRequest& request) {
   const Clock::time_point start = Clock::now();
+  const double process_cpu_start_s = ProcessCpuSeconds();
+  const std::vector<CoreTimes> cores_at_start = ReadCoreTimes();
   CheckRequest(request);
   BuildResult result;
   result.sequence_dir = request.sequence_dir;
@@ -207,12 +211,18 @@ BuildResult RunBuild(const BuildRequest& request) {
   MapperOptions mapper_options = request.config.mapping;
   mapper_options.in_background = mapper_options.in_background && request.threads > 1;
   Mapper mapper(inputs.camera, mapper_options);
+  const double loop_cpu_start = ThreadCpuMs();
   PosedFrames posed = RunPoseLoop(inputs, request, *masks, mapper, &result);
+  const double finish_cpu_start = ThreadCpuMs();
+  result.timings.frame_loop_cpu_ms = finish_cpu_start - loop_cpu_start;
   FinishedMap map = mapper.Finish();
   result.timings.processing_ms = SecondsSince(start) * 1000.0;
 
   std::vector<VoxelPoint> cloud =
       WriteMapOutputs(std::move(map), &posed, inputs, request, outputs, &result);
+  result.timings.finish_cpu_ms = ThreadCpuMs() - finish_cpu_start;
+  result.timings.process_cpu_ms = (ProcessCpuSeconds() - process_cpu_start_s) * 1000.0;
+  result.timings.core_busy = CoreBusyShares(cores_at_start, ReadCoreTimes());
   result.wall_time_s = SecondsSince(start);
   result.frames_per_second = static_cast<double>(result.frames.pairs_used) / result.wall_time_s;
   result.peak_memory_mib = PeakMemoryMib();

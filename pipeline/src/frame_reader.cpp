@@ -3,6 +3,7 @@
 #include <chrono>
 #include <opencv2/imgproc.hpp>
 
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
@@ -22,15 +23,18 @@ PreparedFrame FrameReader::Get(size_t k) {
   wait_ms_ += MillisecondsSince(start);
   if (read_ahead_ && k + 1 < indices_.size()) Schedule(k + 1);
   if (frame.flow) flow_ms_.push_back(frame.flow->ms);
+  if (read_ahead_) ahead_cpu_ms_ += frame.cpu_ms;
   return frame;
 }
 
 PreparedFrame FrameReader::Prepare(size_t index) {
+  const double cpu = ThreadCpuMs();
   PreparedFrame prepared;
   prepared.frame = sequence_.LoadFrame(index);
   checks_.Add(prepared.frame);
   cv::cvtColor(prepared.frame.color, prepared.gray, cv::COLOR_BGR2GRAY);
   if (flow_) prepared.flow = flow_->Next(prepared.gray);
+  prepared.cpu_ms = ThreadCpuMs() - cpu;
   return prepared;
 }
 

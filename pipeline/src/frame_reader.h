@@ -17,6 +17,7 @@ struct PreparedFrame {
   Frame frame;
   cv::Mat gray;
   std::optional<FlowStep> flow;
+  double cpu_ms = 0.0;  // CPU time of decoding and preparing it, on whichever thread did it
 };
 
 class FrameReader {
@@ -33,6 +34,8 @@ class FrameReader {
   // The k-th frame (k counts up from 0 by one on each call). Throws InputError for a bad image.
   PreparedFrame Get(size_t k);
   double wait_ms() const { return wait_ms_; }  // waiting for frames in total
+  // CPU time of decoding and preparing the frames on the reading thread (read_ahead) [ms].
+  double ahead_cpu_ms() const { return ahead_cpu_ms_; }
   const std::vector<double>& flow_ms() const { return flow_ms_; }
   // What the frames read so far show of the streams' plausibility (call between Get calls).
   const StreamChecks& checks() const { return checks_; }
@@ -47,6 +50,7 @@ class FrameReader {
   std::optional<FlowTracker> flow_;  // used by one Prepare at a time, frames in order
   std::future<PreparedFrame> next_;
   double wait_ms_ = 0.0;
+  double ahead_cpu_ms_ = 0.0;
   std::vector<double> flow_ms_;
   StreamChecks checks_;  // updated by Prepare, frames in order
 };

@@ -6,27 +6,13 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "report_timing.h"
 #include "stillmap/pipeline/build_pipeline.h"
 
 namespace stillmap {
 namespace {
 
 using nlohmann::json;
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  const size_t middle = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + static_cast<long>(middle), values.end());
-  return values[middle];
-}
-
-json TimingJson(const std::vector<double>& values) {
-  double total = 0.0;
-  for (double value : values) total += value;
-  return {{"median", Median(values)},
-          {"mean", values.empty() ? 0.0 : total / static_cast<double>(values.size())},
-          {"total", total}};
-}
 
 json StatisticsJson(const ErrorStatistics& statistics) {
   return {{"count", statistics.count},   {"rmse", statistics.rmse},       {"mean", statistics.mean},
@@ -269,65 +255,6 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
           {"bundle_adjustment_thread", tracking.bundle_adjustment_thread}};
 }
 
-json TrackingTimingJson(const TrackingFigures& tracking) {
-  const TrackerStatistics& t = tracking.statistics;
-  return {{"extract", TimingJson(tracking.extract_ms)},
-          {"match", TimingJson(tracking.match_ms)},
-          {"pose", TimingJson(tracking.pose_ms)},
-          {"keyframe", TimingJson(tracking.keyframe_ms)},
-          {"track_total", TimingJson(tracking.total_ms)},
-          {"local_bundle_adjustment",
-           {{"runs", t.bundle_adjustments},
-            {"mean", t.bundle_adjustments > 0
-                         ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
-                         : 0.0},
-            {"total", t.bundle_adjustment_ms}}},
-          {"place_recognition_and_loops_total", t.loop_ms},
-          {"loop_pose_graph_total", t.loop_solve_ms},
-          {"global_bundle_adjustment",
-           {{"runs", t.global_bundle_adjustments}, {"total", t.global_bundle_adjustment_ms}}},
-          {"refuse_map_total", tracking.refuse_ms},
-          {"fuse_keyframes_total", tracking.fuse_ms}};
-}
-
-json TimingsJson(const BuildResult& result) {
-  const StageTimings& t = result.timings;
-  const MapperStatistics& stats = result.map.statistics;
-  const double n = static_cast<double>(std::max<size_t>(stats.frames, 1));
-  const double frames = static_cast<double>(result.frames.pairs_used - result.frames.without_pose);
-  json timing = {
-      {"load_wait_total", t.load_wait_ms},
-      {"grid", t.grid_ms},
-      {"mesh", t.mesh_ms},
-      {"map_cleaning", t.map_cleaning_ms},
-      {"back_projection_total", stats.back_projection_ms},
-      {"voxel_total", stats.voxel_ms},
-      {"octomap_total", stats.occupancy_ms},
-      {"octomap_wait_total", stats.occupancy_wait_ms},
-      {"fusion_wait_total", stats.wait_ms},
-      {"write_outputs", t.write_ms},
-      {"per_fused_frame",
-       {{"back_projection", stats.back_projection_ms / n},
-        {"voxel", stats.voxel_ms / n},
-        {"octomap", stats.occupancy_ms / n},
-        {"octomap_wait", stats.occupancy_wait_ms / n}}},
-      {"per_frame", {{"load_wait", t.load_wait_ms / frames}, {"total", t.processing_ms / frames}}}};
-  if (result.tracking) timing["tracking_ms"] = TrackingTimingJson(*result.tracking);
-  if (result.masking.enabled) {
-    // The flow check's image work runs ahead with the decoding (on the reading thread when
-    // threads > 1), so it is not part of "mask".
-    // A background detector's runs overlap the frame loop: only "detector_wait_total" is
-    // part of it.
-    const MaskingStatistics& s = result.masking.statistics;
-    timing["masking_ms"] = {{"detector", TimingJson(s.detector_ms)},
-                            {"detector_wait_total", s.detector_wait_ms},
-                            {"mask", TimingJson(s.mask_ms)},
-                            {"flow_ahead", TimingJson(t.flow_ms)}};
-  }
-  if (t.renders_ms) timing["renders"] = *t.renders_ms;
-  return timing;
-}
-
 void AddTrajectoryError(const EvaluationFigures& evaluation, const BuildConfig& config,
                         json* report) {
   (*report)["trajectory_error"] = nullptr;
@@ -378,30 +305,6 @@ void AddMapQuality(const BuildResult& result, json* report) {
        evaluation.moving_objects_known ? json(grid.false_occupied_on_paths) : json(nullptr)},
       {"path_margin_m", grid.path_margin_m},
       {"free_where_truth_occupied", grid.missed_occupied}};
-}
-
-// Everything that depends on the machine and the moment rather than on the input and options,
-// under one key, so that two runs compare equal once it is left out.
-json RunTimingJson(const BuildResult& result) {
-  json timing = {{"started_utc", result.started_utc},
-                 {"wall_time_s", result.wall_time_s},
-                 {"frames_per_second", result.frames_per_second},
-                 {"peak_memory_mib", result.peak_memory_mib},
-                 {"stages_ms", TimingsJson(result)},
-                 {"map_evaluation_s", result.evaluation.map_evaluation_s}};
-  if (result.tracking) {
-    const TrackerStatistics& t = result.tracking->statistics;
-    const double median_track_ms = Median(result.tracking->total_ms);
-    timing["tracking_frames_per_second_median"] =
-        median_track_ms > 0 ? 1000.0 / median_track_ms : 0.0;
-    timing["depth_self_calibration_ms_total"] = t.depth_calibration_ms;
-    // A slow or busy machine shows as waits here, never as other poses.
-    timing["bundle_adjustment_waits"] = t.bundle_adjustment_waits;
-    timing["bundle_adjustment_wait_ms_total"] = t.bundle_adjustment_wait_ms;
-    timing["loop_correction_waits"] = t.loop_waits;
-    timing["loop_correction_wait_ms_total"] = t.loop_wait_ms;
-  }
-  return timing;
 }
 
 }  // namespace

@@ -111,10 +111,14 @@ std::vector<std::pair<std::string, std::string>> SummaryRows(const nlohmann::jso
                                   text(At(report, {"frames", "fused"})) + " fused into the map");
   rows.emplace_back("trajectory", Escape(TrajectoryLine(report)));
   rows.emplace_back(
-      "speed", Number(At(report, {"timing", "frames_per_second"}), 1.0, "{:.1f}") + " frames/s, " +
-                   Number(At(report, {"timing", "wall_time_s"}), 1.0, "{:.1f}") +
-                   " s, peak memory " +
-                   Number(At(report, {"timing", "peak_memory_mib"}), 1.0, "{:.0f}") + " MiB");
+      "speed",
+      Number(At(report, {"timing", "frames_per_second"}), 1.0, "{:.1f}") + " frames/s, " +
+          Number(At(report, {"timing", "wall_time_s"}), 1.0, "{:.1f}") + " s, peak memory " +
+          Number(At(report, {"timing", "peak_memory_mib"}), 1.0, "{:.0f}") + " MiB; CPU " +
+          Number(At(report, {"timing", "cpu", "per_frame_ms"}), 1.0, "{:.1f}") + " ms per frame, " +
+          Number(At(report, {"timing", "cpu", "cores_busy_mean"}), 1.0, "{:.2f}") + " of " +
+          Number(At(report, {"timing", "cpu", "cores"}), 1.0, "{:.0f}") +
+          " cores busy (timing.cpu has it by thread)");
   rows.emplace_back("map", text(At(report, {"map", "voxels_written"})) + " points of " +
                                text(At(report, {"map", "voxel_leaf_m"})) + " m voxels");
   rows.emplace_back("map frame", text(At(report, {"map_frame", "description"})));

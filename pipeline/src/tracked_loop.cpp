@@ -29,7 +29,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
   KeyframeFuser fuser(inputs.camera, config, stages.masks, &stages.mapper);
   auto fuse_final = [&tracker, &fuser] {
     const std::vector<FinalKeyframe> finals = tracker.TakeFinalKeyframes();
-    if (!finals.empty()) fuser.Fuse(finals, tracker.statistics().depth_correction);
+    if (!finals.empty()) fuser.Fuse(finals, tracker.depth_correction());
   };
   TrackingFigures figures;
   size_t corrections = 0;

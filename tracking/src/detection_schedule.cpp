@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/tracking/dynamic_mask.h"
 
@@ -10,9 +11,11 @@ namespace {
 
 DetectorRun Run(Detector& detector, const cv::Mat& bgr) {
   const auto start = std::chrono::steady_clock::now();
+  const double cpu = ThreadCpuMs();
   DetectorRun run;
   run.detections = detector.Detect(bgr);
   run.ms = MillisecondsSince(start);
+  run.cpu_ms = ThreadCpuMs() - cpu;
   return run;
 }
 

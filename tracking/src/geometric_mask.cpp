@@ -94,6 +94,39 @@ class Judge {
       sin_limit_squared_;
 };
 
+// The verdicts of `judge` on the blocks of rows `rows` (AddVerdicts). Everything by value: the
+// verdicts are stored through a byte pointer, which may alias anything, so values read through
+// references would be reloaded after every store (perf: this loop was 7 % of a bonn_crowd_a
+// build).
+void AddVerdictRows(const Judge judge, const float* z, int width, int height, int stride,
+                    float block_continuity, const cv::Range& rows, std::uint8_t* s) {
+  for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
+    const int v_end = std::min(bv + stride, height);
+    const int centre_row = std::min(bv + stride / 2, v_end - 1);
+    for (int bu = 0; bu < width; bu += stride) {
+      const int u_end = std::min(bu + stride, width);
+      const int centre_index = centre_row * width + std::min(bu + stride / 2, u_end - 1);
+      const float centre_depth = z[centre_index];
+      const bool centre_valid = centre_depth > 0.0f;
+      const std::uint8_t centre_verdict =
+          centre_valid ? judge(centre_index, centre_depth) : std::uint8_t{kNoVerdict};
+      // mask_growth::Continuous with the centre, its tolerance computed once per block.
+      const float tolerance = 0.01f + block_continuity * centre_depth;
+      for (int v = bv; v < v_end; ++v) {
+        for (int i = v * width + bu, end = v * width + u_end; i < end; ++i) {
+          const float depth = z[i];
+          if (!(depth > 0.0f) || s[i] == kSeed) continue;
+          const std::uint8_t verdict =
+              centre_valid && (i == centre_index || std::abs(centre_depth - depth) <= tolerance)
+                  ? centre_verdict
+                  : judge(i, depth);
+          s[i] = std::max(s[i], verdict);
+        }
+      }
+    }
+  }
+}
+
 // One reference's verdicts on the current readings, raised into `s` (the strongest wins). One
 // verdict per stride x stride block, from its centre, for the readings continuous with the
 // centre's; the others (object edges) are judged on their own. Rows of blocks are independent and
@@ -106,31 +139,7 @@ void AddVerdicts(const VerdictContext& c, const float* near,
   const auto block_continuity = static_cast<float>(c.options.block_continuity);
   const int block_rows = (height + stride - 1) / stride;
   cv::parallel_for_(cv::Range(0, block_rows), [&](const cv::Range& rows) {
-    for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
-      const int v_end = std::min(bv + stride, height);
-      const int centre_row = std::min(bv + stride / 2, v_end - 1);
-      for (int bu = 0; bu < width; bu += stride) {
-        const int u_end = std::min(bu + stride, width);
-        const int centre_index = centre_row * width + std::min(bu + stride / 2, u_end - 1);
-        const float centre_depth = z[centre_index];
-        const bool centre_valid = centre_depth > 0.0f;
-        const std::uint8_t centre_verdict =
-            centre_valid ? judge(centre_index, centre_depth) : std::uint8_t{kNoVerdict};
-        // mask_growth::Continuous with the centre, its tolerance computed once per block.
-        const float tolerance = 0.01f + block_continuity * centre_depth;
-        for (int v = bv; v < v_end; ++v) {
-          for (int i = v * width + bu, end = v * width + u_end; i < end; ++i) {
-            const float depth = z[i];
-            if (!(depth > 0.0f) || s[i] == kSeed) continue;
-            const std::uint8_t verdict =
-                centre_valid && (i == centre_index || std::abs(centre_depth - depth) <= tolerance)
-                    ? centre_verdict
-                    : judge(i, depth);
-            s[i] = std::max(s[i], verdict);
-          }
-        }
-      }
-    }
+    AddVerdictRows(judge, z, width, height, stride, block_continuity, rows, s);
   });
 }
 

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <map>
 
+#include "stillmap/io/cpu_usage.h"
+
 namespace stillmap {
 namespace {
 
@@ -59,12 +61,15 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   }
   if (run) {
     s.detector_ms.push_back(run->ms);
+    s.detector_cpu_ms += run->cpu_ms;
     for (const Detection& detection : run->detections) {
       ++s.detections_by_level[MotionLevelName(detection.level)];
     }
   }
+  const double cpu = ThreadCpuMs();
   const DynamicMaskResult result = masker_->Compute(gray, frame.depth_m, world_from_camera,
                                                     run ? &run->detections : nullptr, flow);
+  s.mask_cpu_ms += ThreadCpuMs() - cpu;
   ++s.frames;
   s.mask_ms.push_back(result.ms);
   s.share_sum += result.share;

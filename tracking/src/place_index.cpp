@@ -5,6 +5,7 @@
 #include <numeric>
 #include <random>
 
+#include "hamming.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -103,9 +104,7 @@ std::map<int, int> PlaceIndex::Votes(const cv::Mat& descriptors) const {
         const int owner = owner_[index];
         if (owner < 0) continue;
         const Bits& d = descriptors_[index];
-        const int distance =
-            __builtin_popcountll(query[0] ^ d[0]) + __builtin_popcountll(query[1] ^ d[1]) +
-            __builtin_popcountll(query[2] ^ d[2]) + __builtin_popcountll(query[3] ^ d[3]);
+        const int distance = HammingDistance(query, d);
         if (distance <= options_.max_distance) hits.emplace_back(owner, distance);
       }
     }

@@ -458,6 +458,11 @@ size_t Tracker::pose_corrections() const {
   return impl_->stats.loops_accepted + impl_->stats.global_bundle_adjustments;
 }
 
+DepthCorrection Tracker::depth_correction() const {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->stats.depth_correction;
+}
+
 TrackerStatistics Tracker::statistics() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
   TrackerStatistics stats = impl_->stats;

@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "hamming.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/tracking/pose_graph.h"
 #include "stillmap/tracking/tracker.h"
@@ -35,18 +36,10 @@ double StaticDepthShare(const cv::Mat& depth_m, const cv::Mat& ignore_mask);
 
 using Clock = std::chrono::steady_clock;
 
-// A 256-bit ORB descriptor as four words, so that the Hamming distance is four popcounts.
-using Descriptor = std::array<uint64_t, 4>;
-
 inline Descriptor DescriptorOf(const cv::Mat& descriptors, int row) {
   Descriptor out;
   std::memcpy(out.data(), descriptors.ptr<uint8_t>(row), sizeof(out));
   return out;
-}
-
-inline int HammingDistance(const Descriptor& a, const Descriptor& b) {
-  return __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
-         __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
 }
 
 struct Landmark {

@@ -1,3 +1,4 @@
+#include "stillmap/io/cpu_usage.h"
 #include "tracker_impl.h"
 
 namespace stillmap {
@@ -16,6 +17,7 @@ void Tracker::Impl::WorkerLoop() {
       LoopCorrection solved;
       SolveLoop(problem, &solved);
       lock.lock();
+      stats.worker_cpu_ms = ThreadCpuMs();  // the thread's whole CPU time so far
       pending_loop->result = std::move(solved.result);
       pending_loop->error = solved.error;
       pending_loop->ms = solved.ms;
@@ -29,6 +31,7 @@ void Tracker::Impl::WorkerLoop() {
     lock.unlock();
     SolvedWindow solved = Solve(std::move(problem));
     lock.lock();
+    stats.worker_cpu_ms = ThreadCpuMs();
     pending->solved = std::move(solved);
     pending->is_solved = true;
     ba_running = false;

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <future>
 #include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -67,7 +68,9 @@ struct MapperStatistics {
   double occupancy_ms = 0.0;       // OctoMap insertion, on whichever thread ran it
   double occupancy_wait_ms = 0.0;  // time fusion waited for the previous OctoMap insertion
   double wait_ms = 0.0;            // time the caller waited for background fusion
-  size_t refusions = 0;            // times the map was emptied to be fused again (Reset)
+  // CPU time of the fusion and OctoMap jobs that ran on their own threads (in_background).
+  double background_cpu_ms = 0.0;
+  size_t refusions = 0;  // times the map was emptied to be fused again (Reset)
 };
 
 // The map a Mapper built, handed out once by Mapper::Finish.
@@ -122,11 +125,13 @@ class Mapper {
   void Fuse(const MapperFrame& frame);             // on the fusion thread in the background
   void WaitForOccupancy();
   void WaitForFusion();
+  void AddBackgroundCpu(double ms);  // from either job's thread
   bool finished_ = false;
 
   std::future<void> fusion_job_;     // back-projection and voxels of the last frame handed over
   std::future<void> occupancy_job_;  // its OctoMap insertion (started by the fusion job)
   MapperStatistics statistics_;
+  std::mutex cpu_mutex_;  // statistics_.background_cpu_ms, added to by both jobs
 };
 
 }  // namespace stillmap

@@ -112,6 +112,11 @@ struct StageTimings {
   std::vector<double> flow_ms;  // flow-check image work per frame, ahead with the decoding
   double map_cleaning_ms = 0.0, grid_ms = 0.0, mesh_ms = 0.0, write_ms = 0.0;
   std::optional<double> renders_ms;
+  // CPU time (user + system) [ms]: the whole process up to the written outputs, the main
+  // thread's frame loop (masks, tracking, keyframes) and its finishing (the fusion's end, map
+  // cleaning, grid, mesh, files), and the reading thread's decoding and flow.
+  double process_cpu_ms = 0.0, frame_loop_cpu_ms = 0.0, finish_cpu_ms = 0.0, reader_cpu_ms = 0.0;
+  std::vector<double> core_busy;  // each core's busy share over the same time, whoever used it
 };
 
 // The frame of the 3-D outputs (MapFrameOptions) and the floor it was found from.

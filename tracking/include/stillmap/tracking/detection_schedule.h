@@ -20,6 +20,7 @@ namespace stillmap {
 struct DetectorRun {
   std::vector<Detection> detections;
   double ms = 0.0;
+  double cpu_ms = 0.0;  // of the thread that ran it (OpenCV's workers do part of the work)
 };
 
 class DetectionSchedule {

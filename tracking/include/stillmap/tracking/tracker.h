@@ -398,6 +398,8 @@ struct TrackerStatistics {
   double place_index_mib = 0.0;  // memory of the place index
   size_t bundle_adjustments = 0;
   double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
+  // CPU time of the background thread so far (its adjustments and loop pose graphs) [ms].
+  double worker_cpu_ms = 0.0;
   // Results the tracker had to wait for at their handover point, and the time it waited: a slow
   // or busy machine shows here, not in the poses.
   size_t bundle_adjustment_waits = 0;
@@ -443,6 +445,9 @@ class Tracker {
   // moved (KeyframePoses).
   size_t pose_corrections() const;
   TrackerStatistics statistics() const;
+  // The depth sensor's correction as the self-calibration has it now (statistics() without the
+  // rest, cheap enough for every frame).
+  DepthCorrection depth_correction() const;
 
   // Every keyframe's current pose (camera-to-world) by keyframe id: after Finish, the final
   // ones, loop corrections included.

@@ -1,0 +1,60 @@
+#include "stillmap/io/cpu_usage.h"
+
+#include <sys/resource.h>
+
+#include <ctime>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace stillmap {
+
+double ThreadCpuMs() {
+  timespec now{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) * 1e3 + static_cast<double>(now.tv_nsec) * 1e-6;
+}
+
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  auto seconds = [](const timeval& t) {
+    return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_usec) * 1e-6;
+  };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+std::vector<CoreTimes> ReadCoreTimes() {
+  std::vector<CoreTimes> cores;
+  std::ifstream stat("/proc/stat");
+  std::string line;
+  while (std::getline(stat, line)) {
+    // "cpuN user nice system idle iowait irq softirq steal ...": idle and iowait are not busy.
+    if (line.compare(0, 3, "cpu") != 0 || line.size() < 4 || line[3] < '0' || line[3] > '9') {
+      continue;
+    }
+    std::istringstream fields(line.substr(line.find(' ')));
+    CoreTimes core;
+    unsigned long long value = 0;
+    for (int k = 0; k < 8 && fields >> value; ++k) {
+      core.total += value;
+      if (k != 3 && k != 4) core.busy += value;
+    }
+    cores.push_back(core);
+  }
+  return cores;
+}
+
+std::vector<double> CoreBusyShares(const std::vector<CoreTimes>& before,
+                                   const std::vector<CoreTimes>& after) {
+  std::vector<double> shares;
+  if (before.size() != after.size()) return shares;
+  for (size_t k = 0; k < before.size(); ++k) {
+    const double total = static_cast<double>(after[k].total - before[k].total);
+    const double busy = static_cast<double>(after[k].busy - before[k].busy);
+    shares.push_back(total > 0.0 ? busy / total : 0.0);
+  }
+  return shares;
+}
+
+}  // namespace stillmap
