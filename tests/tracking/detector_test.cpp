@@ -5,10 +5,16 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
+#include <iterator>
+#include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "onnx_swish.h"
 #include "rendered_sequence.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/sequence.h"
@@ -81,6 +87,42 @@ TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   ASSERT_GE(frames, 10);
   EXPECT_GE(seen, 0.6 * frames);  // the rendered people look like people to the model
   EXPECT_GE(covered, 0.5 * frames);
+}
+
+// The SiLU rewrite (onnx_swish.h) on the shared YOLOX-Nano: every activation fused, none left as
+// Sigmoid, and OpenCV's output on a real frame (teddy, letterboxed as the detector does) the same
+// as the original graph's.
+TEST(YoloxDetectorTest, FusedActivationsGiveTheOriginalOutput) {
+  const auto models = testing::SharedModels("yolox_nano");
+  const auto teddy = testing::SharedSequence("tum_fr3_teddy_200");
+  if (!models || !teddy) GTEST_SKIP() << "yolox_nano or tum_fr3_teddy_200 not found";
+  const std::string path = (std::filesystem::path(*models) / "yolox_nano/yolox_nano.onnx").string();
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  int fused_pairs = 0;
+  const std::string fused_bytes = FuseSwish(bytes, &fused_pairs);
+  EXPECT_EQ(fused_pairs, 104);
+  cv::dnn::Net original = cv::dnn::readNetFromONNX(path);
+  cv::dnn::Net fused = cv::dnn::readNetFromONNX(fused_bytes.data(), fused_bytes.size());
+  std::vector<cv::String> types;
+  fused.getLayerTypes(types);
+  EXPECT_EQ(std::count(types.begin(), types.end(), "Swish"), 1);
+  const Sequence sequence = Sequence::Open(*teddy, ResolveCamera(*teddy, {}));
+  for (size_t frame : {0, 100}) {
+    const cv::Mat bgr = cv::imread(sequence.frames()[frame].color_path);
+    cv::Mat canvas(320, 416, CV_8UC3, cv::Scalar(114, 114, 114));
+    cv::Mat resized;
+    cv::resize(bgr, resized, cv::Size(), 0.65, 0.65, cv::INTER_LINEAR);
+    resized.copyTo(canvas(cv::Rect(0, 0, resized.cols, resized.rows)));
+    const cv::Mat blob = cv::dnn::blobFromImage(canvas, 1.0, cv::Size(), cv::Scalar(), false);
+    original.setInput(blob);
+    const cv::Mat expected = original.forward().clone();
+    fused.setInput(blob);
+    const cv::Mat got = fused.forward();
+    ASSERT_EQ(got.size, expected.size);
+    const double largest = cv::norm(expected, cv::NORM_INF);
+    EXPECT_LE(cv::norm(got, expected, cv::NORM_INF), 1e-4 * largest) << "frame " << frame;
+  }
 }
 
 TEST(DeeplabDetectorTest, MissingModelIsNamed) {

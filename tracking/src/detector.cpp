@@ -5,9 +5,11 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "onnx_swish.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/input_files.h"
@@ -89,6 +91,35 @@ cv::dnn::Net LoadOnnx(const fs::path& model, const fs::path& dir) {
   }
 }
 
+// `original` (loaded from `model`) with its SiLU activations fused into its convolutions
+// (onnx_swish.h: a quarter less CPU per detection), when the fused graph gives the original's
+// output on a random input of the shape `input_shape` (within 1e-4 of its largest value); else
+// `original` itself. Checked here, at load, so that a model exported another way is never run
+// wrong.
+cv::dnn::Net WithFusedActivations(const fs::path& model, cv::dnn::Net original,
+                                  const std::vector<int>& input_shape) {
+  std::ifstream in(model, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  int fused_pairs = 0;
+  const std::string fused_bytes = FuseSwish(bytes, &fused_pairs);
+  if (fused_pairs == 0) return original;
+  try {
+    cv::dnn::Net fused = cv::dnn::readNetFromONNX(fused_bytes.data(), fused_bytes.size());
+    cv::Mat probe(static_cast<int>(input_shape.size()), input_shape.data(), CV_32F);
+    cv::RNG(29).fill(probe, cv::RNG::UNIFORM, 0.0, 255.0);
+    original.setInput(probe);
+    const cv::Mat expected = original.forward().clone();
+    fused.setInput(probe);
+    const cv::Mat got = fused.forward();
+    if (got.size == expected.size && cv::norm(got, expected, cv::NORM_INF) <=
+                                         1e-4 * std::max(1.0, cv::norm(expected, cv::NORM_INF))) {
+      return fused;
+    }
+  } catch (const cv::Exception&) {  // the original runs as it is
+  }
+  return original;
+}
+
 // Runs the network once on a blank input of the shape the decoder feeds it and returns the
 // output, so that a model of another kind (another input size, another head) is named at load
 // instead of failing inside OpenCV mid-run. Throws InputError naming `model`.
@@ -144,6 +175,7 @@ class YoloxDetector : public Detector {
                        "objectness and class scores on the 8/16/32 grids); " + ModelAdvice(dir));
     }
     CheckNames(names_, out.size[2] - 5, dir / "coco.names", dir);
+    net_ = WithFusedActivations(model, net_, {1, 3, options.input_height, options.input_width});
   }
 
   std::string name() const override { return "yolox"; }
