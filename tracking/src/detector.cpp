@@ -5,14 +5,14 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
-#include "onnx_swish.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/input_files.h"
+#include "yolox_net.h"
 
 namespace stillmap {
 
@@ -91,35 +91,6 @@ cv::dnn::Net LoadOnnx(const fs::path& model, const fs::path& dir) {
   }
 }
 
-// `original` (loaded from `model`) with its SiLU activations fused into its convolutions
-// (onnx_swish.h: a quarter less CPU per detection), when the fused graph gives the original's
-// output on a random input of the shape `input_shape` (within 1e-4 of its largest value); else
-// `original` itself. Checked here, at load, so that a model exported another way is never run
-// wrong.
-cv::dnn::Net WithFusedActivations(const fs::path& model, cv::dnn::Net original,
-                                  const std::vector<int>& input_shape) {
-  std::ifstream in(model, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  int fused_pairs = 0;
-  const std::string fused_bytes = FuseSwish(bytes, &fused_pairs);
-  if (fused_pairs == 0) return original;
-  try {
-    cv::dnn::Net fused = cv::dnn::readNetFromONNX(fused_bytes.data(), fused_bytes.size());
-    cv::Mat probe(static_cast<int>(input_shape.size()), input_shape.data(), CV_32F);
-    cv::RNG(29).fill(probe, cv::RNG::UNIFORM, 0.0, 255.0);
-    original.setInput(probe);
-    const cv::Mat expected = original.forward().clone();
-    fused.setInput(probe);
-    const cv::Mat got = fused.forward();
-    if (got.size == expected.size && cv::norm(got, expected, cv::NORM_INF) <=
-                                         1e-4 * std::max(1.0, cv::norm(expected, cv::NORM_INF))) {
-      return fused;
-    }
-  } catch (const cv::Exception&) {  // the original runs as it is
-  }
-  return original;
-}
-
 // Runs the network once on a blank input of the shape the decoder feeds it and returns the
 // output, so that a model of another kind (another input size, another head) is named at load
 // instead of failing inside OpenCV mid-run. Throws InputError naming `model`.
@@ -175,7 +146,8 @@ class YoloxDetector : public Detector {
                        "objectness and class scores on the 8/16/32 grids); " + ModelAdvice(dir));
     }
     CheckNames(names_, out.size[2] - 5, dir / "coco.names", dir);
-    net_ = WithFusedActivations(model, net_, {1, 3, options.input_height, options.input_width});
+    // The same network rewritten to run faster, where it gives the same output (yolox_net.h).
+    fast_net_.emplace(net_, model.string(), options.input_height, options.input_width);
   }
 
   std::string name() const override { return "yolox"; }
@@ -190,8 +162,7 @@ class YoloxDetector : public Detector {
     cv::Mat canvas(options_.input_height, options_.input_width, CV_8UC3, cv::Scalar(114, 114, 114));
     resized.copyTo(canvas(
         cv::Rect(0, 0, std::min(resized.cols, canvas.cols), std::min(resized.rows, canvas.rows))));
-    net_.setInput(cv::dnn::blobFromImage(canvas, 1.0, cv::Size(), cv::Scalar(), false, false));
-    const cv::Mat out = net_.forward();
+    const cv::Mat out = fast_net_->Forward(canvas);
     const int rows = out.size[1], width = out.size[2];
     const int classes = width - 5;
     if (out.dims != 3 || rows != static_cast<int>(grid_.size()) || classes < 1) {
@@ -253,7 +224,8 @@ class YoloxDetector : public Detector {
   MotionLevelTable levels_;
   YoloxOptions options_;
   std::vector<std::string> names_;
-  cv::dnn::Net net_;
+  cv::dnn::Net net_;                  // as loaded, for the checks at load
+  std::optional<YoloxNet> fast_net_;  // what Detect runs
   std::vector<GridCell> grid_;
 };
 

@@ -1,6 +1,6 @@
-// The SiLU rewrite of ONNX graphs (onnx_swish.h) on graphs written by hand in protobuf's wire
+// The SiLU rewrite of ONNX graphs (onnx_graph.h) on graphs written by hand in protobuf's wire
 // format, read back by a reader of the test's own; damaged bytes come back unchanged.
-#include "onnx_swish.h"
+#include "onnx_graph.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-// A minimal protobuf wire-format reader and writer for the few ONNX fields the rewrite touches:
-// ModelProto.graph (7), GraphProto.node (1), NodeProto.input (1), output (2) and op_type (4).
-// Every other field is copied byte for byte.
-#include "onnx_swish.h"
+// A minimal protobuf wire-format reader and writer for the few ONNX fields the rewrites touch:
+// ModelProto.graph (7); GraphProto.node (1) and input (11); NodeProto.input (1), output (2) and
+// op_type (4); ValueInfoProto.name (1) and type (2). Every other field is copied byte for byte.
+#include "onnx_graph.h"
 
 #include <cstdint>
 #include <map>
@@ -73,6 +73,13 @@ std::optional<std::vector<Field>> ReadFields(const std::string& bytes) {
   return fields;
 }
 
+std::string Varint(std::uint32_t number, std::uint64_t value) {
+  std::string out;
+  WriteVarint(static_cast<std::uint64_t>(number) << 3, &out);
+  WriteVarint(value, &out);
+  return out;
+}
+
 std::string LengthDelimited(std::uint32_t number, const std::string& payload) {
   std::string out;
   WriteVarint((static_cast<std::uint64_t>(number) << 3) | 2, &out);
@@ -82,7 +89,7 @@ std::string LengthDelimited(std::uint32_t number, const std::string& payload) {
 
 struct Node {
   std::vector<std::string> inputs, outputs;
-  std::string op_type;
+  std::string op_type, name;
   std::vector<Field> fields;
 };
 
@@ -93,6 +100,7 @@ std::optional<Node> ReadNode(const std::string& payload) {
   for (const Field& field : *fields) {
     if (field.number == 1) node.inputs.push_back(field.payload);
     if (field.number == 2) node.outputs.push_back(field.payload);
+    if (field.number == 3) node.name = field.payload;
     if (field.number == 4) node.op_type = field.payload;
   }
   node.fields = std::move(*fields);
@@ -154,19 +162,121 @@ std::optional<std::string> FuseInGraph(const std::string& graph, int* fused) {
   return out;
 }
 
-}  // namespace
-
-std::string FuseSwish(const std::string& model, int* fused) {
-  *fused = 0;
+// `model` with its graph replaced by `rewrite`'s result (nothing: the model unchanged).
+template <typename Rewrite>
+std::string RewriteGraph(const std::string& model, Rewrite rewrite) {
   const std::optional<std::vector<Field>> fields = ReadFields(model);
   if (!fields) return model;
   std::string out;
+  bool rewritten = false;
   for (const Field& field : *fields) {
     std::optional<std::string> graph;
-    if (field.number == 7) graph = FuseInGraph(field.payload, fused);
+    if (field.number == 7 && !rewritten) graph = rewrite(field.payload);
+    rewritten = rewritten || graph.has_value();
     out += graph ? LengthDelimited(7, *graph) : field.raw;
   }
-  return *fused > 0 ? out : model;
+  return rewritten ? out : model;
+}
+
+// A float tensor input named `name` of shape `dims` (ValueInfoProto).
+std::string TensorInput(const std::string& name, const std::vector<int>& dims) {
+  std::string shape;
+  for (const int dim : dims)
+    shape += LengthDelimited(1, Varint(1, static_cast<std::uint64_t>(dim)));
+  const std::string tensor = Varint(1, 1) + LengthDelimited(2, shape);  // elem_type FLOAT
+  return LengthDelimited(1, name) + LengthDelimited(2, LengthDelimited(1, tensor));
+}
+
+// The graph without its slicing stem (CutSliceStem), or nothing.
+std::optional<std::string> CutStemInGraph(const std::string& graph, int height, int width,
+                                          SliceStem* found) {
+  const std::optional<std::vector<Field>> fields = ReadFields(graph);
+  if (!fields) return std::nullopt;
+  std::vector<std::optional<Node>> nodes(fields->size());
+  std::map<std::string, size_t> producer;  // tensor -> node field index
+  std::map<std::string, int> consumers;
+  std::vector<size_t> inputs;  // input fields (graph inputs, initializers among them)
+  for (size_t k = 0; k < fields->size(); ++k) {
+    if ((*fields)[k].number == 11) inputs.push_back(k);
+    if ((*fields)[k].number != 1) continue;
+    nodes[k] = ReadNode((*fields)[k].payload);
+    if (!nodes[k]) return std::nullopt;
+    for (const std::string& output : nodes[k]->outputs) producer[output] = k;
+    for (const std::string& input : nodes[k]->inputs) ++consumers[input];
+  }
+  // The first Concat whose inputs all come from Slices.
+  for (size_t concat = 0; concat < nodes.size(); ++concat) {
+    if (!nodes[concat] || nodes[concat]->op_type != "Concat" ||
+        nodes[concat]->outputs.size() != 1) {
+      continue;
+    }
+    // Walk back through Slices (data input first) to one graph input.
+    std::set<size_t> stem;
+    std::string image;
+    bool sliced = true;
+    std::vector<std::string> todo = nodes[concat]->inputs;
+    while (!todo.empty() && sliced) {
+      const std::string tensor = todo.back();
+      todo.pop_back();
+      const auto from = producer.find(tensor);
+      if (from == producer.end()) {
+        sliced = image.empty() || image == tensor;
+        image = tensor;
+        continue;
+      }
+      const Node& node = *nodes[from->second];
+      sliced = node.op_type == "Slice" && !node.inputs.empty() && consumers[tensor] == 1;
+      stem.insert(from->second);
+      todo.push_back(node.inputs[0]);
+    }
+    if (!sliced || stem.size() < 2 || image.empty()) return std::nullopt;
+    size_t image_input = fields->size();
+    for (const size_t k : inputs) {
+      const std::optional<std::vector<Field>> info = ReadFields((*fields)[k].payload);
+      if (!info) return std::nullopt;
+      for (const Field& part : *info) {
+        if (part.number == 1 && part.payload == image) image_input = k;
+      }
+    }
+    // Only the stem may read the image (each Slice's other inputs are constants).
+    size_t image_readers = 0;
+    for (const size_t k : stem) {
+      image_readers += nodes[k]->inputs[0] == image ? 1 : 0;
+    }
+    if (image_input == fields->size() || consumers[image] != static_cast<int>(image_readers)) {
+      return std::nullopt;
+    }
+    found->output = nodes[concat]->outputs[0];
+    found->node = nodes[concat]->name;
+    const int channels = 4 * 3;  // four phases of three colour channels
+    std::string out;
+    for (size_t k = 0; k < fields->size(); ++k) {
+      if (k == concat || stem.count(k) > 0) continue;
+      out += k == image_input
+                 ? LengthDelimited(11,
+                                   TensorInput(found->output, {1, channels, height / 2, width / 2}))
+                 : (*fields)[k].raw;
+    }
+    return out;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::string CutSliceStem(const std::string& model, int height, int width, SliceStem* stem) {
+  SliceStem found;
+  const std::string out = RewriteGraph(model, [&](const std::string& graph) {
+    return CutStemInGraph(graph, height, width, &found);
+  });
+  *stem = found;
+  return out;
+}
+
+std::string FuseSwish(const std::string& model, int* fused) {
+  *fused = 0;
+  return RewriteGraph(model,
+                      [fused](const std::string& graph) { return FuseInGraph(graph, fused); });
 }
 
 }  // namespace stillmap
