@@ -98,8 +98,9 @@ class Judge {
 // verdicts are stored through a byte pointer, which may alias anything, so values read through
 // references would be reloaded after every store (perf: this loop was 7 % of a bonn_crowd_a
 // build).
-void AddVerdictRows(const Judge judge, const float* z, int width, int height, int stride,
-                    float block_continuity, const cv::Range& rows, std::uint8_t* s) {
+void AddVerdictRows(const Judge judge,  // NOLINT(performance-unnecessary-value-param): see above
+                    const float* z, int width, int height, int stride, float block_continuity,
+                    const cv::Range& rows, std::uint8_t* s) {
   for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
     const int v_end = std::min(bv + stride, height);
     const int centre_row = std::min(bv + stride / 2, v_end - 1);

@@ -265,12 +265,9 @@ std::optional<std::string> CutStemInGraph(const std::string& graph, int height, 
 }  // namespace
 
 std::string CutSliceStem(const std::string& model, int height, int width, SliceStem* stem) {
-  SliceStem found;
-  const std::string out = RewriteGraph(model, [&](const std::string& graph) {
-    return CutStemInGraph(graph, height, width, &found);
-  });
-  *stem = found;
-  return out;
+  *stem = SliceStem{};
+  return RewriteGraph(
+      model, [&](const std::string& graph) { return CutStemInGraph(graph, height, width, stem); });
 }
 
 std::string FuseSwish(const std::string& model, int* fused) {

@@ -108,7 +108,7 @@ cv::Mat YoloxNet::PhaseBlob(const cv::Mat& image, const std::vector<Plane>& plan
     float* out = blob.ptr<float>(0, static_cast<int>(k));
     for (int v = 0; v < rows; ++v) {
       const auto* pixel = image.ptr<cv::Vec3b>(2 * v + row_phase) + column_phase;
-      for (int u = 0; u < columns; ++u) *out++ = pixel[2 * u][colour];
+      for (ptrdiff_t u = 0; u < columns; ++u) *out++ = pixel[2 * u][colour];
     }
   }
   return blob;
