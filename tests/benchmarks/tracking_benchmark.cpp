@@ -1,11 +1,14 @@
 // Per-stage timings of the tracker on a real sequence (tum_fr3_teddy_200 from ../shared/data, or
 // $STILLMAP_DATA): ORB extraction, descriptor matching (brute force against FLANN LSH), PnP-RANSAC,
-// motion-only refinement, YOLOX-Nano detection, and whole-sequence tracking. Skips with a
+// motion-only refinement, YOLOX-Nano detection (and its network as loaded against rewritten), and
+// whole-sequence tracking. Skips with a
 // message when the sequence is absent.
 //   build/tests/benchmarks/stillmap_tracking_benchmark
 #include <benchmark/benchmark.h>
 
 #include <iostream>
+#include <map>
+#include <opencv2/dnn.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/flann.hpp>
 #include <opencv2/imgproc.hpp>
@@ -18,6 +21,7 @@
 #include "stillmap/tracking/pose_refinement.h"
 #include "stillmap/tracking/tracker.h"
 #include "test_util.h"
+#include "yolox_net.h"
 
 namespace stillmap {
 namespace {
@@ -171,6 +175,47 @@ void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier
   state.counters["detections"] = static_cast<double>(count);
 }
 BENCHMARK(BM_YoloxDetect)->Unit(benchmark::kMillisecond);
+
+// The YOLOX-Nano network alone on the letterboxed teddy frame, as OpenCV loads the ONNX file (arg
+// 0) and rewritten (arg 1: yolox_net.h, SiLU fused and the slicing stem cut). Arg 0 also gives
+// OpenCV's own time per layer type (Net::getPerfProfile) as counters [ms]. Run on one core for CPU
+// time per detection: taskset -c 0 build/tests/benchmarks/stillmap_tracking_benchmark
+// --benchmark_filter=YoloxNetwork
+void BM_YoloxNetwork(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
+  const Input& in = GetInput();
+  if (Skip(state, in)) return;
+  const auto models = testing::SharedModels("yolox_nano");
+  if (!models) {
+    state.SkipWithError("yolox_nano not found in ../shared/models or $STILLMAP_MODELS");
+    return;
+  }
+  const std::string path = *models + "/yolox_nano/yolox_nano.onnx";
+  cv::Mat canvas(320, 416, CV_8UC3, cv::Scalar(114, 114, 114));
+  cv::Mat resized;
+  cv::resize(in.frames[10].color, resized, cv::Size(), 0.65, 0.65, cv::INTER_LINEAR);
+  resized.copyTo(canvas(cv::Rect(0, 0, resized.cols, resized.rows)));
+  cv::dnn::Net original = cv::dnn::readNetFromONNX(path);
+  YoloxNet rewritten(cv::dnn::readNetFromONNX(path), path, 320, 416);
+  std::map<std::string, double> layer_ms;
+  for (auto _ : state) {
+    if (state.range(0) == 1) {
+      benchmark::DoNotOptimize(rewritten.Forward(canvas).data);
+      continue;
+    }
+    original.setInput(cv::dnn::blobFromImage(canvas, 1.0, cv::Size(), cv::Scalar(), false));
+    benchmark::DoNotOptimize(original.forward().data);
+    std::vector<double> ticks;
+    original.getPerfProfile(ticks);
+    for (size_t k = 0; k < ticks.size(); ++k) {
+      layer_ms[original.getLayer(static_cast<int>(k) + 1)->type] +=
+          ticks[k] * 1000.0 / cv::getTickFrequency();
+    }
+  }
+  for (const auto& [type, ms] : layer_ms) {
+    state.counters[type] = ms / static_cast<double>(state.iterations());
+  }
+}
+BENCHMARK(BM_YoloxNetwork)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The tracker over the first frames (bundle adjustment inline, so its cost is included):
 // the time per frame is the tracking speed.

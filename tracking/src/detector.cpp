@@ -131,7 +131,7 @@ class YoloxDetector : public Detector {
       throw InputError("the YOLOX input size must be a positive multiple of 32");
     }
     names_ = ReadNames(dir / "coco.names");
-    net_ = LoadOnnx(model, dir);
+    cv::dnn::Net net = LoadOnnx(model, dir);  // as loaded, for the checks here
     for (int stride : {8, 16, 32}) {
       const int columns = options.input_width / stride, rows = options.input_height / stride;
       for (int y = 0; y < rows; ++y) {
@@ -140,14 +140,14 @@ class YoloxDetector : public Detector {
     }
     const int input_shape[] = {1, 3, options.input_height, options.input_width};
     const cv::Mat out =
-        ForwardBlank(&net_, cv::Mat(4, input_shape, CV_32F, cv::Scalar(114)), model, dir);
+        ForwardBlank(&net, cv::Mat(4, input_shape, CV_32F, cv::Scalar(114)), model, dir);
     if (out.dims != 3 || out.size[1] != static_cast<int>(grid_.size()) || out.size[2] < 6) {
       throw InputError(model.string() + ": the model's output is not YOLOX's (rows of box, " +
                        "objectness and class scores on the 8/16/32 grids); " + ModelAdvice(dir));
     }
     CheckNames(names_, out.size[2] - 5, dir / "coco.names", dir);
     // The same network rewritten to run faster, where it gives the same output (yolox_net.h).
-    fast_net_.emplace(net_, model.string(), options.input_height, options.input_width);
+    net_.emplace(net, model.string(), options.input_height, options.input_width);
   }
 
   std::string name() const override { return "yolox"; }
@@ -162,7 +162,7 @@ class YoloxDetector : public Detector {
     cv::Mat canvas(options_.input_height, options_.input_width, CV_8UC3, cv::Scalar(114, 114, 114));
     resized.copyTo(canvas(
         cv::Rect(0, 0, std::min(resized.cols, canvas.cols), std::min(resized.rows, canvas.rows))));
-    const cv::Mat out = fast_net_->Forward(canvas);
+    const cv::Mat out = net_->Forward(canvas);
     const int rows = out.size[1], width = out.size[2];
     const int classes = width - 5;
     if (out.dims != 3 || rows != static_cast<int>(grid_.size()) || classes < 1) {
@@ -224,8 +224,7 @@ class YoloxDetector : public Detector {
   MotionLevelTable levels_;
   YoloxOptions options_;
   std::vector<std::string> names_;
-  cv::dnn::Net net_;                  // as loaded, for the checks at load
-  std::optional<YoloxNet> fast_net_;  // what Detect runs
+  std::optional<YoloxNet> net_;  // set by the constructor
   std::vector<GridCell> grid_;
 };
 
