@@ -12,6 +12,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/flann.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "stillmap/io/sequence.h"
 #include "stillmap/tracking/detector.h"
@@ -156,15 +157,18 @@ void BM_RefinePose(benchmark::State& state) {  // NOLINT(readability-identifier-
 }
 BENCHMARK(BM_RefinePose)->Unit(benchmark::kMillisecond);
 
+// The shared models folder holding yolox_nano/ (nothing, and the benchmark skipped, without).
+std::optional<std::string> YoloxModels(benchmark::State& state) {
+  const auto models = testing::SharedModels("yolox_nano");
+  if (!models) state.SkipWithError("yolox_nano not found in ../shared/models or $STILLMAP_MODELS");
+  return models;
+}
+
 // YOLOX-Nano at its 416x320 letterbox on a teddy frame: pre-processing, forward, decoding, NMS.
 void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
-  if (Skip(state, in)) return;
-  const auto models = testing::SharedModels("yolox_nano");
-  if (!models) {
-    state.SkipWithError("yolox_nano not found in ../shared/models or $STILLMAP_MODELS");
-    return;
-  }
+  const auto models = YoloxModels(state);
+  if (Skip(state, in) || !models) return;
   const std::unique_ptr<Detector> detector =
       MakeYoloxDetector(*models, MotionLevelTable::Default());
   size_t count = 0;
@@ -183,12 +187,8 @@ BENCHMARK(BM_YoloxDetect)->Unit(benchmark::kMillisecond);
 // --benchmark_filter=YoloxNetwork
 void BM_YoloxNetwork(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
-  if (Skip(state, in)) return;
-  const auto models = testing::SharedModels("yolox_nano");
-  if (!models) {
-    state.SkipWithError("yolox_nano not found in ../shared/models or $STILLMAP_MODELS");
-    return;
-  }
+  const auto models = YoloxModels(state);
+  if (Skip(state, in) || !models) return;
   const std::string path = *models + "/yolox_nano/yolox_nano.onnx";
   cv::Mat canvas(320, 416, CV_8UC3, cv::Scalar(114, 114, 114));
   cv::Mat resized;
