@@ -38,21 +38,24 @@ YoloxNet::YoloxNet(cv::dnn::Net original, const std::string& model_path, int hei
   const cv::Mat blob = cv::dnn::blobFromImage(image, 1.0, cv::Size(), cv::Scalar(), false, false);
   original.setInput(blob);
   const cv::Mat expected = original.forward().clone();
+  // Both rewrites first (one graph to load and check when they hold, as they do for YOLOX-Nano),
+  // then the fused activations alone.
   int fused_pairs = 0;
   const std::string fused_bytes = FuseSwish(bytes, &fused_pairs);
-  if (fused_pairs > 0 && TryRewrite(fused_bytes, blob, expected)) activations_fused_ = true;
   SliceStem stem;
-  const std::string cut_bytes =
-      CutSliceStem(activations_fused_ ? fused_bytes : bytes, height, width, &stem);
-  if (stem.output.empty()) return;
+  const std::string cut_bytes = CutSliceStem(fused_bytes, height, width, &stem);
   std::vector<Plane> planes;
-  try {
-    planes = PhaseOrder(&original, LayerOf(original, stem), blob);
-  } catch (const cv::Exception&) {  // no such layer in OpenCV's net: the stem stays
-    return;
+  if (!stem.output.empty()) {
+    try {
+      planes = PhaseOrder(&original, LayerOf(original, stem), blob);
+    } catch (const cv::Exception&) {  // no such layer in OpenCV's net: the stem stays
+    }
   }
   if (!planes.empty() && TryRewrite(cut_bytes, PhaseBlob(image, planes), expected)) {
+    activations_fused_ = fused_pairs > 0;
     stem_planes_ = planes;
+  } else if (fused_pairs > 0 && TryRewrite(fused_bytes, blob, expected)) {
+    activations_fused_ = true;
   }
 }
 

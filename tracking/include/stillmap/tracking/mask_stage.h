@@ -31,7 +31,7 @@ struct MaskingStatistics {
   std::map<std::string, size_t> detections_by_level;  // motion level name -> detections
   std::vector<double> detector_ms, mask_ms;           // per detector run, per frame
   bool detector_in_background = false;                // the detector ran on its own thread
-  double detector_wait_ms = 0.0;   // the frame loop waiting for background detector runs
+  double detector_wait_ms = 0.0;  // the frame loop waiting for background detector runs
   // CPU time of the detector runs, on whichever thread ran them, and of the masks [ms].
   double detector_cpu_ms = 0.0, mask_cpu_ms = 0.0;
   std::optional<MaskScore> score;  // against masks.txt, when it has frames
