@@ -16,6 +16,7 @@
 #include "stillmap/pipeline/build_pipeline.h"
 #include "stillmap/pipeline/commands.h"
 #include "stillmap/pipeline/library_messages.h"
+#include "stillmap/pipeline/merge_pipeline.h"
 #include "stillmap/pipeline/model_search.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report.h"
@@ -182,6 +183,58 @@ struct BuildCommand {
   }
 };
 
+struct MergeCommand {
+  stillmap::MergeRequest request;
+  std::string config_file;
+  std::vector<std::string> set_arguments;
+  bool quiet = false;
+  CLI::App* command = nullptr;
+
+  void Add(CLI::App& app) {
+    command = app.add_subcommand(
+        "merge",
+        "Merge sessions of one place (the output folders of stillmap build) into one map in the "
+        "first session's map frame: map.ply, map.pcd, map.bt, map.ot, grid.pgm + grid.yaml, the "
+        "mesh, trajectory_<session>.txt per session, renders/, report.json, report.html, "
+        "config.yaml. Sessions are joined where place recognition finds and geometry verifies "
+        "places they share; a session that shares none is left out with a warning (exit 2 when "
+        "none can be joined). Where the place changed, the later recording wins.");
+    command
+        ->add_option("SESSION_DIRS", request.session_dirs,
+                     "two or more build output folders (each holds session.bin); the first "
+                     "sets the map frame")
+        ->required();
+    command->add_option("-o,--output", request.output_dir, "output folder for the merged map")
+        ->required();
+    command->add_option("--config", config_file,
+                        "YAML configuration (default: the first session's config.yaml)");
+    command->add_option("--set", set_arguments, "key=value; overrides --config (repeatable)");
+    command->add_option("--threads", request.threads, "threads")->check(CLI::Range(1, 64));
+    command->add_flag("--quiet", quiet, "no progress line, warnings only");
+    command->footer("The merge.* keys of `stillmap build --help` tune how sessions are joined.");
+  }
+
+  void Run() {
+    const std::string config =
+        config_file.empty()
+            ? (std::filesystem::path(request.session_dirs.front()) / "config.yaml").string()
+            : config_file;
+    if (std::filesystem::exists(config) || !config_file.empty()) {
+      stillmap::ApplyConfigFile(&request.config, config);
+    }
+    for (const std::string& argument : set_arguments) {
+      stillmap::ApplySetArgument(&request.config, argument);
+    }
+    request.show_progress = !quiet && stillmap::StderrIsTerminal();
+    if (quiet) spdlog::set_level(spdlog::level::warn);
+    const stillmap::MergeResult result = stillmap::RunMerge(request);
+    for (const std::string& line : stillmap::MergeSummaryLines(result, request.output_dir)) {
+      spdlog::info("{}", line);
+    }
+    for (const std::string& warning : result.warnings) spdlog::warn("{}", warning);
+  }
+};
+
 struct EvalCommand {
   stillmap::EvalRequest request;
   CLI::App* command = nullptr;
@@ -313,11 +366,14 @@ int Run(int argc, char** argv) {
   for (int i = 0; i < argc; ++i) {
     build.request.command_line += (i > 0 ? " " : "") + std::string(argv[i]);
   }
+  MergeCommand merge;
+  merge.request.command_line = build.request.command_line;
   EvalCommand eval;
   SynthCommand synth;
   ViewCommand view;
   InfoCommand info;
   build.Add(app);
+  merge.Add(app);
   eval.Add(app);
   synth.Add(app);
   view.Add(app);
@@ -341,6 +397,7 @@ int Run(int argc, char** argv) {
   stillmap::SetLibraryMessages(build.verbose);
   try {
     if (*build.command) build.Run();
+    if (*merge.command) merge.Run();
     if (*eval.command) eval.Run();
     if (*synth.command) synth.Run();
     if (*view.command) view.Run();

@@ -30,7 +30,7 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
   const float margin_sigmas = static_cast<float>(options.view_margin_sigmas);
   cv::parallel_for_(cv::Range(0, static_cast<int>(positions.size())), [&](const cv::Range& range) {
     for (int k = range.start; k < range.end; ++k) {
-      int free = 0, seen = 0;
+      int free = 0, seen = 0, session = 0;
       for (const KeyframeView& view : views) {
         const Eigen::Vector3f q = view.camera_from_world * positions[static_cast<size_t>(k)];
         if (q.z() < 0.1f) continue;
@@ -48,9 +48,15 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
         const float reading = view.depth_m.at<float>(v, u);
         if (!(reading > 0.0f)) continue;
         const float margin = margin_m + margin_sigmas * KinectDepthSigma(q.z());
-        if (reading > q.z() + margin) {
+        const bool through = reading > q.z() + margin, at = !through && reading >= q.z() - margin;
+        if (view.session < session || !(through || at)) continue;
+        if (view.session > session) {  // a later session's evidence replaces the earlier ones'
+          session = view.session;
+          free = seen = 0;
+        }
+        if (through) {
           ++free;
-        } else if (reading >= q.z() - margin) {
+        } else {
           ++seen;
         }
       }

@@ -56,6 +56,10 @@ FinishedMap Mapper::Finish() {
   if (finished_) throw std::logic_error("Mapper::Finish called twice");
   if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
   finished_ = true;
+  if (earlier_) {
+    earlier_->Overlay(*occupancy_, options_.occupancy.DecisiveLogOdds());
+    occupancy_ = std::move(earlier_);
+  }
   return FinishedMap{std::move(cloud_), std::move(occupancy_), statistics_, std::move(views_)};
 }
 
@@ -64,10 +68,25 @@ void Mapper::Reset() {
   if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
   cloud_ = VoxelCloud(options_.voxel);
   if (occupancy_) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
+  earlier_.reset();
+  session_ = 0;
   views_.clear();
   statistics_.frames = 0;
   statistics_.points = 0;
   ++statistics_.refusions;
+}
+
+void Mapper::BeginLaterSession() {
+  if (finished_) throw std::logic_error("Mapper::BeginLaterSession called after Finish");
+  if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
+  ++session_;
+  if (!occupancy_) return;
+  if (earlier_) {
+    earlier_->Overlay(*occupancy_, options_.occupancy.DecisiveLogOdds());
+  } else {
+    earlier_ = std::move(occupancy_);
+  }
+  occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
 }
 
 void Mapper::WaitForOccupancy() {
@@ -126,6 +145,7 @@ void Mapper::Fuse(const MapperFrame& frame) {
 
   if (options_.cleaning.clear_seen_through_views) {
     views_.push_back(MakeKeyframeView(frame.depth_m, frame.mask, frame.world_from_camera));
+    views_.back().session = session_;
   }
   start = std::chrono::steady_clock::now();
   cloud_.Insert(scratch_);

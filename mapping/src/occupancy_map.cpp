@@ -23,6 +23,9 @@ void OccupancyMapOptions::Validate() const {
   if (!(clamping_min > 0.0 && clamping_min < 0.5 && clamping_max > 0.5 && clamping_max < 1.0)) {
     throw InputError("octomap.clamping_min must be in (0, 0.5) and clamping_max in (0.5, 1)");
   }
+  if (!(later_session_decisive_hits >= 0.0 && later_session_decisive_hits <= 100.0)) {
+    throw InputError("octomap.later_session_decisive_hits must be in [0, 100]");
+  }
 }
 
 struct OccupancyMap::Impl {
@@ -133,6 +136,39 @@ OccupancyMap OccupancyMap::Transformed(const Eigen::Isometry3d& new_from_old) co
   to.updateInnerOccupancy();
   to.prune();
   return result;
+}
+
+double OccupancyMapOptions::DecisiveLogOdds() const {
+  return later_session_decisive_hits * std::log(probability_hit / (1.0 - probability_hit));
+}
+
+void OccupancyMap::Overlay(const OccupancyMap& later, double decisive_log_odds) {
+  octomap::OcTree& tree = impl_->tree;
+  const octomap::OcTree& other = later.impl_->tree;
+  const unsigned max_depth = tree.getTreeDepth();
+  for (auto it = other.begin_leafs(), end = other.end_leafs(); it != end; ++it) {
+    const float value = it->getLogOdds();
+    const bool decisive = std::abs(value) >= decisive_log_odds;
+    // A pruned leaf stands for 2^(max_depth - depth) voxels along each axis: each is set.
+    const octomap::OcTreeKey first = it.getIndexKey();
+    const unsigned side = 1u << (max_depth - it.getDepth());
+    for (unsigned dx = 0; dx < side; ++dx) {
+      for (unsigned dy = 0; dy < side; ++dy) {
+        for (unsigned dz = 0; dz < side; ++dz) {
+          const octomap::OcTreeKey key(static_cast<octomap::key_type>(first[0] + dx),
+                                       static_cast<octomap::key_type>(first[1] + dy),
+                                       static_cast<octomap::key_type>(first[2] + dz));
+          if (decisive) {
+            tree.setNodeValue(key, value, true);
+          } else {
+            tree.updateNode(key, value, true);
+          }
+        }
+      }
+    }
+  }
+  tree.updateInnerOccupancy();
+  tree.prune();
 }
 
 double OccupancyMap::Occupancy(const Eigen::Vector3d& point_in_world) const {

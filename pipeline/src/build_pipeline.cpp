@@ -176,7 +176,7 @@ const std::vector<std::string>& BuildOutputNames() {
   static const std::vector<std::string> kNames = {
       "map.ply",  "map.pcd",     "map.bt",      "map.ot",     "trajectory.txt", "keyframes.txt",
       "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",   "mesh.mtl",       "mesh.ply",
-      "renders/", "config.yaml", "report.json", "report.html"};
+      "renders/", "config.yaml", "report.json", "report.html",    "session.bin"};
   return kNames;
 }
 

@@ -126,6 +126,27 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
 
 }  // namespace
 
+void MergeOptions::Validate() const {
+  if (place_candidates < 1) throw InputError("merge.place_candidates must be at least 1");
+  if (place_min_votes < 1) throw InputError("merge.place_min_votes must be at least 1");
+  if (max_descriptor_distance < 0 || max_descriptor_distance > 256) {
+    throw InputError("merge.max_descriptor_distance must be 0..256");
+  }
+  if (!(match_ratio > 0.0 && match_ratio <= 1.0)) {
+    throw InputError("merge.match_ratio must be in (0, 1]");
+  }
+  if (min_inliers < 6) throw InputError("merge.min_inliers must be at least 6");
+  if (min_links < 1) throw InputError("merge.min_links must be at least 1");
+  if (!(agreement_m > 0.0) || !(agreement_deg > 0.0 && agreement_deg <= 180.0)) {
+    throw InputError("merge.agreement_m must be > 0 and merge.agreement_deg in (0, 180]");
+  }
+  if (neighbour_edges < 0) throw InputError("merge.neighbour_edges must be >= 0");
+  if (!(neighbour_radius_m >= 0.0)) throw InputError("merge.neighbour_radius_m must be >= 0");
+  if (!(link_weight > 0.0 && link_weight < 1e6)) {
+    throw InputError("merge.link_weight must be positive (and below 1e6)");
+  }
+}
+
 void BuildConfig::Validate() const {
   if (run.poses != "tracking" && run.poses != "groundtruth") {
     throw InputError("run.poses must be tracking or groundtruth, not '" + run.poses + "'");
@@ -157,6 +178,7 @@ void BuildConfig::Validate() const {
   mapping.Validate();
   tracking.Validate();
   masking.Validate();
+  merge.Validate();
   selection.Validate();
   grid.Validate();
   mesh.Validate();

@@ -15,7 +15,7 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const BuildConfig& con
     stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
     stages.progress.Update(k + 1);
   }
-  return {Trajectory(inputs.groundtruth_poses), inputs.groundtruth_poses};
+  return {Trajectory(inputs.groundtruth_poses), inputs.groundtruth_poses, {}, 0.0};
 }
 
 }  // namespace stillmap

@@ -1,17 +1,40 @@
 #include "keyframe_fuser.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
+namespace {
+
+// A keyframe's features as the session record keeps them.
+std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features) {
+  std::vector<SessionFeature> out(features.size());
+  for (size_t i = 0; i < features.size(); ++i) {
+    SessionFeature& f = out[i];
+    f.u = features.keypoints[i].pt.x;
+    f.v = features.keypoints[i].pt.y;
+    f.x = static_cast<float>(features.normalized[i].x());
+    f.y = static_cast<float>(features.normalized[i].y());
+    f.depth_m = features.depth_m[i];
+    f.octave = static_cast<std::uint8_t>(std::clamp(features.keypoints[i].octave, 0, 255));
+    std::memcpy(f.descriptor.data(), features.descriptors.ptr(static_cast<int>(i)),
+                f.descriptor.size());
+  }
+  return out;
+}
+
+}  // namespace
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const BuildConfig& config,
                              const MaskStage& masks, Mapper* mapper)
     : mapper_(*mapper),
       keep_for_refusion_(config.tracking.loop_closure),
+      keep_for_session_(config.session_record),
       // The stored depth's step: the range the back-projection uses in 60000 steps (0.07 mm at
       // 4 m), far below any sensor's noise.
       depth_unit_m_(config.mapping.back_projection.max_depth / 60000.0),
@@ -63,10 +86,11 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
       // The depth corrected as the tracker's self-calibration has it now (the poses are
       // consistent with it).
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
-      LeaveOutSeenBefore(keyframe.id, &input);
+      const cv::Mat seen = SeenBefore(keyframe.id, input);
+      if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen);
+      if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
       mapper_.Integrate(input);
       fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
-      if (keep_for_refusion_) Store(keyframe.id, input);
     }
     if (recheck_) {
       MaskReference done = std::move(it->second.reference);
@@ -79,28 +103,50 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
   fuse_ms_ += MillisecondsSince(start);
 }
 
-void KeyframeFuser::LeaveOutSeenBefore(int keyframe_id, MapperFrame* input) {
+cv::Mat KeyframeFuser::SeenBefore(int keyframe_id, const MapperFrame& input) {
   CellView view =
-      revisits_.MakeView(keyframe_id, input->depth_m, input->mask, input->world_from_camera);
-  const cv::Mat seen = revisits_.SeenBefore(view);
+      revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera);
+  cv::Mat seen = revisits_.SeenBefore(view);
   revisits_.Remember(std::move(view));  // all it saw, for the keyframes after it
-  if (seen.empty()) return;
-  input->mask = input->mask.empty() ? seen : (input->mask | seen);
+  return seen;
 }
 
-void KeyframeFuser::Store(int keyframe_id, const MapperFrame& input) {
-  Stored stored{keyframe_id, input.time, input.world_from_camera, {}, {}};
+void KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& input,
+                          const cv::Mat& seen) {
+  Stored stored{keyframe.id, input.time, input.world_from_camera, {}, {}, {}, {}};
   cv::Mat depth;
   input.depth_m.convertTo(depth, CV_16U, 1.0 / depth_unit_m_);  // saturates beyond the range
   if (!input.mask.empty()) depth.setTo(0, input.mask);
   cv::imencode(".png", depth, stored.depth_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+  if (!seen.empty()) cv::imencode(".png", seen, stored.seen_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
   cv::imencode(".jpg", input.color, stored.color_jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
+  if (keep_for_session_) stored.features = SessionFeatures(keyframe.features);
   stored_.push_back(std::move(stored));
+}
+
+std::vector<SessionKeyframeBlocks> KeyframeFuser::TakeSessionKeyframes() {
+  std::vector<SessionKeyframeBlocks> out;
+  if (!keep_for_session_) return out;
+  for (Stored& stored : stored_) {
+    SessionKeyframeBlocks blocks;
+    blocks.keyframe.id = stored.keyframe_id;
+    blocks.keyframe.time = stored.time;
+    blocks.keyframe.map_from_camera = stored.world_from_camera;
+    blocks.keyframe.features = std::move(stored.features);
+    blocks.depth_png = std::move(stored.depth_png);
+    blocks.color_jpeg = std::move(stored.color_jpeg);
+    out.push_back(std::move(blocks));
+  }
+  stored_.clear();
+  return out;
 }
 
 size_t KeyframeFuser::stored_bytes() const {
   size_t bytes = 0;
-  for (const Stored& stored : stored_) bytes += stored.depth_png.size() + stored.color_jpeg.size();
+  for (const Stored& stored : stored_) {
+    bytes += stored.depth_png.size() + stored.seen_png.size() + stored.color_jpeg.size() +
+             stored.features.size() * sizeof(SessionFeature);
+  }
   return bytes;
 }
 
@@ -125,6 +171,7 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     input.color = cv::imdecode(stored.color_jpeg, cv::IMREAD_COLOR);
     cv::imdecode(stored.depth_png, cv::IMREAD_UNCHANGED)
         .convertTo(input.depth_m, CV_32F, depth_unit_m_);
+    if (!stored.seen_png.empty()) input.mask = cv::imdecode(stored.seen_png, cv::IMREAD_UNCHANGED);
     input.world_from_camera = stored.world_from_camera;
     mapper_.Integrate(input);
     fused_poses_.push_back({stored.time, stored.world_from_camera});

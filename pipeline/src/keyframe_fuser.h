@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "stillmap/io/sequence.h"
+#include "stillmap/io/session_record.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/keyframe_selection.h"
 #include "stillmap/mapping/mapper.h"
@@ -41,9 +42,14 @@ class KeyframeFuser {
   // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG). Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
+  // The fused keyframes in the session record's form (poses as fused, in the tracker's world),
+  // handed over once at the end: empty when the build keeps no session record.
+  std::vector<SessionKeyframeBlocks> TakeSessionKeyframes();
+
   // The keyframes fused, with the poses they were fused at.
   const std::vector<StampedPose>& fused_poses() const { return fused_poses_; }
   SelectionFigures figures() const;
+  double depth_unit_m() const { return depth_unit_m_; }  // of the kept depth PNGs
   double fuse_ms() const { return fuse_ms_; }
   double refuse_ms() const { return refuse_ms_; }
   size_t stored_bytes() const;
@@ -61,15 +67,20 @@ class KeyframeFuser {
     int keyframe_id = 0;
     double time = 0.0;
     Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-    std::vector<unsigned char> depth_png;   // CV_16UC1 in depth_unit_m_, 0 = none or masked
+    std::vector<unsigned char> depth_png;   // CV_16UC1 in depth_unit_m_, 0 = none or moving
+    std::vector<unsigned char> seen_png;    // CV_8UC1 cells seen on an earlier visit, or empty
     std::vector<unsigned char> color_jpeg;  // BGR
+    std::vector<SessionFeature> features;   // for the session record
   };
-  void Store(int keyframe_id, const MapperFrame& input);
-  // Masks the depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells).
-  void LeaveOutSeenBefore(int keyframe_id, MapperFrame* input);
+  // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
+  void Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen);
+  // The depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells), or an
+  // empty matrix.
+  cv::Mat SeenBefore(int keyframe_id, const MapperFrame& input);
 
   Mapper& mapper_;
-  bool keep_for_refusion_ = false;
+  bool keep_for_refusion_ = false;  // loop closure may move fused keyframes
+  bool keep_for_session_ = false;   // the build writes a session record
   double depth_unit_m_ = 0.0;
   std::vector<Stored> stored_;
   double refuse_ms_ = 0.0;

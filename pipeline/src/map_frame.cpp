@@ -77,7 +77,7 @@ PosedFrames PosesInMap(const PosedFrames& posed, const Eigen::Isometry3d& map_fr
       pose.world_from_camera = map_from_poses * pose.world_from_camera;
     return poses;
   };
-  return {Trajectory(moved(posed.trajectory.poses())), moved(posed.fused_poses)};
+  return {Trajectory(moved(posed.trajectory.poses())), moved(posed.fused_poses), {}, 0.0};
 }
 
 }  // namespace stillmap

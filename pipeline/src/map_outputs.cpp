@@ -7,6 +7,7 @@
 #include <future>
 
 #include "map_frame.h"
+#include "session_output.h"
 #include "stillmap/io/image_io.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/mapping/map_mesh.h"
@@ -63,7 +64,8 @@ FloorPlane MapFloor(const FinishedMap& map, const std::vector<VoxelPoint>* cloud
 // the floor frame; written in the map frame.
 std::optional<OccupancyGrid> WriteGridFiles(const FinishedMap& map,
                                             const std::vector<VoxelPoint>& cloud,
-                                            const PosedFrames& posed, const MapFrameFigures& frame,
+                                            const Eigen::Vector3d& start,
+                                            const MapFrameFigures& frame,
                                             const GridOptions& options, OutputSet& outputs) {
   if (!options.enabled || map.occupancy == nullptr) return std::nullopt;
   GridSources sources;
@@ -71,7 +73,7 @@ std::optional<OccupancyGrid> WriteGridFiles(const FinishedMap& map,
   sources.floor = frame.floor;
   sources.world_from_grid = frame.poses_from_map * frame.map_from_floor;
   sources.cloud = &cloud;
-  sources.start = posed.trajectory.poses().front().world_from_camera.translation();
+  sources.start = start;
   OccupancyGrid grid = ProjectToGrid(sources, options);
   grid.world_from_grid = frame.map_from_floor;
   WriteGrid(grid, outputs.TemporaryPath("grid.pgm"), outputs.TemporaryPath("grid.yaml"),
@@ -144,22 +146,6 @@ void WriteConfig(const BuildRequest& request, OutputSet& outputs) {
   if (!out.flush()) throw std::runtime_error("could not write config.yaml");
 }
 
-MapFigures Figures(const FinishedMap& map, const MapCleaningResult& cleaning) {
-  MapFigures figures;
-  figures.statistics = map.statistics;
-  figures.cleaning = cleaning;
-  figures.voxels = map.cloud.size();
-  figures.voxels_written = map.cloud.OutputSize();
-  figures.voxels_out_of_range = map.cloud.rejected_count();
-  figures.voxel_table_mib = static_cast<double>(map.cloud.MemoryBytes()) / (1024.0 * 1024.0);
-  if (map.occupancy) {
-    figures.octomap_leaves = map.occupancy->LeafCount();
-    figures.octomap_occupied_leaves = map.occupancy->OccupiedLeafCount();
-    figures.octomap_points_out_of_range = map.occupancy->rejected_count();
-  }
-  return figures;
-}
-
 // Warnings about the finished map that the figures alone do not make plain.
 void AddMapWarnings(const MapFigures& map, const BuildConfig& config, BuildResult* result) {
   const MapperOptions& options = config.mapping;
@@ -190,6 +176,50 @@ void AddMapWarnings(const MapFigures& map, const BuildConfig& config, BuildResul
 
 }  // namespace
 
+MapFiles WriteMapFiles(const FinishedMap& map, std::vector<VoxelPoint>* cloud,
+                       const MapFrameFigures& frame, const Eigen::Vector3d& start_in_poses,
+                       const BuildConfig& config, bool parallel, OutputSet& outputs,
+                       StageTimings* timings) {
+  const std::launch policy = parallel ? std::launch::async : std::launch::deferred;
+  MapFiles files;
+  const Clock::time_point grid_start = Clock::now();
+  files.grid = WriteGridFiles(map, *cloud, start_in_poses, frame, config.grid, outputs);
+  timings->grid_ms = MillisecondsSince(grid_start);
+  std::future<void> octomap_job =
+      std::async(policy, [&] { WriteOccupancyFiles(map, frame, outputs); });
+  MoveToMap(frame.poses_from_map.inverse(), cloud);
+  std::future<void> mesh_job;
+  if (config.mesh.enabled) {
+    const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
+    mesh_job = std::async(policy, [cloud, &config, timings, &files, mesh_path] {
+      const Clock::time_point start = Clock::now();
+      files.mesh = WriteMesh(*cloud, config.mesh, mesh_path);
+      timings->mesh_ms = MillisecondsSince(start);
+    });
+  }
+  WriteCloudFiles(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"), *cloud,
+                  config.mapping.voxel.leaf_size, frame.description);
+  octomap_job.get();
+  if (mesh_job.valid()) mesh_job.get();
+  return files;
+}
+
+MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleaning) {
+  MapFigures figures;
+  figures.statistics = map.statistics;
+  figures.cleaning = cleaning;
+  figures.voxels = map.cloud.size();
+  figures.voxels_written = map.cloud.OutputSize();
+  figures.voxels_out_of_range = map.cloud.rejected_count();
+  figures.voxel_table_mib = static_cast<double>(map.cloud.MemoryBytes()) / (1024.0 * 1024.0);
+  if (map.occupancy) {
+    figures.octomap_leaves = map.occupancy->LeafCount();
+    figures.octomap_occupied_leaves = map.occupancy->OccupiedLeafCount();
+    figures.octomap_points_out_of_range = map.occupancy->rejected_count();
+  }
+  return figures;
+}
+
 std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
                                         const BuildInputs& inputs, const BuildRequest& request,
                                         OutputSet& outputs, BuildResult* result) {
@@ -207,41 +237,34 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
   if (map.occupancy) fitted = MapFloor(map, nullptr, *posed, config.grid);  // beside the cleaning
   double floor_ms = MillisecondsSince(floor_start);
   clean_job.get();
-  result->map = Figures(map, cleaning);
+  result->map = MapFiguresOf(map, cleaning);
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
   std::vector<VoxelPoint> cloud = map.cloud.Points();
   if (cloud.size() < static_cast<size_t>(config.mapping.min_map_points)) {
     throw std::runtime_error(EmptyMapMessage(cloud.size(), result->map, config.mapping, *result));
   }
-  const Clock::time_point grid_start = Clock::now();
+  const Clock::time_point refine_start = Clock::now();
   // Two of the fit's cells (OctoMap voxels, or grid cells without an OctoMap) either side.
   const double band = 2.0 * (map.occupancy ? map.occupancy->resolution() : config.grid.resolution);
   const FloorPlane floor =
       RefineFloor(fitted ? *fitted : MapFloor(map, &cloud, *posed, config.grid), cloud, band);
   result->map_frame = ChooseMapFrame(floor, inputs, request, *posed);
+  floor_ms += MillisecondsSince(refine_start);
   const MapFrameFigures& frame = result->map_frame;
-  result->grid = WriteGridFiles(map, cloud, *posed, frame, config.grid, outputs);
-  timings.grid_ms = floor_ms + MillisecondsSince(grid_start);
+  const Eigen::Vector3d start = posed->trajectory.poses().front().world_from_camera.translation();
+  MapFiles files =
+      WriteMapFiles(map, &cloud, frame, start, config, request.threads > 1, outputs, &timings);
+  timings.grid_ms += floor_ms;
+  result->grid = std::move(files.grid);
+  if (config.mesh.enabled) result->mesh = files.mesh;
   const Eigen::Isometry3d map_from_poses = frame.poses_from_map.inverse();
-  std::future<void> octomap_job =
-      std::async(Policy(request), [&] { WriteOccupancyFiles(map, frame, outputs); });
-  MoveToMap(map_from_poses, &cloud);
-  *posed = PosesInMap(*posed, map_from_poses);
-  std::future<void> mesh_job;
-  if (config.mesh.enabled) {
-    const std::string mesh_path = outputs.TemporaryPath(config.mesh.FileName());
-    mesh_job = std::async(Policy(request), [&cloud, &config, &timings, result, mesh_path] {
-      const Clock::time_point start = Clock::now();
-      result->mesh = WriteMesh(cloud, config.mesh, mesh_path);
-      timings.mesh_ms = MillisecondsSince(start);
-    });
+  if (!posed->session_keyframes.empty()) {
+    WriteSessionFile(std::move(posed->session_keyframes), posed->session_depth_unit_m, frame,
+                     inputs, request.sequence_dir, outputs.TemporaryPath("session.bin"));
   }
-  WriteCloudFiles(outputs.TemporaryPath("map.ply"), outputs.TemporaryPath("map.pcd"), cloud,
-                  config.mapping.voxel.leaf_size, frame.description);
+  *posed = PosesInMap(*posed, map_from_poses);
   WriteTrajectoryFiles(*posed, result->tracked(), frame.name, outputs);
   WriteConfig(request, outputs);
-  octomap_job.get();
-  if (mesh_job.valid()) mesh_job.get();
   timings.write_ms = MillisecondsSince(write_start);
   result->frames.fused = result->map.statistics.frames;
   result->frames.tracked = posed->trajectory.size();

@@ -1,6 +1,7 @@
 // The map outputs of a build, written into the staged output set.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "build_inputs.h"
@@ -22,6 +23,22 @@ namespace stillmap {
 std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
                                         const BuildInputs& inputs, const BuildRequest& request,
                                         OutputSet& outputs, BuildResult* result);
+
+// The files of a cleaned map, in the frame `frame` (the cloud's points and `start`, the first
+// camera's position, in the poses' frame): grid.pgm/yaml (when enabled), map.bt/ot, map.ply/pcd
+// and the mesh, the OctoMap and mesh on other threads when `parallel`. Moves `cloud` into the map
+// frame; sets timings->grid_ms and mesh_ms. Throws std::runtime_error for an empty mesh.
+struct MapFiles {
+  std::optional<OccupancyGrid> grid;
+  MeshFigures mesh;
+};
+MapFiles WriteMapFiles(const FinishedMap& map, std::vector<VoxelPoint>* cloud,
+                       const MapFrameFigures& frame, const Eigen::Vector3d& start_in_poses,
+                       const BuildConfig& config, bool parallel, OutputSet& outputs,
+                       StageTimings* timings);
+
+// The figures of a finished map and its cleaning.
+MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleaning);
 
 // The renders (renders/: top views of the cloud and grid, the trajectory error plot when the
 // trajectory was evaluated) into the staged set; sets result->renders.

@@ -6,6 +6,7 @@
 
 #include "build_inputs.h"
 #include "frame_reader.h"
+#include "stillmap/io/session_record.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/pipeline/progress.h"
@@ -16,6 +17,9 @@ namespace stillmap {
 struct PosedFrames {
   Trajectory trajectory;                 // every frame with a pose
   std::vector<StampedPose> fused_poses;  // the frames fused, with the poses they were fused at
+  // The fused keyframes for session.bin (poses in the poses' frame; empty without a record).
+  std::vector<SessionKeyframeBlocks> session_keyframes;
+  double session_depth_unit_m = 0.0;  // the step of their depth PNGs [m]
 };
 
 // The steps every loop shares.

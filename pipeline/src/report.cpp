@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "report_parts.h"
 #include "report_timing.h"
 #include "stillmap/pipeline/build_pipeline.h"
 
@@ -14,11 +15,15 @@ namespace {
 
 using nlohmann::json;
 
+}  // namespace
+
 json StatisticsJson(const ErrorStatistics& statistics) {
   return {{"count", statistics.count},   {"rmse", statistics.rmse},       {"mean", statistics.mean},
           {"median", statistics.median}, {"std_dev", statistics.std_dev}, {"min", statistics.min},
           {"max", statistics.max}};
 }
+
+namespace {
 
 json CameraJson(const Camera& camera) {
   return {{"width", camera.width},
@@ -95,6 +100,8 @@ json MaskQualityJson(const MaskScore& score) {
           {"mean_frame_iou", score.MeanFrameIou()}};
 }
 
+}  // namespace
+
 json MapJson(const MapFigures& map, const BuildConfig& config) {
   const MapperOptions& mapping = config.mapping;
   return {{"voxel_leaf_m", mapping.voxel.leaf_size},
@@ -146,6 +153,8 @@ json FloorJson(const FloorPlane& floor) {
           {"plane_voxels", floor.inliers}};
 }
 
+namespace {
+
 json MapFrameJson(const MapFrameFigures& frame, bool tracked) {
   return {{"name", frame.name},
           {"description", frame.description},
@@ -167,6 +176,8 @@ json OutputsJson(const BuildResult& result, const BuildConfig& config) {
   files.insert(files.end(), {"config.yaml", "report.json"});
   return files;
 }
+
+}  // namespace
 
 json GridJson(const OccupancyGrid& grid) {
   return {{"files", {"grid.pgm", "grid.yaml"}},
@@ -191,6 +202,8 @@ json GridJson(const OccupancyGrid& grid) {
             {"tilt_to_cameras_up_deg", grid.floor.tilt_to_cameras_deg},
             {"plane_voxels", grid.floor.inliers}}}};
 }
+
+namespace {
 
 json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {
   if (!options.depth_self_calibration) return {{"enabled", false}};

@@ -56,7 +56,9 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
   fuse_final();
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
   const size_t moved = fuser.Refuse(tracker.KeyframePoses());
-  PosedFrames posed{tracker.TrackedTrajectory(), fuser.fused_poses()};
+  const double store_mib = static_cast<double>(fuser.stored_bytes()) / (1024.0 * 1024.0);
+  PosedFrames posed{tracker.TrackedTrajectory(), fuser.fused_poses(), fuser.TakeSessionKeyframes(),
+                    fuser.depth_unit_m()};
   if (posed.trajectory.empty()) {
     throw std::runtime_error(
         "no frame could be tracked (too few ORB features with depth: is the depth scale right? "
@@ -66,7 +68,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
   figures.fuse_ms = fuser.fuse_ms();
   figures.refuse_ms = fuser.refuse_ms();
   figures.refused_keyframes_moved = moved;
-  figures.refusion_store_mib = static_cast<double>(fuser.stored_bytes()) / (1024.0 * 1024.0);
+  figures.refusion_store_mib = store_mib;
   figures.bundle_adjustment_thread =
       config.tracking.background_bundle_adjustment && request.threads > 1;
   result->tracking = std::move(figures);

@@ -112,7 +112,7 @@ bool Tracker::Impl::CullIfRedundant(size_t position) {
   };
   if (CoveredShare(keyframe, kept_before) <= options.redundant_keyframe_share) return false;
   FinalKeyframe done{
-      id, keyframe.frame_index, keyframe.time, keyframe.camera_from_world.inverse(), {}, true};
+      id, keyframe.frame_index, keyframe.time, keyframe.camera_from_world.inverse(), {}, true, {}};
   for (int landmark : keyframe.landmark_of_feature) {
     if (landmark >= 0) done.landmarks.push_back(landmark);
   }
@@ -257,10 +257,13 @@ void Tracker::Impl::UpdateFinal(bool all) {
                          keyframe.frame_index,
                          keyframe.time,
                          keyframe.camera_from_world.inverse(),
+                         {},
+                         false,
                          {}};
       for (int id : keyframe.landmark_of_feature) {
         if (id >= 0) done.landmarks.push_back(id);
       }
+      done.features = keyframe.features;
       final_queue.push_back(std::move(done));
     }
     ++next_final;

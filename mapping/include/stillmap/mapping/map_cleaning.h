@@ -64,6 +64,9 @@ struct MapCleaningOptions {
 struct KeyframeView {
   cv::Mat depth_m;  // CV_32FC1, (width + 1) / 2 x (height + 1) / 2, 0 = no reading or masked
   Eigen::Isometry3f camera_from_world = Eigen::Isometry3f::Identity();
+  // Merged sessions (Mapper::BeginLaterSession): of a voxel, only the latest session that saw it
+  // or saw through it is heard.
+  int session = 0;
 };
 
 // The view of a frame: depth_m (CV_32FC1) and mask (CV_8UC1 or empty) at full resolution.

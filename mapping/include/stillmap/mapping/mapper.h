@@ -106,6 +106,11 @@ class Mapper {
   // points count again from zero, and refusions counts the calls.
   void Reset();
 
+  // The frames from here on observe the place later than those before (another recording, when
+  // sessions are merged): where they are decisive they replace what the earlier frames said
+  // (OctoMap leaves, OccupancyMapOptions::later_session_decisive_hits; the view cleaning), so a
+  // chair moved between recordings stands where it was seen last, and its old place is free.
+  void BeginLaterSession();
   // Waits for the background work still running (rethrowing its failure) and hands over the
   // map. Call once: the mapper holds nothing afterwards (a second call throws
   // std::logic_error), so the finished map has one owner on whatever thread uses it.
@@ -117,7 +122,9 @@ class Mapper {
   MapperOptions options_;
   DepthBackProjector projector_;
   VoxelCloud cloud_;
-  std::unique_ptr<OccupancyMap> occupancy_;
+  std::unique_ptr<OccupancyMap> occupancy_;  // of the current session
+  std::unique_ptr<OccupancyMap> earlier_;    // of the sessions before it (BeginLaterSession)
+  int session_ = 0;
   ColoredPoints scratch_;
   Camera camera_;
   std::vector<KeyframeView> views_;                // of the fused frames, for the cleaning

@@ -19,6 +19,12 @@ struct OccupancyMapOptions {
   double probability_miss = 0.4;
   double clamping_min = 0.1192;  // OctoMap's default clamping thresholds
   double clamping_max = 0.971;
+  // Sessions merged into one map (Mapper::BeginLaterSession): a later session's value replaces the
+  // earlier ones' where its own evidence weighs at least this many hits (or as many misses).
+  double later_session_decisive_hits = 2.0;
+
+  // The log-odds a later session's value must reach to replace the earlier ones'.
+  double DecisiveLogOdds() const;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
@@ -35,6 +41,9 @@ struct OccupancyMapOptions {
           "sensor model: P(occupied | pass-through) (OctoMap: 0.4)");
     visit("clamping_min", self.clamping_min, "lower probability clamp (OctoMap: 0.1192)");
     visit("clamping_max", self.clamping_max, "upper probability clamp (OctoMap: 0.971)");
+    visit("later_session_decisive_hits", self.later_session_decisive_hits,
+          "merge: a later session's voxel replaces the earlier sessions' where its evidence weighs "
+          "this many hits (or as many misses)");
   }
 };
 
@@ -60,6 +69,11 @@ class OccupancyMap {
   // whose centre falls outside the old known space stay unknown; those beyond the extent are
   // left out.
   OccupancyMap Transformed(const Eigen::Isometry3d& new_from_old) const;
+
+  // Lays `later` (the same options; a later observation of the place) over this map: a voxel
+  // where `later` is decisive (log-odds at least decisive_log_odds from even) takes its value, a
+  // chair moved between two recordings; elsewhere the evidence adds up (clamped).
+  void Overlay(const OccupancyMap& later, double decisive_log_odds);
 
   // Occupancy probability of the leaf at `point_in_world`, or a negative value when unknown.
   double Occupancy(const Eigen::Vector3d& point_in_world) const;

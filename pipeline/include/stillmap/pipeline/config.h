@@ -12,6 +12,7 @@
 #include "stillmap/mapping/map_mesh.h"
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/pipeline/merge_options.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
@@ -82,6 +83,9 @@ struct BuildConfig {
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;
   RpeOptions rpe;
+  MergeOptions merge;  // stillmap merge
+  // Write session.bin, what `stillmap merge` joins sessions from (tracked builds only).
+  bool session_record = true;
 
   // Throws InputError naming the key of the first impossible value.
   void Validate() const;
@@ -92,6 +96,9 @@ struct BuildConfig {
   static void VisitFields(Self& self, Visitor& visit) {
     visit.Section("run", self.run);
     visit.Section("map", self.map);
+    visit("map.session_record", self.session_record,
+          "write session.bin: the fused keyframes' poses, features and compact images, for "
+          "stillmap merge (tracked builds)");
     visit.Section("camera", self.camera);
     visit.Section("sequence", self.sequence);
     visit("sequence.first_frame", self.first_frame, "index of the first color/depth pair used");
@@ -116,6 +123,7 @@ struct BuildConfig {
           "motion-level overrides, e.g. chair=low,book=high (levels: high, medium, low)");
     visit.Section("eval", self.ate);
     visit.Section("eval", self.rpe, "rpe_");
+    visit.Section("merge", self.merge);
   }
 };
 

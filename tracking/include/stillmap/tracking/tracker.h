@@ -367,6 +367,8 @@ struct FinalKeyframe {
   // (TrackerOptions::redundant_keyframe_share). Not for the map; its frames are posed through
   // the keyframe it handed them to.
   bool culled = false;
+  // Its ORB features (not for culled keyframes): what place recognition across sessions matches.
+  FrameFeatures features;
 };
 
 struct TrackerStatistics {

@@ -1,0 +1,361 @@
+#include "stillmap/io/session_record.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <type_traits>
+
+#include "stillmap/io/error.h"
+
+namespace stillmap {
+namespace {
+
+using nlohmann::json;
+
+constexpr char kMagic[16] = {'s', 't', 'i', 'l', 'l', 'm', 'a', 'p',
+                             '-', 's', 'e', 's', 's', 'i', 'o', 'n'};
+constexpr std::uint64_t kPreambleBytes = sizeof(kMagic) + 4 + 8;
+constexpr std::uint64_t kMaxHeaderBytes = 256ull << 20;  // far above 10^5 keyframes' metadata
+// One feature on file: u v x y depth (float32), octave (uint8), descriptor (32 bytes).
+constexpr size_t kFeatureBytes = 5 * 4 + 1 + 32;
+
+// Little-endian stores and loads (the machines stillmap runs on are little-endian, but the file
+// says so and does not depend on it).
+template <typename T>
+void Put(std::vector<unsigned char>* out, T value) {
+  unsigned char bytes[sizeof(T)];
+  std::memcpy(bytes, &value, sizeof(T));
+  out->insert(out->end(), bytes, bytes + sizeof(T));
+}
+template <typename T>
+T Get(const unsigned char* in) {
+  T value;
+  std::memcpy(&value, in, sizeof(T));
+  return value;
+}
+
+json PoseJson(const Eigen::Isometry3d& pose) {
+  const Eigen::Quaterniond q(pose.linear());
+  const Eigen::Vector3d t = pose.translation();
+  return json::array({t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()});
+}
+
+json MatrixJson(const Eigen::Isometry3d& transform) {
+  json rows = json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) rows.push_back(transform.matrix()(r, c));
+  }
+  return rows;
+}
+
+json CameraJson(const Camera& camera) {
+  json out = {{"width", camera.width},
+              {"height", camera.height},
+              {"fx", camera.fx},
+              {"fy", camera.fy},
+              {"cx", camera.cx},
+              {"cy", camera.cy},
+              {"distortion", camera.distortion},
+              {"rational", camera.rational},
+              {"depth_factor", camera.depth_factor}};
+  if (camera.groundtruth_body_from_camera) {
+    out["groundtruth_body_from_camera"] = MatrixJson(*camera.groundtruth_body_from_camera);
+  }
+  return out;
+}
+
+json HeaderJson(const SessionRecord& record, const std::vector<SessionKeyframeBlocks>& blocks) {
+  const SessionMapFrame& frame = record.map_frame;
+  json keyframes = json::array();
+  for (const SessionKeyframeBlocks& block : blocks) {
+    const SessionKeyframe& keyframe = block.keyframe;
+    keyframes.push_back({{"id", keyframe.id},
+                         {"time", keyframe.time},
+                         {"map_from_camera", PoseJson(keyframe.map_from_camera)},
+                         {"features", keyframe.features.size()},
+                         {"depth_png_bytes", block.depth_png.size()},
+                         {"color_jpeg_bytes", block.color_jpeg.size()}});
+  }
+  return {{"camera", CameraJson(record.camera)},
+          {"map_frame",
+           {{"name", frame.name},
+            {"description", frame.description},
+            {"floor_up", {frame.floor_up.x(), frame.floor_up.y(), frame.floor_up.z()}},
+            {"floor_offset", frame.floor_offset},
+            {"floor_found", frame.floor_found},
+            {"floor_source", frame.floor_source},
+            {"map_from_floor", MatrixJson(frame.map_from_floor)}}},
+          {"depth_unit_m", record.depth_unit_m},
+          {"sequence", record.sequence},
+          {"stillmap_version", record.stillmap_version},
+          {"keyframes", keyframes}};
+}
+
+void AppendFeatures(const std::vector<SessionFeature>& features, std::vector<unsigned char>* out) {
+  for (const SessionFeature& f : features) {
+    for (const float value : {f.u, f.v, f.x, f.y, f.depth_m}) Put(out, value);
+    out->push_back(f.octave);
+    out->insert(out->end(), f.descriptor.begin(), f.descriptor.end());
+  }
+}
+
+std::vector<SessionFeature> ParseFeatures(const std::vector<unsigned char>& bytes) {
+  std::vector<SessionFeature> features(bytes.size() / kFeatureBytes);
+  const unsigned char* at = bytes.data();
+  for (SessionFeature& f : features) {
+    float* fields[] = {&f.u, &f.v, &f.x, &f.y, &f.depth_m};
+    for (float* field : fields) {
+      *field = Get<float>(at);
+      at += 4;
+    }
+    f.octave = *at++;
+    std::memcpy(f.descriptor.data(), at, f.descriptor.size());
+    at += f.descriptor.size();
+  }
+  return features;
+}
+
+// The header's values, each checked: a missing or mistyped key names the key.
+class HeaderReader {
+ public:
+  explicit HeaderReader(std::string path) : path_(std::move(path)) {}
+  const std::string& path() const { return path_; }
+
+  template <typename T>
+  T Value(const json& object, const char* key) const {
+    const auto it = object.find(key);
+    if (it == object.end()) Fail(fmt::format("the header has no '{}'", key));
+    if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+      // nlohmann converts a float or an out-of-range integer with a plain cast.
+      const bool fits = it->is_number_unsigned()
+                            ? it->template get<std::uint64_t>() <=
+                                  static_cast<std::uint64_t>(std::numeric_limits<T>::max())
+                            : it->is_number_integer() &&
+                                  it->template get<std::int64_t>() >=
+                                      static_cast<std::int64_t>(std::numeric_limits<T>::min()) &&
+                                  (std::is_unsigned_v<T> ||
+                                   it->template get<std::int64_t>() <=
+                                       static_cast<std::int64_t>(std::numeric_limits<T>::max()));
+      if (!fits) Fail(fmt::format("the header's '{}' is not an integer in range", key));
+    }
+    try {
+      return it->get<T>();
+    } catch (const json::exception&) {
+      Fail(fmt::format("the header's '{}' is not of the expected type", key));
+    }
+  }
+
+  double Finite(const json& object, const char* key) const {
+    const auto value = Value<double>(object, key);
+    if (!std::isfinite(value)) Fail(fmt::format("the header's '{}' is not finite", key));
+    return value;
+  }
+
+  Eigen::Isometry3d Pose(const json& object, const char* key) const {
+    const auto v = Value<std::vector<double>>(object, key);
+    Eigen::Quaterniond q(v.size() == 7 ? v[6] : 0.0, v.size() == 7 ? v[3] : 0.0,
+                         v.size() == 7 ? v[4] : 0.0, v.size() == 7 ? v[5] : 0.0);
+    bool finite = v.size() == 7;
+    for (const double x : v) finite = finite && std::isfinite(x);
+    if (!finite || std::abs(q.norm() - 1.0) > 1e-3) {
+      Fail(fmt::format("'{}' is not a pose (tx ty tz qx qy qz qw with a unit quaternion)", key));
+    }
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = q.normalized().toRotationMatrix();
+    pose.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+    return pose;
+  }
+
+  Eigen::Isometry3d Matrix(const json& object, const char* key) const {
+    const auto v = Value<std::vector<double>>(object, key);
+    if (v.size() != 16) Fail(fmt::format("'{}' is not a 4x4 matrix", key));
+    Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+    for (int i = 0; i < 12; ++i) transform.matrix()(i / 4, i % 4) = v[static_cast<size_t>(i)];
+    const Eigen::Matrix3d r = transform.linear();
+    if (!transform.matrix().allFinite() ||
+        (r * r.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-6) {
+      Fail(fmt::format("'{}' is not a rigid transform", key));
+    }
+    return transform;
+  }
+
+  [[noreturn]] void Fail(const std::string& what) const {
+    throw InputError(path_ + ": damaged session record: " + what +
+                     "; build the session again (stillmap build)");
+  }
+
+ private:
+  std::string path_;
+};
+
+Camera ParseCamera(const json& j, const HeaderReader& read, const std::string& path) {
+  Camera camera;
+  camera.width = read.Value<int>(j, "width");
+  camera.height = read.Value<int>(j, "height");
+  camera.fx = read.Finite(j, "fx");
+  camera.fy = read.Finite(j, "fy");
+  camera.cx = read.Finite(j, "cx");
+  camera.cy = read.Finite(j, "cy");
+  camera.distortion = read.Value<std::array<double, 5>>(j, "distortion");
+  camera.rational = read.Value<std::array<double, 3>>(j, "rational");
+  camera.depth_factor = read.Finite(j, "depth_factor");
+  if (j.contains("groundtruth_body_from_camera")) {
+    camera.groundtruth_body_from_camera = read.Matrix(j, "groundtruth_body_from_camera");
+  }
+  camera.Validate(path + " (the session's camera)");
+  return camera;
+}
+
+SessionMapFrame ParseMapFrame(const json& j, const HeaderReader& read) {
+  SessionMapFrame frame;
+  frame.name = read.Value<std::string>(j, "name");
+  frame.description = read.Value<std::string>(j, "description");
+  const auto up = read.Value<std::array<double, 3>>(j, "floor_up");
+  frame.floor_up = Eigen::Vector3d(up[0], up[1], up[2]);
+  if (!frame.floor_up.allFinite() || std::abs(frame.floor_up.norm() - 1.0) > 1e-6) {
+    read.Fail("'floor_up' is not a unit vector");
+  }
+  frame.floor_offset = read.Finite(j, "floor_offset");
+  frame.floor_found = read.Value<bool>(j, "floor_found");
+  frame.floor_source = read.Value<std::string>(j, "floor_source");
+  frame.map_from_floor = read.Matrix(j, "map_from_floor");
+  return frame;
+}
+
+// The header's record; the features are read from the file by `read_block` (offset, size).
+template <typename ReadBlock>
+SessionRecord ParseRecord(const json& header, std::uint64_t offset, std::uint64_t file_size,
+                          const HeaderReader& read, ReadBlock&& read_block) {
+  SessionRecord record;
+  record.camera = ParseCamera(read.Value<json>(header, "camera"), read, read.path());
+  record.map_frame = ParseMapFrame(read.Value<json>(header, "map_frame"), read);
+  record.depth_unit_m = read.Finite(header, "depth_unit_m");
+  if (!(record.depth_unit_m > 0.0)) read.Fail("'depth_unit_m' is not positive");
+  record.sequence = read.Value<std::string>(header, "sequence");
+  record.stillmap_version = read.Value<std::string>(header, "stillmap_version");
+  const json keyframes = read.Value<json>(header, "keyframes");
+  if (!keyframes.is_array()) read.Fail("'keyframes' is not a list");
+  auto block = [&](const json& entry, const char* key, std::uint64_t* at, std::uint64_t* size) {
+    *size = read.Value<std::uint64_t>(entry, key);
+    if (*size > file_size - offset)
+      read.Fail(fmt::format("a block ('{}') runs past the end of the file", key));
+    *at = offset;
+    offset += *size;
+  };
+  for (const json& entry : keyframes) {
+    SessionKeyframe keyframe;
+    keyframe.id = read.Value<int>(entry, "id");
+    keyframe.time = read.Finite(entry, "time");
+    keyframe.map_from_camera = read.Pose(entry, "map_from_camera");
+    if (!record.keyframes.empty() && keyframe.time <= record.keyframes.back().time) {
+      read.Fail(fmt::format("keyframe {} is not later than the one before it", keyframe.id));
+    }
+    const auto count = read.Value<std::uint64_t>(entry, "features");
+    if (count > (file_size - offset) / kFeatureBytes)
+      read.Fail("a feature block runs past the end of the file");
+    const std::uint64_t feature_bytes = count * kFeatureBytes;
+    keyframe.features = ParseFeatures(read_block(offset, feature_bytes));
+    offset += feature_bytes;
+    block(entry, "depth_png_bytes", &keyframe.depth_offset, &keyframe.depth_size);
+    block(entry, "color_jpeg_bytes", &keyframe.color_offset, &keyframe.color_size);
+    record.keyframes.push_back(std::move(keyframe));
+  }
+  if (offset != file_size) read.Fail("it holds more bytes than its header describes");
+  return record;
+}
+
+}  // namespace
+
+void WriteSessionRecord(const std::string& path, const SessionRecord& record,
+                        const std::vector<SessionKeyframeBlocks>& keyframes) {
+  const std::string header = HeaderJson(record, keyframes).dump();
+  std::vector<unsigned char> preamble(kMagic, kMagic + sizeof(kMagic));
+  Put(&preamble, SessionRecord::kVersion);
+  Put(&preamble, static_cast<std::uint64_t>(header.size()));
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  auto write = [&out](const void* data, size_t size) {
+    out.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+  };
+  write(preamble.data(), preamble.size());
+  write(header.data(), header.size());
+  std::vector<unsigned char> features;
+  for (const SessionKeyframeBlocks& block : keyframes) {
+    features.clear();
+    AppendFeatures(block.keyframe.features, &features);
+    write(features.data(), features.size());
+    write(block.depth_png.data(), block.depth_png.size());
+    write(block.color_jpeg.data(), block.color_jpeg.size());
+  }
+  if (!out.flush()) throw std::runtime_error(path + ": could not write the session record");
+}
+
+SessionRecordReader::SessionRecordReader(const std::string& path)
+    : path_(path), file_(path, std::ios::binary) {
+  if (!file_) {
+    throw InputError(path +
+                     ": no session record there (a build writes session.bin into its "
+                     "output folder; build the session with this stillmap)");
+  }
+  file_.seekg(0, std::ios::end);
+  file_size_ = static_cast<std::uint64_t>(file_.tellg());
+  const HeaderReader read(path);
+  if (file_size_ < kPreambleBytes) read.Fail("shorter than its preamble");
+  const std::vector<unsigned char> preamble = ReadBlock(0, kPreambleBytes);
+  if (std::memcmp(preamble.data(), kMagic, sizeof(kMagic)) != 0) {
+    throw InputError(path +
+                     ": not a stillmap session record (its first bytes are not "
+                     "'stillmap-session')");
+  }
+  const auto version = Get<std::uint32_t>(preamble.data() + sizeof(kMagic));
+  if (version != SessionRecord::kVersion) {
+    throw InputError(fmt::format(
+        "{}: session record format version {}, but this stillmap reads version {}; build the "
+        "session again with this stillmap",
+        path, version, SessionRecord::kVersion));
+  }
+  const auto header_size = Get<std::uint64_t>(preamble.data() + sizeof(kMagic) + 4);
+  if (header_size > kMaxHeaderBytes || header_size > file_size_ - kPreambleBytes) {
+    read.Fail("its header's size runs past the end of the file");
+  }
+  const std::vector<unsigned char> header_bytes = ReadBlock(kPreambleBytes, header_size);
+  const json header = json::parse(header_bytes.begin(), header_bytes.end(), nullptr, false);
+  if (header.is_discarded() || !header.is_object()) read.Fail("its header is not JSON");
+  record_ =
+      ParseRecord(header, kPreambleBytes + header_size, file_size_, read,
+                  [this](std::uint64_t at, std::uint64_t size) { return ReadBlock(at, size); });
+}
+std::vector<unsigned char> SessionRecordReader::ReadBlock(std::uint64_t offset,
+                                                          std::uint64_t size) {
+  std::vector<unsigned char> bytes(size);
+  file_.clear();
+  file_.seekg(static_cast<std::streamoff>(offset));
+  file_.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
+  if (!file_) throw InputError(path_ + ": could not read the session record (cut short?)");
+  return bytes;
+}
+
+SessionImages SessionRecordReader::ReadImages(size_t index) {
+  const SessionKeyframe& keyframe = record_.keyframes.at(index);
+  const Camera& camera = record_.camera;
+  auto decode = [&](std::uint64_t offset, std::uint64_t size, int flags, int type,
+                    const char* what) {
+    const cv::Mat image = cv::imdecode(ReadBlock(offset, size), flags);
+    if (image.type() != type || image.cols != camera.width || image.rows != camera.height) {
+      HeaderReader(path_).Fail(fmt::format("keyframe {}'s {} does not decode to a {}x{} image",
+                                           keyframe.id, what, camera.width, camera.height));
+    }
+    return image;
+  };
+  SessionImages images;
+  decode(keyframe.depth_offset, keyframe.depth_size, cv::IMREAD_UNCHANGED, CV_16UC1, "depth")
+      .convertTo(images.depth_m, CV_32F, record_.depth_unit_m);
+  images.color =
+      decode(keyframe.color_offset, keyframe.color_size, cv::IMREAD_COLOR, CV_8UC3, "colour");
+  return images;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,359 @@
+#include "stillmap/pipeline/merge_pipeline.h"
+
+#include <fmt/format.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+
+#include "map_outputs.h"
+#include "merge_graph.h"
+#include "merge_links.h"
+#include "merge_sessions.h"
+#include "stillmap/io/error.h"
+#include "stillmap/io/image_io.h"
+#include "stillmap/io/output_files.h"
+#include "stillmap/io/timing.h"
+#include "stillmap/mapping/revisit_cells.h"
+#include "stillmap/pipeline/progress.h"
+#include "stillmap/pipeline/report_html.h"
+#include "stillmap/viewer/renders.h"
+
+namespace stillmap {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double AngleDeg(const Eigen::Isometry3d& transform) {
+  return Eigen::AngleAxisd(transform.linear()).angle() * 180.0 / M_PI;
+}
+
+// The merged map may not be written into one of the sessions' folders: it would replace them.
+void CheckOutputApart(const MergeRequest& request) {
+  std::error_code error;
+  const fs::path output = fs::weakly_canonical(request.output_dir, error);
+  for (const std::string& dir : request.session_dirs) {
+    if (!error && fs::weakly_canonical(dir, error) == output) {
+      throw InputError("-o " + request.output_dir + ": the output folder is the session " + dir +
+                       "; write the merged map elsewhere");
+    }
+  }
+}
+
+// The links of every pair of sessions.
+std::vector<PairLinks> LinkSessions(const std::vector<MergeSession>& sessions,
+                                    const BuildConfig& config, MergeResult* result) {
+  std::vector<SessionPlaces> places;
+  for (const MergeSession& session : sessions) {
+    places.emplace_back(session.record(), config.tracking.place);
+  }
+  std::vector<PairLinks> pairs;
+  for (size_t a = 0; a < sessions.size(); ++a) {
+    for (size_t b = a + 1; b < sessions.size(); ++b) {
+      pairs.push_back(
+          FindLinks(places[a], places[b], static_cast<int>(a), static_cast<int>(b), config.merge));
+      const PairLinks& pair = pairs.back();
+      result->pairs.push_back({sessions[a].name, sessions[b].name, pair.candidates, pair.verified,
+                               static_cast<int>(pair.agreeing.size()), pair.joined});
+    }
+  }
+  return pairs;
+}
+
+// The sessions' figures from the joined poses; warns of every session left out. Throws
+// InputError when none could be joined to the first.
+void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSessions& joined,
+                      MergeResult* result) {
+  std::vector<std::string> left_out;
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    MergeSessionFigures figures;
+    figures.name = sessions[s].name;
+    figures.dir = sessions[s].dir;
+    figures.sequence = sessions[s].record().sequence;
+    figures.keyframes = sessions[s].record().keyframes.size();
+    figures.joined = joined.included[s];
+    if (!figures.joined) left_out.push_back(sessions[s].name);
+    const Eigen::Isometry3d& placement = joined.first_from_session[s];
+    figures.placement_m = placement.translation().norm();
+    figures.placement_deg = AngleDeg(placement);
+    const std::vector<Eigen::Isometry3d>& solved = joined.first_from_keyframe[s];
+    for (size_t k = 0; k < solved.size(); ++k) {
+      const Eigen::Isometry3d move =
+          (placement * sessions[s].record().keyframes[k].map_from_camera).inverse() * solved[k];
+      figures.graph_move_m = std::max(figures.graph_move_m, move.translation().norm());
+      figures.graph_move_deg = std::max(figures.graph_move_deg, AngleDeg(move));
+    }
+    result->sessions.push_back(figures);
+  }
+  if (left_out.size() + 1 == sessions.size()) {
+    throw InputError(fmt::format(
+        "no session shares a verified place with the first, {} ({}): nothing can be merged "
+        "(were they recorded in the same place? report of the links: merge.min_links={}, "
+        "merge.min_inliers)",
+        sessions[0].name, sessions[0].dir, "see the options"));
+  }
+  for (const std::string& name : left_out) {
+    result->warnings.push_back(
+        "session '" + name +
+        "' shares no verified place with the others: it is left out of the merged map (its "
+        "links are in report.json, merge.pairs)");
+  }
+}
+
+// The order sessions are fused in: by the recording's time of their first keyframe (a later
+// session's observation wins), the first given first among equals.
+std::vector<size_t> FusionOrder(const std::vector<MergeSession>& sessions,
+                                const JoinedSessions& joined) {
+  std::vector<size_t> order;
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    if (joined.included[s]) order.push_back(s);
+  }
+  std::stable_sort(order.begin(), order.end(), [&sessions](size_t a, size_t b) {
+    return sessions[a].record().keyframes.front().time <
+           sessions[b].record().keyframes.front().time;
+  });
+  return order;
+}
+
+// Fuses every joined session's keyframes at their merged poses. Within and across sessions, the
+// depth cells an earlier visit saw are left out (RevisitCells): a place seen by two sessions is
+// not laid twice a few millimetres apart.
+FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessions& joined,
+                         const MergeRequest& request, MergeResult* result) {
+  const BuildConfig& config = request.config;
+  const Camera& camera = sessions[0].record().camera;
+  MapperOptions mapper_options = config.mapping;
+  mapper_options.in_background = mapper_options.in_background && request.threads > 1;
+  Mapper mapper(camera, mapper_options);
+  RevisitCells revisits(camera, config.selection.revisit, config.mapping.back_projection.min_depth,
+                        config.mapping.back_projection.max_depth);
+  const std::vector<size_t> order = FusionOrder(sessions, joined);
+  size_t total = 0;
+  for (const size_t s : order) total += sessions[s].record().keyframes.size();
+  ProgressLine progress("stillmap merge", total, request.show_progress);
+  size_t done = 0;
+  // Keyframe ids across sessions: each session's own ids, shifted past the one before by the
+  // revisit distance, so that another session's keyframes always count as an earlier visit.
+  int id_base = 0;
+  for (size_t rank = 0; rank < order.size(); ++rank) {
+    MergeSession& session = sessions[order[rank]];
+    result->sessions[order[rank]].fusion_order = static_cast<int>(rank);
+    if (rank > 0) mapper.BeginLaterSession();
+    const std::vector<SessionKeyframe>& keyframes = session.record().keyframes;
+    int last_id = 0;
+    for (size_t k = 0; k < keyframes.size(); ++k) {
+      SessionImages images = session.reader->ReadImages(k);
+      MapperFrame frame{keyframes[k].time, images.color, images.depth_m, cv::Mat(),
+                        joined.first_from_keyframe[order[rank]][k]};
+      CellView view = revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
+                                        frame.world_from_camera);
+      frame.mask = revisits.SeenBefore(view);
+      revisits.Remember(std::move(view));
+      mapper.Integrate(frame);
+      last_id = std::max(last_id, keyframes[k].id);
+      progress.Update(++done);
+    }
+    id_base += last_id + config.selection.revisit.keyframes_apart + 1;
+  }
+  progress.Finish();
+  return mapper.Finish();
+}
+
+// trajectory_<session>.txt of every joined session, in the merged frame.
+void WriteTrajectories(const std::vector<MergeSession>& sessions, const JoinedSessions& joined,
+                       const MapFrameFigures& frame, OutputSet& outputs, MergeResult* result) {
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    if (!joined.included[s]) continue;
+    std::vector<StampedPose> poses;
+    for (const StampedPose& pose : sessions[s].trajectory.poses()) {
+      poses.push_back({pose.time, CorrectedPose(sessions[s].record(), joined.first_from_keyframe[s],
+                                                pose.time, pose.world_from_camera)});
+    }
+    const std::string name = "trajectory_" + sessions[s].name + ".txt";
+    Trajectory(std::move(poses))
+        .WriteTum(outputs.TemporaryPath(name),
+                  "stillmap merge: session " + sessions[s].name +
+                      " (camera-to-map, every tracked frame); map frame " + frame.name +
+                      " of session " + sessions[0].name);
+    result->sessions[s].trajectory_file = name;
+  }
+}
+
+// Each joined session's trajectory against its sequence's groundtruth.txt (when the sequence
+// folder has one), on its own and all together under one rigid alignment.
+void EvaluateSessions(const std::vector<MergeSession>& sessions, const JoinedSessions& joined,
+                      const BuildConfig& config, const OutputSet& outputs, MergeResult* result) {
+  std::vector<Eigen::Vector3d> estimates, truths;
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    MergeSessionFigures& figures = result->sessions[s];
+    if (!joined.included[s]) continue;
+    const fs::path truth_path = fs::path(figures.sequence) / "groundtruth.txt";
+    if (!fs::is_regular_file(truth_path)) {
+      figures.ate_note = "no " + truth_path.string();
+      continue;
+    }
+    try {
+      Trajectory truth = Trajectory::ReadTum(truth_path.string());
+      const Camera& camera = sessions[s].record().camera;
+      if (camera.groundtruth_body_from_camera) {
+        truth = truth.RightMultiplied(*camera.groundtruth_body_from_camera);
+      }
+      const Trajectory estimate =
+          Trajectory::ReadTum(outputs.staging_dir() + "/" + figures.trajectory_file);
+      figures.ate = ComputeAte(truth, estimate, config.ate);
+      const Eigen::Isometry3d estimate_from_truth =
+          figures.ate->groundtruth_from_estimate.inverse();
+      for (size_t i = 0; i < figures.ate->aligned_positions.size(); ++i) {
+        estimates.push_back(estimate_from_truth * figures.ate->aligned_positions[i]);
+        truths.push_back(figures.ate->groundtruth_positions[i]);
+      }
+    } catch (const InputError& e) {
+      figures.ate_note = e.what();
+    }
+  }
+  if (estimates.size() < 3) return;
+  Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(estimates.size()));
+  Eigen::Matrix3Xd to(3, from.cols());
+  for (size_t i = 0; i < estimates.size(); ++i) {
+    from.col(static_cast<Eigen::Index>(i)) = estimates[i];
+    to.col(static_cast<Eigen::Index>(i)) = truths[i];
+  }
+  const Eigen::Isometry3d align(Eigen::umeyama(from, to, false));
+  std::vector<double> errors;
+  for (size_t i = 0; i < estimates.size(); ++i) {
+    errors.push_back((align * estimates[i] - truths[i]).norm());
+  }
+  result->ate_joint = ComputeStatistics(std::move(errors));
+}
+
+// The merged map's frame: the first session's, with its floor.
+MapFrameFigures FirstSessionFrame(const MergeSession& first) {
+  const SessionMapFrame& frame = first.record().map_frame;
+  MapFrameFigures out;
+  out.name = frame.name;
+  out.description = frame.description + "; sessions merged into it (stillmap merge)";
+  out.floor.up = frame.floor_up;
+  out.floor.offset = frame.floor_offset;
+  out.floor.source = frame.floor_source;
+  out.floor_found = frame.floor_found;
+  out.map_from_floor = frame.map_from_floor;
+  return out;
+}
+
+std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeSession>& sessions,
+                                       const MergeRequest& request, OutputSet& outputs,
+                                       MergeResult* result) {
+  const BuildConfig& config = request.config;
+  const Clock::time_point clean_start = Clock::now();
+  const MapCleaningResult cleaning =
+      map.CleanCloud(config.mapping.cleaning, sessions[0].record().camera);
+  result->timings.map_cleaning_ms = MillisecondsSince(clean_start);
+  result->map = MapFiguresOf(map, cleaning);
+  std::vector<VoxelPoint> cloud = map.cloud.Points();
+  if (cloud.size() < static_cast<size_t>(config.mapping.min_map_points)) {
+    throw std::runtime_error(fmt::format(
+        "the merged map is nearly empty ({} points, fewer than mapping.min_map_points={})",
+        cloud.size(), config.mapping.min_map_points));
+  }
+  result->map_frame = FirstSessionFrame(sessions[0]);
+  const Eigen::Vector3d start =
+      sessions[0].record().keyframes.front().map_from_camera.translation();
+  MapFiles files = WriteMapFiles(map, &cloud, result->map_frame, start, config, request.threads > 1,
+                                 outputs, &result->timings);
+  result->grid = std::move(files.grid);
+  if (config.mesh.enabled) result->mesh = files.mesh;
+  return cloud;
+}
+
+void WriteMergeRenders(std::vector<VoxelPoint> cloud, const std::vector<MergeSession>& sessions,
+                       const JoinedSessions& joined, const MergeRequest& request,
+                       OutputSet& outputs, MergeResult* result) {
+  if (!request.config.render.enabled) return;
+  RenderInput input;
+  input.cloud = std::move(cloud);
+  input.grid = result->grid;
+  for (size_t s = 0; s < sessions.size(); ++s) {
+    for (const Eigen::Isometry3d& pose : joined.first_from_keyframe[s]) {
+      input.keyframes.push_back(pose);
+      input.trajectory.push_back(pose);
+    }
+  }
+  input.title = fmt::format("{} sessions merged", joined.first_from_keyframe.size());
+  for (const auto& [name, image] : RenderViews(input, request.config.render)) {
+    WriteImage(outputs.TemporaryPath("renders/" + name), image, ".png");
+    result->renders.push_back("renders/" + name);
+  }
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  if (!out.flush()) throw std::runtime_error("could not write " + path);
+}
+
+}  // namespace
+
+const std::vector<std::string>& MergeOutputNames() {
+  static const std::vector<std::string> kNames = {
+      "map.ply",  "map.pcd",  "map.bt",   "map.ot",   "grid.pgm",    "grid.yaml",   "mesh.glb",
+      "mesh.obj", "mesh.mtl", "mesh.ply", "renders/", "config.yaml", "report.json", "report.html"};
+  return kNames;
+}
+
+MergeResult RunMerge(const MergeRequest& request) {
+  const Clock::time_point start = Clock::now();
+  request.config.Validate();
+  if (request.session_dirs.size() < 2) {
+    throw InputError("stillmap merge needs at least two session folders");
+  }
+  CheckOutputApart(request);
+  MergeResult result;
+  std::vector<MergeSession> sessions = OpenSessions(request.session_dirs);
+  std::vector<std::string> names = MergeOutputNames();
+  for (const MergeSession& session : sessions)
+    names.push_back("trajectory_" + session.name + ".txt");
+  OutputSet outputs(request.output_dir, "merge", names);
+  if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
+
+  Clock::time_point step = Clock::now();
+  const std::vector<PairLinks> pairs = LinkSessions(sessions, request.config, &result);
+  result.links_ms = MillisecondsSince(step);
+  step = Clock::now();
+  const JoinedSessions joined =
+      JoinSessions(sessions, pairs, request.config.merge, request.config.tracking.pose_graph);
+  result.graph_ms = MillisecondsSince(step);
+  result.graph_links = joined.links;
+  result.graph_initial_cost = joined.initial_cost;
+  result.graph_final_cost = joined.final_cost;
+  result.graph_converged = joined.converged;
+  for (const auto& poses : joined.first_from_keyframe) result.graph_nodes += poses.size();
+  DescribeSessions(sessions, joined, &result);
+
+  step = Clock::now();
+  FinishedMap map = FuseSessions(sessions, joined, request, &result);
+  result.fuse_ms = MillisecondsSince(step);
+  step = Clock::now();
+  std::vector<VoxelPoint> cloud =
+      WriteMergedMap(std::move(map), sessions, request, outputs, &result);
+  WriteTrajectories(sessions, joined, result.map_frame, outputs, &result);
+  std::ofstream(outputs.TemporaryPath("config.yaml")) << ConfigToYaml(request.config);
+  result.timings.write_ms = MillisecondsSince(step);
+  result.wall_time_s = SecondsSince(start);
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  result.peak_memory_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;
+
+  EvaluateSessions(sessions, joined, request.config, outputs, &result);
+  WriteMergeRenders(std::move(cloud), sessions, joined, request, outputs, &result);
+  const nlohmann::json report = MergeReportJson(result, request);
+  WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n");
+  WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report));
+  outputs.Commit();
+  return result;
+}
+
+}  // namespace stillmap
