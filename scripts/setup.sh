@@ -19,6 +19,8 @@ packages=(
   python3
   # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)
   xvfb xauth
+  # tests: scripts/slurm/fleet.sh on a one-node Slurm cluster the test starts (no systemd)
+  slurm-wlm munge
 )
 
 missing=()

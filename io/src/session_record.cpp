@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -170,14 +171,16 @@ class HeaderReader {
     return pose;
   }
 
-  Eigen::Isometry3d Matrix(const json& object, const char* key) const {
+  // `tolerance`: how far from orthonormal its rotation may be (the camera file's
+  // groundtruth_body_from_camera is printed with few digits).
+  Eigen::Isometry3d Matrix(const json& object, const char* key, double tolerance = 1e-6) const {
     const auto v = Value<std::vector<double>>(object, key);
     if (v.size() != 16) Fail(fmt::format("'{}' is not a 4x4 matrix", key));
     Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
     for (int i = 0; i < 12; ++i) transform.matrix()(i / 4, i % 4) = v[static_cast<size_t>(i)];
     const Eigen::Matrix3d r = transform.linear();
     if (!transform.matrix().allFinite() ||
-        (r * r.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-6) {
+        (r * r.transpose() - Eigen::Matrix3d::Identity()).norm() > tolerance) {
       Fail(fmt::format("'{}' is not a rigid transform", key));
     }
     return transform;
@@ -204,7 +207,8 @@ Camera ParseCamera(const json& j, const HeaderReader& read, const std::string& p
   camera.rational = read.Value<std::array<double, 3>>(j, "rational");
   camera.depth_factor = read.Finite(j, "depth_factor");
   if (j.contains("groundtruth_body_from_camera")) {
-    camera.groundtruth_body_from_camera = read.Matrix(j, "groundtruth_body_from_camera");
+    camera.groundtruth_body_from_camera =
+        read.Matrix(j, "groundtruth_body_from_camera", 1e-3);  // as camera.yaml
   }
   camera.Validate(path + " (the session's camera)");
   return camera;
@@ -303,13 +307,14 @@ SessionRecordReader::SessionRecordReader(const std::string& path)
   file_.seekg(0, std::ios::end);
   file_size_ = static_cast<std::uint64_t>(file_.tellg());
   const HeaderReader read(path);
-  if (file_size_ < kPreambleBytes) read.Fail("shorter than its preamble");
-  const std::vector<unsigned char> preamble = ReadBlock(0, kPreambleBytes);
-  if (std::memcmp(preamble.data(), kMagic, sizeof(kMagic)) != 0) {
+  const std::vector<unsigned char> start = ReadBlock(0, std::min<std::uint64_t>(file_size_, 16));
+  if (std::memcmp(start.data(), kMagic, start.size()) != 0 || start.empty()) {
     throw InputError(path +
                      ": not a stillmap session record (its first bytes are not "
                      "'stillmap-session')");
   }
+  if (file_size_ < kPreambleBytes) read.Fail("shorter than its preamble");
+  const std::vector<unsigned char> preamble = ReadBlock(0, kPreambleBytes);
   const auto version = Get<std::uint32_t>(preamble.data() + sizeof(kMagic));
   if (version != SessionRecord::kVersion) {
     throw InputError(fmt::format(

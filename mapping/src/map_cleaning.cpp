@@ -17,7 +17,8 @@ namespace stillmap {
 namespace {
 
 // Which voxels the views saw through: flags (1 = drop) in ForEachPoint's order.
-std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, const Camera& camera,
+std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options,
+                                           const std::vector<Camera>& cameras,
                                            const std::vector<KeyframeView>& views,
                                            const VoxelCloud& cloud) {
   std::vector<Eigen::Vector3f> positions;
@@ -25,7 +26,8 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
   cloud.ForEachPoint(
       [&positions](const VoxelPoint& point) { positions.push_back(point.position); });
   std::vector<std::uint8_t> drop(positions.size(), 0);
-  const PixelProjection project(camera);
+  std::vector<PixelProjection> projections;
+  for (const Camera& camera : cameras) projections.emplace_back(camera);
   const float margin_m = static_cast<float>(options.view_margin_m);
   const float margin_sigmas = static_cast<float>(options.view_margin_sigmas);
   cv::parallel_for_(cv::Range(0, static_cast<int>(positions.size())), [&](const cv::Range& range) {
@@ -34,7 +36,8 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options, co
       for (const KeyframeView& view : views) {
         const Eigen::Vector3f q = view.camera_from_world * positions[static_cast<size_t>(k)];
         if (q.z() < 0.1f) continue;
-        const Eigen::Vector2f pixel = project(q.x() / q.z(), q.y() / q.z());
+        const Eigen::Vector2f pixel =
+            projections[static_cast<size_t>(view.camera)](q.x() / q.z(), q.y() / q.z());
         // Half resolution: block (u, v) of the view holds the camera's pixels (2u..2u+1, ...).
         // Both bounds are checked in floating point, before any conversion can wrap (a wild
         // distortion projects to +-1e30; NaN fails both tests).
@@ -110,8 +113,8 @@ void MapCleaningOptions::Validate() const {
 }
 
 MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyMap* occupancy,
-                             const Camera& camera, const std::vector<KeyframeView>& views,
-                             VoxelCloud* cloud) {
+                             const std::vector<Camera>& cameras,
+                             const std::vector<KeyframeView>& views, VoxelCloud* cloud) {
   options.Validate();
   MapCleaningResult result;
   if (options.clear_seen_through && occupancy != nullptr) {
@@ -134,7 +137,7 @@ MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyM
     });
   }
   if (options.clear_seen_through_views && !views.empty()) {
-    const std::vector<std::uint8_t> drop = SeenThroughViews(options, camera, views, *cloud);
+    const std::vector<std::uint8_t> drop = SeenThroughViews(options, cameras, views, *cloud);
     size_t next = 0;
     result.seen_through_views =
         cloud->RemoveIf([&drop, &next](const VoxelPoint&) { return drop[next++] != 0; });

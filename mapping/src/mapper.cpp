@@ -28,7 +28,8 @@ Mapper::Mapper(const Camera& camera, const MapperOptions& options)
     : options_(options),
       projector_(camera, options.back_projection),
       cloud_(options.voxel),
-      camera_(camera) {
+      camera_(camera),
+      cameras_{camera} {
   options_.Validate();
   if (options_.occupancy.enabled) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
 }
@@ -60,7 +61,8 @@ FinishedMap Mapper::Finish() {
     earlier_->Overlay(*occupancy_, options_.occupancy.DecisiveLogOdds());
     occupancy_ = std::move(earlier_);
   }
-  return FinishedMap{std::move(cloud_), std::move(occupancy_), statistics_, std::move(views_)};
+  return FinishedMap{std::move(cloud_), std::move(occupancy_), statistics_, std::move(views_),
+                     cameras_};
 }
 
 void Mapper::Reset() {
@@ -70,10 +72,20 @@ void Mapper::Reset() {
   if (occupancy_) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
   earlier_.reset();
   session_ = 0;
+  camera_ = cameras_.front();
+  projector_ = DepthBackProjector(camera_, options_.back_projection);
+  cameras_.resize(1);
   views_.clear();
   statistics_.frames = 0;
   statistics_.points = 0;
   ++statistics_.refusions;
+}
+
+void Mapper::BeginLaterSession(const Camera& camera) {
+  BeginLaterSession();
+  camera_ = camera;
+  projector_ = DepthBackProjector(camera, options_.back_projection);
+  cameras_.push_back(camera);
 }
 
 void Mapper::BeginLaterSession() {
@@ -146,6 +158,7 @@ void Mapper::Fuse(const MapperFrame& frame) {
   if (options_.cleaning.clear_seen_through_views) {
     views_.push_back(MakeKeyframeView(frame.depth_m, frame.mask, frame.world_from_camera));
     views_.back().session = session_;
+    views_.back().camera = static_cast<int>(cameras_.size()) - 1;
   }
   start = std::chrono::steady_clock::now();
   cloud_.Insert(scratch_);
@@ -154,8 +167,8 @@ void Mapper::Fuse(const MapperFrame& frame) {
   statistics_.points += scratch_.size();
 }
 
-MapCleaningResult FinishedMap::CleanCloud(const MapCleaningOptions& options, const Camera& camera) {
-  return stillmap::CleanCloud(options, occupancy.get(), camera, views, &cloud);
+MapCleaningResult FinishedMap::CleanCloud(const MapCleaningOptions& options) {
+  return stillmap::CleanCloud(options, occupancy.get(), cameras, views, &cloud);
 }
 
 void FinishedMap::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {

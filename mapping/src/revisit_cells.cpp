@@ -26,16 +26,23 @@ RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, 
 
 CellView RevisitCells::MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
                                 const Eigen::Isometry3d& world_from_camera) const {
-  return {keyframe_id, world_from_camera, world_from_camera.inverse(), depth_m.size(),
-          DepthCells(depth_m, mask, kCell, min_depth_, max_depth_)};
+  return {keyframe_id,
+          world_from_camera,
+          world_from_camera.inverse(),
+          depth_m.size(),
+          DepthCells(depth_m, mask, kCell, min_depth_, max_depth_),
+          camera_.fx,
+          camera_.fy,
+          camera_.cx,
+          camera_.cy};
 }
 
 bool RevisitCells::Covered(const Eigen::Vector3d& point_in_world, const Eigen::Vector3d& centre,
                            const CellView& other) const {
   const Eigen::Vector3d p = other.camera_from_world * point_in_world;
   if (!(p.z() > 0.0)) return false;
-  const double u = camera_.fx * p.x() / p.z() + camera_.cx;
-  const double v = camera_.fy * p.y() / p.z() + camera_.cy;
+  const double u = other.fx * p.x() / p.z() + other.cx;
+  const double v = other.fy * p.y() / p.z() + other.cy;
   if (!(u >= 0.0 && v >= 0.0 && u < other.cells.cols * kCell && v < other.cells.rows * kCell)) {
     return false;
   }
@@ -70,7 +77,7 @@ bool RevisitCells::CellSeenBefore(const CellView& view, int row, int column,
     const double u = u0 + du, v = v0 + dv;
     const Eigen::Vector3d point =
         view.world_from_camera *
-        (depth * Eigen::Vector3d((u - camera_.cx) / camera_.fx, (v - camera_.cy) / camera_.fy, 1));
+        (depth * Eigen::Vector3d((u - view.cx) / view.fx, (v - view.cy) / view.fy, 1));
     const auto sees = [&](const CellView* other) { return Covered(point, centre, *other); };
     if (std::none_of(earlier.begin(), earlier.end(), sees)) return false;
   }

@@ -174,9 +174,9 @@ void WarnOfSetAside(const OutputSet& outputs, BuildResult* result) {
 // that no file of an earlier run stays beside the new set (a grid when the OctoMap is now off).
 const std::vector<std::string>& BuildOutputNames() {
   static const std::vector<std::string> kNames = {
-      "map.ply",  "map.pcd",     "map.bt",      "map.ot",     "trajectory.txt", "keyframes.txt",
-      "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",   "mesh.mtl",       "mesh.ply",
-      "renders/", "config.yaml", "report.json", "report.html",    "session.bin"};
+      "map.ply",  "map.pcd",     "map.bt",      "map.ot",      "trajectory.txt", "keyframes.txt",
+      "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",    "mesh.mtl",       "mesh.ply",
+      "renders/", "config.yaml", "report.json", "report.html", "session.bin"};
   return kNames;
 }
 

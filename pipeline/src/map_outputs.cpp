@@ -229,7 +229,7 @@ std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
   MapCleaningResult cleaning;
   std::future<void> clean_job = std::async(Policy(request), [&] {
     const Clock::time_point start = Clock::now();
-    cleaning = map.CleanCloud(config.mapping.cleaning, inputs.camera);
+    cleaning = map.CleanCloud(config.mapping.cleaning);
     timings.map_cleaning_ms = MillisecondsSince(start);
   });
   const Clock::time_point floor_start = Clock::now();

@@ -67,7 +67,7 @@ std::vector<PairLinks> LinkSessions(const std::vector<MergeSession>& sessions,
 // The sessions' figures from the joined poses; warns of every session left out. Throws
 // InputError when none could be joined to the first.
 void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSessions& joined,
-                      MergeResult* result) {
+                      const MergeOptions& options, MergeResult* result) {
   std::vector<std::string> left_out;
   for (size_t s = 0; s < sessions.size(); ++s) {
     MergeSessionFigures figures;
@@ -90,11 +90,16 @@ void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSes
     result->sessions.push_back(figures);
   }
   if (left_out.size() + 1 == sessions.size()) {
+    std::string links;
+    for (const MergePairFigures& pair : result->pairs) {
+      links += fmt::format("; {} ~ {}: {} verified links, {} agreeing", pair.session_a,
+                           pair.session_b, pair.verified, pair.agreeing);
+    }
     throw InputError(fmt::format(
-        "no session shares a verified place with the first, {} ({}): nothing can be merged "
-        "(were they recorded in the same place? report of the links: merge.min_links={}, "
-        "merge.min_inliers)",
-        sessions[0].name, sessions[0].dir, "see the options"));
+        "no session shares a verified place with the first, {} ({}), so nothing can be merged "
+        "(a pair is joined by merge.min_links={} agreeing links{}); were they recorded in the same "
+        "place?",
+        sessions[0].name, sessions[0].dir, options.min_links, links));
   }
   for (const std::string& name : left_out) {
     result->warnings.push_back(
@@ -119,13 +124,29 @@ std::vector<size_t> FusionOrder(const std::vector<MergeSession>& sessions,
   return order;
 }
 
+// The share of the view's read cells that `seen` covers.
+double SeenShare(const CellView& view, const cv::Mat& seen) {
+  if (seen.empty()) return 0.0;
+  int read = 0, covered = 0;
+  for (int row = 0; row < view.cells.rows; ++row) {
+    for (int column = 0; column < view.cells.cols; ++column) {
+      if (view.cells.at<cv::Vec4f>(row, column)[3] < RevisitCells::kReadCell) continue;
+      ++read;
+      const int u = std::min(column * RevisitCells::kCell, seen.cols - 1);
+      const int v = std::min(row * RevisitCells::kCell, seen.rows - 1);
+      covered += seen.at<std::uint8_t>(v, u) != 0 ? 1 : 0;
+    }
+  }
+  return read > 0 ? static_cast<double>(covered) / read : 0.0;
+}
+
 // Fuses every joined session's keyframes at their merged poses. Within and across sessions, the
 // depth cells an earlier visit saw are left out (RevisitCells): a place seen by two sessions is
 // not laid twice a few millimetres apart.
 FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessions& joined,
                          const MergeRequest& request, MergeResult* result) {
   const BuildConfig& config = request.config;
-  const Camera& camera = sessions[0].record().camera;
+  const Camera& camera = sessions[FusionOrder(sessions, joined).front()].record().camera;
   MapperOptions mapper_options = config.mapping;
   mapper_options.in_background = mapper_options.in_background && request.threads > 1;
   Mapper mapper(camera, mapper_options);
@@ -142,7 +163,9 @@ FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
   for (size_t rank = 0; rank < order.size(); ++rank) {
     MergeSession& session = sessions[order[rank]];
     result->sessions[order[rank]].fusion_order = static_cast<int>(rank);
-    if (rank > 0) mapper.BeginLaterSession();
+    const Camera& session_camera = session.record().camera;
+    if (rank > 0) mapper.BeginLaterSession(session_camera);
+    revisits.SetCamera(session_camera);
     const std::vector<SessionKeyframe>& keyframes = session.record().keyframes;
     int last_id = 0;
     for (size_t k = 0; k < keyframes.size(); ++k) {
@@ -152,14 +175,23 @@ FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
       CellView view = revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
                                         frame.world_from_camera);
       frame.mask = revisits.SeenBefore(view);
+      const double seen_share = SeenShare(view, frame.mask);
       revisits.Remember(std::move(view));
-      mapper.Integrate(frame);
+      // The seed paper's redundancy rule (keyframes.max_shared_landmarks) with the view's cells
+      // for its landmarks, whose ids do not carry from one session to another.
+      if (config.selection.enabled && seen_share > config.selection.max_shared_landmarks) {
+        ++result->sessions[order[rank]].keyframes_redundant;
+      } else {
+        mapper.Integrate(frame);
+        ++result->sessions[order[rank]].keyframes_fused;
+      }
       last_id = std::max(last_id, keyframes[k].id);
       progress.Update(++done);
     }
     id_base += last_id + config.selection.revisit.keyframes_apart + 1;
   }
   progress.Finish();
+  result->revisit_cells_left_out = revisits.cells_left_out();
   return mapper.Finish();
 }
 
@@ -249,8 +281,7 @@ std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeS
                                        MergeResult* result) {
   const BuildConfig& config = request.config;
   const Clock::time_point clean_start = Clock::now();
-  const MapCleaningResult cleaning =
-      map.CleanCloud(config.mapping.cleaning, sessions[0].record().camera);
+  const MapCleaningResult cleaning = map.CleanCloud(config.mapping.cleaning);
   result->timings.map_cleaning_ms = MillisecondsSince(clean_start);
   result->map = MapFiguresOf(map, cleaning);
   std::vector<VoxelPoint> cloud = map.cloud.Points();
@@ -313,11 +344,6 @@ MergeResult RunMerge(const MergeRequest& request) {
   CheckOutputApart(request);
   MergeResult result;
   std::vector<MergeSession> sessions = OpenSessions(request.session_dirs);
-  std::vector<std::string> names = MergeOutputNames();
-  for (const MergeSession& session : sessions)
-    names.push_back("trajectory_" + session.name + ".txt");
-  OutputSet outputs(request.output_dir, "merge", names);
-  if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
 
   Clock::time_point step = Clock::now();
   const std::vector<PairLinks> pairs = LinkSessions(sessions, request.config, &result);
@@ -331,7 +357,16 @@ MergeResult RunMerge(const MergeRequest& request) {
   result.graph_final_cost = joined.final_cost;
   result.graph_converged = joined.converged;
   for (const auto& poses : joined.first_from_keyframe) result.graph_nodes += poses.size();
-  DescribeSessions(sessions, joined, &result);
+  DescribeSessions(sessions, joined, request.config.merge,
+                   &result);  // throws when nothing can be joined
+
+  // Locks the output folder and stages the outputs aside until all are written.
+  std::vector<std::string> names = MergeOutputNames();
+  for (const MergeSession& session : sessions) {
+    names.push_back("trajectory_" + session.name + ".txt");
+  }
+  OutputSet outputs(request.output_dir, "merge", names);
+  if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
 
   step = Clock::now();
   FinishedMap map = FuseSessions(sessions, joined, request, &result);

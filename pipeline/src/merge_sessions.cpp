@@ -10,17 +10,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool SameCamera(const Camera& a, const Camera& b) {
-  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
-         a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion && a.rational == b.rational;
-}
-
 }  // namespace
 
 std::vector<MergeSession> OpenSessions(const std::vector<std::string>& dirs) {
   std::vector<MergeSession> sessions;
   std::set<std::string> names;
-  for (const std::string& dir : dirs) {
+  for (const std::string& dir : dirs) {  // the folders and their names first, then the records
     if (!fs::is_directory(dir)) {
       throw InputError(dir +
                        ": not a folder; stillmap merge takes the output folders of "
@@ -38,7 +33,10 @@ std::vector<MergeSession> OpenSessions(const std::vector<std::string>& dirs) {
                        "trajectory_<session>.txt); rename one of the folders");
     }
     session.dir = dir;
-    const std::string record = (fs::path(dir) / "session.bin").string();
+    sessions.push_back(std::move(session));
+  }
+  for (MergeSession& session : sessions) {
+    const std::string record = (fs::path(session.dir) / "session.bin").string();
     if (!fs::exists(record)) {
       throw InputError(record +
                        ": missing; the folder is not the output of a tracked stillmap build "
@@ -49,13 +47,7 @@ std::vector<MergeSession> OpenSessions(const std::vector<std::string>& dirs) {
     if (session.record().keyframes.empty()) {
       throw InputError(record + ": the session record holds no keyframe");
     }
-    session.trajectory = Trajectory::ReadTum((fs::path(dir) / "trajectory.txt").string());
-    if (!sessions.empty() &&
-        !SameCamera(sessions.front().record().camera, session.record().camera)) {
-      throw InputError(record + ": its camera differs from the one of " + sessions.front().dir +
-                       "; sessions of different cameras are not merged (yet)");
-    }
-    sessions.push_back(std::move(session));
+    session.trajectory = Trajectory::ReadTum((fs::path(session.dir) / "trajectory.txt").string());
   }
   return sessions;
 }

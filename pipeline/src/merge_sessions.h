@@ -19,7 +19,7 @@ struct MergeSession {
 
 // Opens each build output folder of `dirs`. Throws InputError naming the folder or file when one
 // is missing, holds no session record (a build with --poses groundtruth, or before records
-// existed), names a session twice, or when the sessions' cameras differ (not merged yet).
+// existed) or names a session twice.
 std::vector<MergeSession> OpenSessions(const std::vector<std::string>& dirs);
 
 }  // namespace stillmap

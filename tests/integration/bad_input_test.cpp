@@ -48,6 +48,36 @@ TEST_F(BadInputTest, TheGoodSequenceBuilds) {
   EXPECT_TRUE(fs::exists(output_ + "/map.ply"));
 }
 
+// stillmap merge refuses what it cannot join before it writes anything: folders without a session
+// record (a build with known poses writes none), a damaged record, a single session, the output
+// in a session's folder.
+TEST_F(BadInputTest, MergeRefusesFoldersItCannotJoin) {
+  std::string output;
+  const std::string a = dir_ / "a", b = dir_ / "b", merged = dir_ / "merged";
+  for (const std::string& out : {a, b}) {
+    ASSERT_EQ(
+        RunStillmap("build " + sequence_ + " -o " + out + " --poses groundtruth --quiet", &output),
+        0)
+        << output;
+  }
+  auto expect_refused = [&](const std::string& arguments, const std::string& expected) {
+    EXPECT_EQ(RunStillmap("merge " + arguments + " --quiet", &output), 2) << output;
+    EXPECT_NE(output.find("stillmap: error: "), std::string::npos) << output;
+    EXPECT_NE(output.find(expected), std::string::npos)
+        << "expected '" << expected << "' in: " << output;
+    EXPECT_FALSE(fs::exists(merged)) << "outputs left behind";
+  };
+  expect_refused(a + " " + b + " -o " + merged, a + "/session.bin: missing");
+  expect_refused(a + " " + (dir_ / "nowhere") + " -o " + merged, "nowhere: not a folder");
+  expect_refused(a + " -o " + merged, "at least two session folders");
+  WriteText(a + "/session.bin", "stillmap-sessionxxxx");
+  WriteText(b + "/session.bin", "not a record");
+  expect_refused(a + " " + b + " -o " + merged, a + "/session.bin: damaged session record");
+  expect_refused(b + " " + a + " -o " + merged, b + "/session.bin: not a stillmap session record");
+  expect_refused(a + " " + b + " -o " + a, "the output folder is the session");
+  expect_refused(a + " " + a + " -o " + merged, "a second session named 'a'");
+}
+
 TEST_F(BadInputTest, MissingSequenceFolder) {
   sequence_ = dir_ / "nowhere";
   ExpectRefused("sequence folder not found");

@@ -58,7 +58,7 @@ TEST(MapCleaningTest, VoxelsSeenThroughLaterAreRemovedAndTheWallKept) {
   ASSERT_EQ(cloud.size(), scene.wall.size() + person_voxels);
 
   MapCleaningOptions options;
-  const MapCleaningResult result = CleanCloud(options, &occupancy, Camera(), {}, &cloud);
+  const MapCleaningResult result = CleanCloud(options, &occupancy, {Camera()}, {}, &cloud);
   EXPECT_EQ(result.seen_through, person_voxels);
   EXPECT_EQ(result.outliers, 0u);
   EXPECT_EQ(cloud.size(), scene.wall.size());
@@ -69,9 +69,9 @@ TEST(MapCleaningTest, VoxelsSeenThroughLaterAreRemovedAndTheWallKept) {
   kept.Insert(Colored(scene.wall));
   kept.Insert(Colored(scene.person));
   options.clear_seen_through = false;
-  EXPECT_EQ(CleanCloud(options, &occupancy, Camera(), {}, &kept).seen_through, 0u);
+  EXPECT_EQ(CleanCloud(options, &occupancy, {Camera()}, {}, &kept).seen_through, 0u);
   options.clear_seen_through = true;
-  EXPECT_EQ(CleanCloud(options, nullptr, Camera(), {}, &kept).seen_through, 0u);
+  EXPECT_EQ(CleanCloud(options, nullptr, {Camera()}, {}, &kept).seen_through, 0u);
   EXPECT_EQ(kept.size(), scene.wall.size() + person_voxels);
 }
 
@@ -88,7 +88,7 @@ TEST(MapCleaningTest, StatisticalOutliersAreRemovedFromAPlane) {
   cloud.Insert(Colored(specks));
   MapCleaningOptions options;
   options.outlier_removal = true;
-  const MapCleaningResult result = CleanCloud(options, nullptr, Camera(), {}, &cloud);
+  const MapCleaningResult result = CleanCloud(options, nullptr, {Camera()}, {}, &cloud);
   EXPECT_EQ(result.outliers, specks.size());
   EXPECT_EQ(cloud.size(), scene.wall.size());
   for (const VoxelPoint& p : cloud.Points()) EXPECT_NEAR(p.position.z(), 2.0f, 1e-4);
@@ -161,11 +161,11 @@ TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) 
                                      MakeKeyframeView(wall_depth(), cv::Mat(), at(-0.3f, 0, 0))};
   MapCleaningOptions options;
   VoxelCloud two = cloud_of();
-  EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &two).seen_through_views, 0u);
+  EXPECT_EQ(CleanCloud(options, nullptr, {camera}, views, &two).seen_through_views, 0u);
 
   views.push_back(MakeKeyframeView(wall_depth(), cv::Mat(), at(0, 0.3f, 0)));
   VoxelCloud three = cloud_of();
-  const MapCleaningResult result = CleanCloud(options, nullptr, camera, views, &three);
+  const MapCleaningResult result = CleanCloud(options, nullptr, {camera}, views, &three);
   EXPECT_EQ(result.seen_through_views, shoe_voxels);
   size_t left = 0;
   three.ForEachPoint([&](const VoxelPoint& point) { left += point.position.z() < 2.8f; });
@@ -183,10 +183,10 @@ TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) 
                                          : at(0, 0.3f, 0));
   }
   VoxelCloud blind = cloud_of();
-  EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &blind).seen_through_views, 0u);
+  EXPECT_EQ(CleanCloud(options, nullptr, {camera}, views, &blind).seen_through_views, 0u);
   options.clear_seen_through_views = false;
   VoxelCloud off = cloud_of();
-  EXPECT_EQ(CleanCloud(options, nullptr, camera, views, &off).seen_through_views, 0u);
+  EXPECT_EQ(CleanCloud(options, nullptr, {camera}, views, &off).seen_through_views, 0u);
 }
 
 // A camera whose projection throws points to +-1e30 pixels (the CLI refuses such a camera; the
@@ -208,7 +208,7 @@ TEST(MapCleaningTest, WildProjectionsStayInsideTheViews) {
     views.push_back(MakeKeyframeView(depth, cv::Mat(), pose));
   }
   const size_t before = cloud.OutputSize();
-  CleanCloud(MapCleaningOptions(), nullptr, camera, views, &cloud);
+  CleanCloud(MapCleaningOptions(), nullptr, {camera}, views, &cloud);
   EXPECT_LE(cloud.OutputSize(), before);
 }
 }  // namespace

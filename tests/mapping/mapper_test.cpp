@@ -105,5 +105,47 @@ TEST(MapperTest, ResetAndRefusingGiveTheMapOfTheCorrectedPosesOnly) {
   EXPECT_EQ(a.occupancy->LeafCount(), b.occupancy->LeafCount());
 }
 
+// Two recordings of a room where a screen 2 m ahead was taken away between them (the later one
+// sees the wall 3 m ahead): merged as sessions, the later wins, in the OctoMap's free space and in
+// the cleaned cloud; fused as one recording, the earlier and more numerous views keep the screen
+// in the OctoMap.
+TEST(MapperTest, ALaterSessionReplacesWhatMovedAway) {
+  const Camera camera = testing::SmallCamera(96, 72);
+  auto frame = [&camera](float depth_m, double x) {
+    MapperFrame input;
+    input.color = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(90, 120, 150));
+    input.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(depth_m));
+    input.world_from_camera.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+    return input;
+  };
+  auto merged = [&](bool sessions) {
+    MapperOptions options;
+    options.in_background = false;
+    Mapper mapper(camera, options);
+    for (int k = 0; k < 8; ++k) mapper.Integrate(frame(2.02f, 0.01 * (k % 6)));
+    if (sessions) mapper.BeginLaterSession();
+    for (int k = 0; k < 6; ++k) mapper.Integrate(frame(3.02f, 0.01 * k));
+    FinishedMap map = mapper.Finish();
+    map.CleanCloud(options.cleaning);
+    return map;
+  };
+  const FinishedMap later_wins = merged(true);
+  ASSERT_TRUE(later_wins.occupancy);
+  // The screen's voxel is 2.00-2.05 m ahead, the wall's 3.00-3.05 m.
+  EXPECT_LT(later_wins.occupancy->Occupancy({0.0, 0.0, 2.025}), 0.5);
+  EXPECT_GE(later_wins.occupancy->Occupancy({0.0, 0.0, 2.025}), 0.0);
+  EXPECT_GT(later_wins.occupancy->Occupancy({0.0, 0.0, 3.025}), 0.5);
+  size_t screen = 0, wall = 0;
+  for (const VoxelPoint& point : later_wins.cloud.Points()) {
+    (point.position.z() < 2.5f ? screen : wall) += 1;
+  }
+  EXPECT_EQ(screen, 0u);
+  EXPECT_GT(wall, 1000u);
+  EXPECT_EQ(later_wins.views.back().session, 1);
+
+  const FinishedMap one_recording = merged(false);
+  EXPECT_GT(one_recording.occupancy->Occupancy({0.0, 0.0, 2.025}), 0.5);
+}
+
 }  // namespace
 }  // namespace stillmap

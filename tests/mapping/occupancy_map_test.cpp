@@ -34,6 +34,34 @@ TEST(OccupancyMapTest, RayCastingMarksHitsOccupiedAndTheWayFree) {
   EXPECT_GT(map.OccupiedLeafCount(), 300u);
 }
 
+// A wall seen at z = 2 m by an earlier session and gone in a later one (seen through to z = 3 m):
+// where the later session is decisive its value replaces the earlier; where it is not, the
+// evidence adds up. Checked against the log-odds of OctoMap's sensor model.
+TEST(OccupancyMapTest, OverlayLetsADecisiveLaterSessionWin) {
+  std::vector<Eigen::Vector3f> far_wall = Wall();
+  for (Eigen::Vector3f& point : far_wall) point.z() = 3.0f;
+  auto scanned = [](const std::vector<Eigen::Vector3f>& points, int times) {
+    OccupancyMap map;
+    for (int k = 0; k < times; ++k) map.InsertScan(points, Eigen::Vector3f::Zero());
+    return map;
+  };
+  const double decisive = OccupancyMapOptions{}.DecisiveLogOdds();
+  EXPECT_NEAR(decisive, 2.0 * std::log(0.7 / 0.3), 1e-12);  // two hits' weight
+  const double clamped = std::log(0.971 / 0.029), miss = std::log(0.4 / 0.6);
+
+  OccupancyMap a = scanned(Wall(), 10);
+  ASSERT_NEAR(a.Occupancy({0.0, 0.0, 2.0}), 0.971, 1e-3);
+  a.Overlay(scanned(far_wall, 5), decisive);  // five misses (-2.0 after clamping): decisive
+  EXPECT_NEAR(a.Occupancy({0.0, 0.0, 2.0}), 0.1192, 1e-3);
+  EXPECT_GT(a.Occupancy({0.0, 0.0, 3.0}), 0.5);  // the new wall stands
+  EXPECT_LT(a.Occupancy({0.0, 0.0, 3.5}), 0.0);  // behind it nothing is known
+  EXPECT_LT(a.Occupancy({2.0, 0.0, 1.0}), 0.0);  // nor outside both views
+
+  OccupancyMap b = scanned(Wall(), 10);
+  b.Overlay(scanned(far_wall, 3), decisive);  // three misses (-1.22): not decisive, they add up
+  EXPECT_NEAR(b.Occupancy({0.0, 0.0, 2.0}), 1.0 / (1.0 + std::exp(-(clamped + 3 * miss))), 1e-3);
+}
+
 TEST(OccupancyMapTest, MaxRangeTruncatesRaysWithoutHits) {
   OccupancyMapOptions options;
   options.max_range = 1.0;

@@ -67,6 +67,7 @@ struct KeyframeView {
   // Merged sessions (Mapper::BeginLaterSession): of a voxel, only the latest session that saw it
   // or saw through it is heard.
   int session = 0;
+  int camera = 0;  // index of its camera in CleanCloud's `cameras`
 };
 
 // The view of a frame: depth_m (CV_32FC1) and mask (CV_8UC1 or empty) at full resolution.
@@ -80,9 +81,9 @@ struct MapCleaningResult {
 };
 
 // Removes the voxels named above from `cloud` (occupancy may be null: no see-through check;
-// views may be empty: no view check; camera is the views' camera).
+// views may be empty: no view check; `cameras` are the views' cameras, by KeyframeView::camera).
 MapCleaningResult CleanCloud(const MapCleaningOptions& options, const OccupancyMap* occupancy,
-                             const Camera& camera, const std::vector<KeyframeView>& views,
-                             VoxelCloud* cloud);
+                             const std::vector<Camera>& cameras,
+                             const std::vector<KeyframeView>& views, VoxelCloud* cloud);
 
 }  // namespace stillmap

@@ -79,10 +79,11 @@ struct FinishedMap {
   std::unique_ptr<OccupancyMap> occupancy;  // null when occupancy.enabled is false
   MapperStatistics statistics;
   std::vector<KeyframeView> views;  // of the fused frames, for the map cleaning
+  std::vector<Camera> cameras;      // the views' cameras (KeyframeView::camera)
 
   // Cleans the cloud (MapCleaningOptions) against the OctoMap and the views; call once, before
   // the cloud is written. Reads the OctoMap only, so it may run while the OctoMap is written.
-  MapCleaningResult CleanCloud(const MapCleaningOptions& options, const Camera& camera);
+  MapCleaningResult CleanCloud(const MapCleaningOptions& options);
   // Writes map.ply/map.pcd of the cloud (tests; the pipeline writes the points it took out).
   void WriteCloud(const std::string& ply_path, const std::string& pcd_path) const;
   // Writes map.bt/map.ot when there is an OctoMap.
@@ -110,7 +111,9 @@ class Mapper {
   // sessions are merged): where they are decisive they replace what the earlier frames said
   // (OctoMap leaves, OccupancyMapOptions::later_session_decisive_hits; the view cleaning), so a
   // chair moved between recordings stands where it was seen last, and its old place is free.
+  // The later session's frames may come from another camera.
   void BeginLaterSession();
+  void BeginLaterSession(const Camera& camera);
   // Waits for the background work still running (rethrowing its failure) and hands over the
   // map. Call once: the mapper holds nothing afterwards (a second call throws
   // std::logic_error), so the finished map has one owner on whatever thread uses it.
@@ -127,6 +130,7 @@ class Mapper {
   int session_ = 0;
   ColoredPoints scratch_;
   Camera camera_;
+  std::vector<Camera> cameras_;                    // every camera so far; camera_ is the last
   std::vector<KeyframeView> views_;                // of the fused frames, for the cleaning
   std::vector<Eigen::Vector3f> occupancy_points_;  // owned by the background insertion
   void Fuse(const MapperFrame& frame);             // on the fusion thread in the background

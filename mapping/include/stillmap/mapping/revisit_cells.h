@@ -55,6 +55,7 @@ struct CellView {
   Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
   cv::Size image_size;  // of the depth it was made from [px]
   cv::Mat cells;
+  double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // of the camera that made it [px]
 };
 
 class RevisitCells {
@@ -77,6 +78,8 @@ class RevisitCells {
   // whole cells), or an empty matrix when there are none.
   cv::Mat SeenBefore(const CellView& view);
 
+  // Views made from here on come from `camera` (merged sessions of different cameras).
+  void SetCamera(const Camera& camera) { camera_ = camera; }
   // Remembers a fused keyframe's view for the keyframes after it.
   void Remember(CellView view);
 

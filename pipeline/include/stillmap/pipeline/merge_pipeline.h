@@ -27,6 +27,9 @@ struct MergeRequest {
 struct MergeSessionFigures {
   std::string name, dir, sequence;
   size_t keyframes = 0;
+  // Of them, fused, and left out as redundant: more of its view than keyframes.
+  // max_shared_landmarks was seen, at the same depth, by keyframes fused before it.
+  size_t keyframes_fused = 0, keyframes_redundant = 0;
   bool joined = false;
   int fusion_order = -1;  // by recording time: a later session's observation wins
   // Where the links placed the session in the first one's frame (identity for the first), and
@@ -48,6 +51,7 @@ struct MergeResult {
   std::vector<MergeSessionFigures> sessions;
   std::vector<MergePairFigures> pairs;
   size_t graph_nodes = 0, graph_links = 0;
+  size_t revisit_cells_left_out = 0;  // depth cells (16 px) an earlier visit or session saw
   double graph_initial_cost = 0.0, graph_final_cost = 0.0;
   bool graph_converged = false;
   MapFigures map;
