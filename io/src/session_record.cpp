@@ -348,7 +348,7 @@ SessionImages SessionRecordReader::ReadImages(size_t index) {
   const Camera& camera = record_.camera;
   auto decode = [&](std::uint64_t offset, std::uint64_t size, int flags, int type,
                     const char* what) {
-    const cv::Mat image = cv::imdecode(ReadBlock(offset, size), flags);
+    cv::Mat image = cv::imdecode(ReadBlock(offset, size), flags);
     if (image.type() != type || image.cols != camera.width || image.rows != camera.height) {
       HeaderReader(path_).Fail(fmt::format("keyframe {}'s {} does not decode to a {}x{} image",
                                            keyframe.id, what, camera.width, camera.height));

@@ -27,6 +27,7 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options,
       [&positions](const VoxelPoint& point) { positions.push_back(point.position); });
   std::vector<std::uint8_t> drop(positions.size(), 0);
   std::vector<PixelProjection> projections;
+  projections.reserve(cameras.size());
   for (const Camera& camera : cameras) projections.emplace_back(camera);
   const float margin_m = static_cast<float>(options.view_margin_m);
   const float margin_sigmas = static_cast<float>(options.view_margin_sigmas);

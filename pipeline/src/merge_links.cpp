@@ -83,6 +83,7 @@ Eigen::Isometry3d Implied(const SessionLink& link, const SessionRecord& a, const
 void KeepAgreeing(const SessionRecord& a, const SessionRecord& b, const MergeOptions& options,
                   std::vector<SessionLink> links, PairLinks* pair) {
   std::vector<Eigen::Isometry3d> implied;
+  implied.reserve(links.size());
   for (const SessionLink& link : links) implied.push_back(Implied(link, a, b));
   const double max_rad = options.agreement_deg * M_PI / 180.0;
   auto agree = [&](size_t i, size_t j) {

@@ -48,6 +48,7 @@ void CheckOutputApart(const MergeRequest& request) {
 std::vector<PairLinks> LinkSessions(const std::vector<MergeSession>& sessions,
                                     const BuildConfig& config, MergeResult* result) {
   std::vector<SessionPlaces> places;
+  places.reserve(sessions.size());
   for (const MergeSession& session : sessions) {
     places.emplace_back(session.record(), config.tracking.place);
   }

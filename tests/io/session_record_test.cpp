@@ -41,7 +41,7 @@ SessionKeyframeBlocks RandomKeyframe(int id, std::mt19937* random, cv::Mat* dept
   keyframe.map_from_camera.linear() =
       Eigen::AngleAxisd(0.3 * id, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   keyframe.map_from_camera.translation() = Eigen::Vector3d(0.1 * id, -0.2, 1.5);
-  keyframe.features.resize(static_cast<size_t>(10 + id));
+  keyframe.features.resize(10 + static_cast<size_t>(id));
   for (SessionFeature& f : keyframe.features) {
     f.u = 64 * uniform(*random);
     f.v = 48 * uniform(*random);

@@ -72,11 +72,10 @@ TEST_F(SlurmTest, FleetRecipeGivesTheBytesOfLocalRuns) {
   std::string merge = "merge";
   for (const auto& [name, options] : kSessions) {
     const std::string session = dir_ / ("local/" + name);
-    ASSERT_EQ(testing::RunStillmap("build " + *sequence_ + " -o " + session + " " + options +
-                                       " --threads 2 --quiet" + detector,
-                                   &output),
-              0)
-        << output;
+    std::string build = "build " + *sequence_;
+    build.append(" -o ").append(session).append(" ").append(options);
+    build.append(" --threads 2 --quiet").append(detector);
+    ASSERT_EQ(testing::RunStillmap(build, &output), 0) << output;
     merge += " " + session;
   }
   ASSERT_EQ(testing::RunStillmap(merge + " -o " + (dir_ / "local/merged") + " --threads 2 --quiet",
