@@ -1,12 +1,13 @@
 // A fleet's recordings on Slurm (issue 30): scripts/slurm/fleet.sh on a one-node cluster that the
 // test starts on this machine (local_cluster.sh: munged, slurmctld and slurmd with private
-// folders and ports, stopped at the end) builds four teddy sessions as a job array and merges
-// them in a dependent job; the same builds and merge run locally give the same bytes.
+// folders and ports, stopped at the end) builds four sessions of a synthetic room as a job array
+// and merges them in a dependent job; the same builds and merge run locally give the same bytes.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
 
+#include "stillmap/synth/synthetic.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -14,19 +15,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Teddy in four overlapping sessions: the builds' options, by session name.
+// A synthetic room (240 frames) in four overlapping sessions: the builds' options, by name.
 const std::vector<std::pair<std::string, std::string>> kSessions = {
-    {"t1", "--set sequence.max_frames=70"},
-    {"t2", "--set sequence.first_frame=50 --set sequence.max_frames=70"},
-    {"t3", "--set sequence.first_frame=100 --set sequence.max_frames=60"},
-    {"t4", "--set sequence.first_frame=140"}};
+    {"s1", "--set sequence.max_frames=80"},
+    {"s2", "--set sequence.first_frame=50 --set sequence.max_frames=80"},
+    {"s3", "--set sequence.first_frame=110 --set sequence.max_frames=80"},
+    {"s4", "--set sequence.first_frame=170"}};
 
 class SlurmTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    sequence_ = testing::SharedSequence("tum_fr3_teddy_200");
-    if (!sequence_) GTEST_SKIP() << "tum_fr3_teddy_200 not found (set STILLMAP_DATA)";
-    sequence_ = fs::canonical(*sequence_).string();
     std::string output;
     const int status = testing::RunCommand(
         std::string(STILLMAP_LOCAL_CLUSTER) + " start " + (dir_ / "cluster"), &output);
@@ -34,6 +32,10 @@ class SlurmTest : public ::testing::Test {
     ASSERT_EQ(status, 0) << output;
     started_ = true;
     slurm_conf_ = "SLURM_CONF=" + (dir_ / "cluster/slurm.conf");
+    SynthOptions synth;
+    synth.scenario = "static";
+    synth.frames = 240;
+    WriteSyntheticSequence(sequence_, synth);
   }
   void TearDown() override {
     std::string output;
@@ -44,18 +46,17 @@ class SlurmTest : public ::testing::Test {
   }
 
   testing::TempDir dir_;
-  std::optional<std::string> sequence_;
+  std::string sequence_ = dir_ / "room";
   bool started_ = false;
   std::string slurm_conf_;
 };
 
 TEST_F(SlurmTest, FleetRecipeGivesTheBytesOfLocalRuns) {
-  const std::optional<std::string> models = testing::SharedModels("yolox_nano");
-  const std::string detector = models ? " --models " + *models : " --detector none";
+  const std::string detector = " --detector none";  // a room without people
   std::ofstream list(dir_ / "recordings.txt");
-  list << "# teddy in four overlapping sessions\n";
+  list << "# a synthetic room in four overlapping sessions\n";
   for (const auto& [name, options] : kSessions) {
-    list << name << " " << *sequence_ << " " << options << detector << "\n";
+    list << name << " " << sequence_ << " " << options << detector << "\n";
   }
   list.close();
   std::string output;
@@ -72,7 +73,7 @@ TEST_F(SlurmTest, FleetRecipeGivesTheBytesOfLocalRuns) {
   std::string merge = "merge";
   for (const auto& [name, options] : kSessions) {
     const std::string session = dir_ / ("local/" + name);
-    std::string build = "build " + *sequence_;
+    std::string build = "build " + sequence_;
     build.append(" -o ").append(session).append(" ").append(options);
     build.append(" --threads 2 --quiet").append(detector);
     ASSERT_EQ(testing::RunStillmap(build, &output), 0) << output;
