@@ -142,6 +142,9 @@ void MergeOptions::Validate() const {
   }
   if (neighbour_edges < 0) throw InputError("merge.neighbour_edges must be >= 0");
   if (!(neighbour_radius_m >= 0.0)) throw InputError("merge.neighbour_radius_m must be >= 0");
+  if (!(max_seen_share >= 0.0 && max_seen_share <= 1.0)) {
+    throw InputError("merge.max_seen_share must be in [0, 1]");
+  }
   if (!(link_weight > 0.0 && link_weight < 1e6)) {
     throw InputError("merge.link_weight must be positive (and below 1e6)");
   }

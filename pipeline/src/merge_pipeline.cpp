@@ -13,10 +13,12 @@
 #include "merge_graph.h"
 #include "merge_links.h"
 #include "merge_sessions.h"
+#include "stillmap/io/cloud_files.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/timing.h"
+#include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/revisit_cells.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report_html.h"
@@ -178,9 +180,7 @@ FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
       frame.mask = revisits.SeenBefore(view);
       const double seen_share = SeenShare(view, frame.mask);
       revisits.Remember(std::move(view));
-      // The seed paper's redundancy rule (keyframes.max_shared_landmarks) with the view's cells
-      // for its landmarks, whose ids do not carry from one session to another.
-      if (config.selection.enabled && seen_share > config.selection.max_shared_landmarks) {
+      if (seen_share > config.merge.max_seen_share) {  // redundant (MergeOptions)
         ++result->sessions[order[rank]].keyframes_redundant;
       } else {
         mapper.Integrate(frame);
@@ -261,6 +261,30 @@ void EvaluateSessions(const std::vector<MergeSession>& sessions, const JoinedSes
     errors.push_back((align * estimates[i] - truths[i]).norm());
   }
   result->ate_joint = ComputeStatistics(std::move(errors));
+}
+
+// The merged map against the first session's static ground truth (synthetic sequences), in the
+// truth's frame: anchored at the ground-truth pose of the first session's first keyframe.
+void EvaluateMergedMap(const std::vector<MergeSession>& sessions,
+                       const std::vector<VoxelPoint>& cloud, MergeResult* result) {
+  const SessionRecord& first = sessions[0].record();
+  const fs::path folder(first.sequence);
+  if (!fs::is_regular_file(folder / "static_gt.ply") ||
+      !fs::is_regular_file(folder / "groundtruth.txt")) {
+    return;
+  }
+  Trajectory truth = Trajectory::ReadTum((folder / "groundtruth.txt").string());
+  if (first.camera.groundtruth_body_from_camera) {
+    truth = truth.RightMultiplied(*first.camera.groundtruth_body_from_camera);
+  }
+  const SessionKeyframe& anchor = first.keyframes.front();
+  const std::optional<Eigen::Isometry3d> truth_from_camera = truth.Interpolate(anchor.time, 0.1);
+  if (!truth_from_camera) return;
+  const Eigen::Isometry3f truth_from_map =
+      (*truth_from_camera * anchor.map_from_camera.inverse()).cast<float>();
+  std::vector<VoxelPoint> points = cloud;
+  for (VoxelPoint& point : points) point.position = truth_from_map * point.position;
+  result->map_quality = EvaluateMap(points, ReadCloud((folder / "static_gt.ply").string()));
 }
 
 // The merged map's frame: the first session's, with its floor.
@@ -384,6 +408,7 @@ MergeResult RunMerge(const MergeRequest& request) {
   result.peak_memory_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;
 
   EvaluateSessions(sessions, joined, request.config, outputs, &result);
+  EvaluateMergedMap(sessions, cloud, &result);
   WriteMergeRenders(std::move(cloud), sessions, joined, request, outputs, &result);
   const nlohmann::json report = MergeReportJson(result, request);
   WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n");

@@ -81,6 +81,14 @@ json MergeReportJson(const MergeResult& result, const MergeRequest& request) {
                  {"renders", result.renders},
                  {"warnings", result.warnings}};
   if (result.grid) report["grid"] = GridJson(*result.grid);
+  if (const std::optional<MapQuality>& quality = result.map_quality) {
+    report["map_quality"] = {{"accuracy_mean_m", quality->accuracy_mean},
+                             {"accuracy_median_m", quality->accuracy_median},
+                             {"completeness", quality->completeness},
+                             {"ghost_share", quality->ghost_share},
+                             {"map_points", quality->map_points},
+                             {"groundtruth", "static_gt.ply of the first session's sequence"}};
+  }
   if (result.ate_joint) {
     report["ate_all_sessions"] = StatisticsJson(*result.ate_joint);
     report["ate_all_sessions"]["alignment"] =
@@ -114,6 +122,13 @@ std::vector<std::string> MergeSummaryLines(const MergeResult& result,
   if (result.ate_joint) {
     lines.push_back(fmt::format("all sessions vs ground truth, one alignment: ATE RMSE {:.1f} mm",
                                 result.ate_joint->rmse * 1e3));
+  }
+  if (const std::optional<MapQuality>& quality = result.map_quality) {
+    lines.push_back(fmt::format(
+        "map vs static_gt.ply: accuracy median {:.1f} mm; completeness {:.1f} %; ghost share "
+        "{:.2f} %",
+        quality->accuracy_median * 1e3, 100.0 * quality->completeness,
+        100.0 * quality->ghost_share));
   }
   if (!result.warnings.empty()) {
     lines.push_back(

@@ -22,9 +22,9 @@ using testing::TempDir;
 
 // The outputs that must be equal to the byte for any --threads and any load.
 std::vector<std::string> MapFiles(const std::string& out) {
-  std::vector<std::string> names = {"trajectory.txt", "keyframes.txt", "map.ply",
-                                    "map.pcd",        "map.bt",        "map.ot",
-                                    "grid.pgm",       "grid.yaml",     "mesh.glb"};
+  std::vector<std::string> names = {"trajectory.txt", "keyframes.txt", "map.ply",  "map.pcd",
+                                    "map.bt",         "map.ot",        "grid.pgm", "grid.yaml",
+                                    "mesh.glb",       "session.bin"};
   for (const fs::directory_entry& entry : fs::directory_iterator(out + "/renders")) {
     names.push_back("renders/" + entry.path().filename().string());
   }

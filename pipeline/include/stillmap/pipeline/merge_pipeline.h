@@ -27,8 +27,8 @@ struct MergeRequest {
 struct MergeSessionFigures {
   std::string name, dir, sequence;
   size_t keyframes = 0;
-  // Of them, fused, and left out as redundant: more of its view than keyframes.
-  // max_shared_landmarks was seen, at the same depth, by keyframes fused before it.
+  // Of them, fused, and left out as redundant: more of its view than merge.max_seen_share was
+  // seen, at the same depth, by keyframes fused before it.
   size_t keyframes_fused = 0, keyframes_redundant = 0;
   bool joined = false;
   int fusion_order = -1;  // by recording time: a later session's observation wins
@@ -60,6 +60,8 @@ struct MergeResult {
   std::optional<MeshFigures> mesh;
   // All joined sessions' trajectories against their ground truth, aligned by one rigid transform.
   std::optional<ErrorStatistics> ate_joint;
+  // Against the first session's static_gt.ply (synthetic sequences), when its sequence has one.
+  std::optional<MapQuality> map_quality;
   StageTimings timings;
   double links_ms = 0.0, graph_ms = 0.0, fuse_ms = 0.0;
   double wall_time_s = 0.0, peak_memory_mib = 0.0;
