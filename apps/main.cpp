@@ -75,7 +75,8 @@ struct BuildCommand {
         "build",
         "Build the maps of a TUM-layout sequence: map.ply, map.pcd, map.bt, map.ot, grid.pgm + "
         "grid.yaml, mesh.glb, trajectory.txt, keyframes.txt, renders/, report.json, report.html, "
-        "config.yaml; the 3-D outputs in one z-up map frame (map.frame).");
+        "config.yaml, session.bin (for stillmap merge); the 3-D outputs in one z-up map frame "
+        "(map.frame).");
     command
         ->add_option("SEQUENCE_DIR", request.sequence_dir,
                      "TUM-layout sequence folder, or a recorded bag: a ROS 1 .bag, an .mcap or "
