@@ -39,9 +39,10 @@ MergeSession WriteSession(const std::string& path, const Eigen::Isometry3d& map_
 
 TEST(MergeGraphTest, LinksPlaceASessionAtItsTruePosesAndCorrectItsFrames) {
   testing::TempDir dir;
-  std::vector<Eigen::Isometry3d> truth;
-  for (int k = 0; k < 8; ++k)
-    truth.push_back(Pose(0.2 * k, Eigen::Vector3d(0.3 * k, 0.0, 0.05 * k)));
+  std::vector<Eigen::Isometry3d> truth(8);
+  for (int k = 0; k < 8; ++k) {
+    truth[static_cast<size_t>(k)] = Pose(0.2 * k, Eigen::Vector3d(0.3 * k, 0.0, 0.05 * k));
+  }
   const Eigen::Isometry3d b_from_world = Pose(0.5, Eigen::Vector3d(1.0, -0.2, 0.4));
   std::vector<MergeSession> sessions;
   sessions.push_back(WriteSession(dir / "a.bin", Eigen::Isometry3d::Identity(),
