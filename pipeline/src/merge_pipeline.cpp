@@ -94,10 +94,13 @@ void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSes
   }
   if (left_out.size() + 1 == sessions.size()) {
     std::string links;
-    for (const MergePairFigures& pair : result->pairs) {
+    constexpr size_t kPairsNamed = 10;  // of hundreds of sessions, the message names a few pairs
+    for (size_t i = 0; i < result->pairs.size() && i < kPairsNamed; ++i) {
+      const MergePairFigures& pair = result->pairs[i];
       links += fmt::format("; {} ~ {}: {} verified links, {} agreeing", pair.session_a,
                            pair.session_b, pair.verified, pair.agreeing);
     }
+    if (result->pairs.size() > kPairsNamed) links += "; ...";
     throw InputError(fmt::format(
         "no session shares a verified place with the first, {} ({}), so nothing can be merged "
         "(a pair is joined by merge.min_links={} agreeing links{}); were they recorded in the same "
@@ -106,9 +109,8 @@ void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSes
   }
   for (const std::string& name : left_out) {
     result->warnings.push_back(
-        "session '" + name +
-        "' shares no verified place with the others: it is left out of the merged map (its "
-        "links are in report.json, merge.pairs)");
+        "session '" + name + "' shares no verified place with the sessions joined to the first, " +
+        sessions[0].name + ": it is left out of the merged map (its links: report.json, pairs)");
   }
 }
 
