@@ -36,6 +36,8 @@ for tool in munged mungekey slurmctld slurmd sbatch sinfo; do
   command -v "$tool" >/dev/null || { echo "$tool not found (apt-get install slurm-wlm munge)" >&2; exit 3; }
 done
 
+# Whatever fails from here on, the daemons started so far are stopped.
+trap 'stop' ERR
 # munge: a key of our own, and the socket the cluster is told to use.
 mkdir -p "$dir/munge" "$dir/state" "$dir/spool" "$dir/log"
 chmod 700 "$dir/munge"
@@ -46,12 +48,13 @@ munged --key-file="$dir/munge/munge.key" --socket="$dir/munge/munge.socket" \
   --seed-file="$dir/munge/munged.seed" --force
 
 user="$(id -un)"
-host="$(hostname -s)"
+# The node is "localhost", whatever the machine's name: a fresh root may not resolve its own name.
+host=localhost
 cpus="$(nproc)"
 memory_mib=$(( $(awk '/MemTotal/ {print $2}' /proc/meminfo) / 1024 - 1024 ))
 cat > "$dir/slurm.conf" <<EOF
 ClusterName=stillmap-test
-SlurmctldHost=$host(127.0.0.1)
+SlurmctldHost=localhost(127.0.0.1)
 SlurmctldPort=$(free_port)
 SlurmdPort=$(free_port)
 AuthType=auth/munge
@@ -86,7 +89,7 @@ EOF
 : > "$dir/plugstack.conf"
 export SLURM_CONF="$dir/slurm.conf"
 slurmctld -i
-slurmd
+slurmd -N "$host"
 # Up when the node takes jobs.
 for _ in $(seq 120); do
   state="$(sinfo -h -n "$host" -o %T 2>/dev/null || true)"

@@ -29,8 +29,9 @@ class SlurmTest : public ::testing::Test {
     const int status = testing::RunCommand(
         std::string(STILLMAP_LOCAL_CLUSTER) + " start " + (dir_ / "cluster"), &output);
     if (status == 3) GTEST_SKIP() << output;  // slurm-wlm or munge not installed
-    ASSERT_EQ(status, 0) << output;
-    started_ = true;
+    started_ = true;                          // stopped in TearDown whatever happened
+    ASSERT_EQ(status, 0) << output << testing::ReadText(dir_ / "cluster/log/slurmd.log")
+                         << testing::ReadText(dir_ / "cluster/log/slurmctld.log");
     slurm_conf_ = "SLURM_CONF=" + (dir_ / "cluster/slurm.conf");
     SynthOptions synth;
     synth.scenario = "static";
