@@ -82,16 +82,12 @@ void Mapper::Reset() {
 }
 
 void Mapper::BeginLaterSession(const Camera& camera) {
-  BeginLaterSession();
-  camera_ = camera;
-  projector_ = DepthBackProjector(camera, options_.back_projection);
-  cameras_.push_back(camera);
-}
-
-void Mapper::BeginLaterSession() {
   if (finished_) throw std::logic_error("Mapper::BeginLaterSession called after Finish");
   if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
   ++session_;
+  camera_ = camera;
+  projector_ = DepthBackProjector(camera, options_.back_projection);
+  cameras_.push_back(camera);
   if (!occupancy_) return;
   if (earlier_) {
     earlier_->Overlay(*occupancy_, options_.occupancy.DecisiveLogOdds());

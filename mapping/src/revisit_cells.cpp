@@ -110,6 +110,22 @@ cv::Mat RevisitCells::SeenBefore(const CellView& view) {
   return seen;
 }
 
+double RevisitCells::SeenShare(const CellView& view, const cv::Mat& seen) {
+  if (seen.empty()) return 0.0;
+  int read = 0, covered = 0;
+  for (int row = 0; row < view.cells.rows; ++row) {
+    for (int column = 0; column < view.cells.cols; ++column) {
+      if (view.cells.at<cv::Vec4f>(row, column)[3] < kReadCell) continue;
+      ++read;
+      // SeenBefore marks whole cells: their first pixel says.
+      const int u = std::min(column * kCell, seen.cols - 1),
+                v = std::min(row * kCell, seen.rows - 1);
+      covered += seen.at<std::uint8_t>(v, u) != 0 ? 1 : 0;
+    }
+  }
+  return read > 0 ? static_cast<double>(covered) / read : 0.0;
+}
+
 void RevisitCells::Remember(CellView view) { remembered_.push_back(std::move(view)); }
 
 void RevisitCells::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {

@@ -1,7 +1,6 @@
 #include "stillmap/pipeline/build_pipeline.h"
 
 #include <fmt/chrono.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -32,12 +31,6 @@ namespace {
 namespace fs = std::filesystem;
 
 using Clock = std::chrono::steady_clock;
-
-double PeakMemoryMib() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
-}
 
 // The output folder may not be the sequence folder or lie inside it: a rerun replaces the whole
 // output set, and the next build would read the outputs as part of the sequence.

@@ -26,21 +26,16 @@ std::optional<SessionLink> Verify(const SessionPlaces& a, int c, const SessionPl
                                   const MergeOptions& options) {
   const SessionKeyframe& kc = a.record().keyframes[static_cast<size_t>(c)];
   const SessionKeyframe& kq = b.record().keyframes[static_cast<size_t>(q)];
-  std::vector<int> with_depth;
-  for (size_t i = 0; i < kc.features.size(); ++i) {
-    if (kc.features[i].depth_m > 0.0f) with_depth.push_back(static_cast<int>(i));
-  }
+  const std::vector<int>& with_depth = a.with_depth(static_cast<size_t>(c));
   if (with_depth.size() < static_cast<size_t>(options.min_inliers)) return std::nullopt;
-  cv::Mat train(static_cast<int>(with_depth.size()), 32, CV_8U);
-  for (size_t k = 0; k < with_depth.size(); ++k) {
-    a.descriptors(static_cast<size_t>(c)).row(with_depth[k]).copyTo(train.row(static_cast<int>(k)));
-  }
   std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(b.descriptors(static_cast<size_t>(q)), train, knn, 2);
+  cv::BFMatcher(cv::NORM_HAMMING)
+      .knnMatch(b.descriptors(static_cast<size_t>(q)), a.depth_descriptors(static_cast<size_t>(c)),
+                knn, 2);
   std::vector<Eigen::Vector3d> points;
   std::vector<Eigen::Vector2d> observations;
   std::vector<RgbdObservation> rgbd;
-  const double fx = a.record().camera.fx;
+  const double fx = b.record().camera.fx;  // q's camera observes
   for (const std::vector<cv::DMatch>& best : knn) {
     if (best.empty() || best[0].distance > static_cast<float>(options.max_descriptor_distance)) {
       continue;
@@ -117,6 +112,17 @@ SessionPlaces::SessionPlaces(const SessionRecord& record, const PlaceIndexOption
   for (size_t k = 0; k < record.keyframes.size(); ++k) {
     descriptors_.push_back(Descriptors(record.keyframes[k]));
     index_.Add(static_cast<int>(k), descriptors_.back());
+    // The features with depth, which verification matches against, once per keyframe.
+    std::vector<int> with_depth;
+    for (size_t i = 0; i < record.keyframes[k].features.size(); ++i) {
+      if (record.keyframes[k].features[i].depth_m > 0.0f) with_depth.push_back(static_cast<int>(i));
+    }
+    cv::Mat depth_descriptors(static_cast<int>(with_depth.size()), 32, CV_8U);
+    for (size_t i = 0; i < with_depth.size(); ++i) {
+      descriptors_.back().row(with_depth[i]).copyTo(depth_descriptors.row(static_cast<int>(i)));
+    }
+    with_depth_.push_back(std::move(with_depth));
+    depth_descriptors_.push_back(depth_descriptors);
   }
 }
 

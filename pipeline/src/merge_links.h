@@ -37,11 +37,16 @@ class SessionPlaces {
   const SessionRecord& record() const { return record_; }
   const PlaceIndex& index() const { return index_; }
   const cv::Mat& descriptors(size_t keyframe) const { return descriptors_[keyframe]; }
+  // The keyframe's features with depth (indices), and their descriptors in that order.
+  const std::vector<int>& with_depth(size_t keyframe) const { return with_depth_[keyframe]; }
+  const cv::Mat& depth_descriptors(size_t keyframe) const { return depth_descriptors_[keyframe]; }
 
  private:
   const SessionRecord& record_;
   PlaceIndex index_;
   std::vector<cv::Mat> descriptors_;  // per keyframe, CV_8U rows of 32 bytes
+  std::vector<std::vector<int>> with_depth_;
+  std::vector<cv::Mat> depth_descriptors_;
 };
 
 // The links between sessions a and b (indices `a` < `b` for the result).

@@ -1,7 +1,6 @@
 #include "stillmap/pipeline/merge_pipeline.h"
 
 #include <fmt/format.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -14,6 +13,7 @@
 #include "merge_links.h"
 #include "merge_sessions.h"
 #include "stillmap/io/cloud_files.h"
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
 #include "stillmap/io/output_files.h"
@@ -129,22 +129,6 @@ std::vector<size_t> FusionOrder(const std::vector<MergeSession>& sessions,
   return order;
 }
 
-// The share of the view's read cells that `seen` covers.
-double SeenShare(const CellView& view, const cv::Mat& seen) {
-  if (seen.empty()) return 0.0;
-  int read = 0, covered = 0;
-  for (int row = 0; row < view.cells.rows; ++row) {
-    for (int column = 0; column < view.cells.cols; ++column) {
-      if (view.cells.at<cv::Vec4f>(row, column)[3] < RevisitCells::kReadCell) continue;
-      ++read;
-      const int u = std::min(column * RevisitCells::kCell, seen.cols - 1);
-      const int v = std::min(row * RevisitCells::kCell, seen.rows - 1);
-      covered += seen.at<std::uint8_t>(v, u) != 0 ? 1 : 0;
-    }
-  }
-  return read > 0 ? static_cast<double>(covered) / read : 0.0;
-}
-
 // Fuses every joined session's keyframes at their merged poses. Within and across sessions, the
 // depth cells an earlier visit saw are left out (RevisitCells): a place seen by two sessions is
 // not laid twice a few millimetres apart.
@@ -180,7 +164,7 @@ FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
       CellView view = revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
                                         frame.world_from_camera);
       frame.mask = revisits.SeenBefore(view);
-      const double seen_share = SeenShare(view, frame.mask);
+      const double seen_share = RevisitCells::SeenShare(view, frame.mask);
       revisits.Remember(std::move(view));
       if (seen_share > config.merge.max_seen_share) {  // redundant (MergeOptions)
         ++result->sessions[order[rank]].keyframes_redundant;
@@ -198,9 +182,13 @@ FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
   return mapper.Finish();
 }
 
-// trajectory_<session>.txt of every joined session, in the merged frame.
-void WriteTrajectories(const std::vector<MergeSession>& sessions, const JoinedSessions& joined,
-                       const MapFrameFigures& frame, OutputSet& outputs, MergeResult* result) {
+// trajectory_<session>.txt of every joined session, in the merged frame; returns them (empty
+// for sessions left out).
+std::vector<Trajectory> WriteTrajectories(const std::vector<MergeSession>& sessions,
+                                          const JoinedSessions& joined,
+                                          const MapFrameFigures& frame, OutputSet& outputs,
+                                          MergeResult* result) {
+  std::vector<Trajectory> trajectories(sessions.size());
   for (size_t s = 0; s < sessions.size(); ++s) {
     if (!joined.included[s]) continue;
     std::vector<StampedPose> poses;
@@ -209,23 +197,25 @@ void WriteTrajectories(const std::vector<MergeSession>& sessions, const JoinedSe
                                                 pose.time, pose.world_from_camera)});
     }
     const std::string name = "trajectory_" + sessions[s].name + ".txt";
-    Trajectory(std::move(poses))
-        .WriteTum(outputs.TemporaryPath(name),
-                  "stillmap merge: session " + sessions[s].name +
-                      " (camera-to-map, every tracked frame); map frame " + frame.name +
-                      " of session " + sessions[0].name);
+    trajectories[s] = Trajectory(std::move(poses));
+    trajectories[s].WriteTum(outputs.TemporaryPath(name),
+                             "stillmap merge: session " + sessions[s].name +
+                                 " (camera-to-map, every tracked frame); map frame " + frame.name +
+                                 " of session " + sessions[0].name);
     result->sessions[s].trajectory_file = name;
   }
+  return trajectories;
 }
 
 // Each joined session's trajectory against its sequence's groundtruth.txt (when the sequence
 // folder has one), on its own and all together under one rigid alignment.
-void EvaluateSessions(const std::vector<MergeSession>& sessions, const JoinedSessions& joined,
-                      const BuildConfig& config, const OutputSet& outputs, MergeResult* result) {
+void EvaluateSessions(const std::vector<MergeSession>& sessions,
+                      const std::vector<Trajectory>& trajectories, const BuildConfig& config,
+                      MergeResult* result) {
   std::vector<Eigen::Vector3d> estimates, truths;
   for (size_t s = 0; s < sessions.size(); ++s) {
     MergeSessionFigures& figures = result->sessions[s];
-    if (!joined.included[s]) continue;
+    if (!figures.joined) continue;
     const fs::path truth_path = fs::path(figures.sequence) / "groundtruth.txt";
     if (!fs::is_regular_file(truth_path)) {
       figures.ate_note = "no " + truth_path.string();
@@ -237,9 +227,7 @@ void EvaluateSessions(const std::vector<MergeSession>& sessions, const JoinedSes
       if (camera.groundtruth_body_from_camera) {
         truth = truth.RightMultiplied(*camera.groundtruth_body_from_camera);
       }
-      const Trajectory estimate =
-          Trajectory::ReadTum(outputs.staging_dir() + "/" + figures.trajectory_file);
-      figures.ate = ComputeAte(truth, estimate, config.ate);
+      figures.ate = ComputeAte(truth, trajectories[s], config.ate);
       const Eigen::Isometry3d estimate_from_truth =
           figures.ate->groundtruth_from_estimate.inverse();
       for (size_t i = 0; i < figures.ate->aligned_positions.size(); ++i) {
@@ -401,15 +389,14 @@ MergeResult RunMerge(const MergeRequest& request) {
   step = Clock::now();
   std::vector<VoxelPoint> cloud =
       WriteMergedMap(std::move(map), sessions, request, outputs, &result);
-  WriteTrajectories(sessions, joined, result.map_frame, outputs, &result);
+  const std::vector<Trajectory> trajectories =
+      WriteTrajectories(sessions, joined, result.map_frame, outputs, &result);
   std::ofstream(outputs.TemporaryPath("config.yaml")) << ConfigToYaml(request.config);
   result.timings.write_ms = MillisecondsSince(step);
   result.wall_time_s = SecondsSince(start);
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  result.peak_memory_mib = static_cast<double>(usage.ru_maxrss) / 1024.0;
+  result.peak_memory_mib = PeakMemoryMib();
 
-  EvaluateSessions(sessions, joined, request.config, outputs, &result);
+  EvaluateSessions(sessions, trajectories, request.config, &result);
   EvaluateMergedMap(sessions, cloud, &result);
   WriteMergeRenders(std::move(cloud), sessions, joined, request, outputs, &result);
   const nlohmann::json report = MergeReportJson(result, request);

@@ -123,7 +123,7 @@ TEST(MapperTest, ALaterSessionReplacesWhatMovedAway) {
     options.in_background = false;
     Mapper mapper(camera, options);
     for (int k = 0; k < 8; ++k) mapper.Integrate(frame(2.02f, 0.01 * (k % 6)));
-    if (sessions) mapper.BeginLaterSession();
+    if (sessions) mapper.BeginLaterSession(camera);
     for (int k = 0; k < 6; ++k) mapper.Integrate(frame(3.02f, 0.01 * k));
     FinishedMap map = mapper.Finish();
     map.CleanCloud(options.cleaning);

@@ -10,6 +10,8 @@ namespace stillmap {
 double ThreadCpuMs();
 // CPU time (user + system) the whole process has used, all its threads [s].
 double ProcessCpuSeconds();
+// The process's peak resident memory so far [MiB].
+double PeakMemoryMib();
 
 // Each core's busy and total time since boot, from /proc/stat (empty where it cannot be read).
 struct CoreTimes {

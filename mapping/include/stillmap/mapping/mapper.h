@@ -111,8 +111,7 @@ class Mapper {
   // sessions are merged): where they are decisive they replace what the earlier frames said
   // (OctoMap leaves, OccupancyMapOptions::later_session_decisive_hits; the view cleaning), so a
   // chair moved between recordings stands where it was seen last, and its old place is free.
-  // The later session's frames may come from another camera.
-  void BeginLaterSession();
+  // The later session's frames come from `camera` (another camera, or the same).
   void BeginLaterSession(const Camera& camera);
   // Waits for the background work still running (rethrowing its failure) and hands over the
   // map. Call once: the mapper holds nothing afterwards (a second call throws

@@ -80,6 +80,8 @@ class RevisitCells {
 
   // Views made from here on come from `camera` (merged sessions of different cameras).
   void SetCamera(const Camera& camera) { camera_ = camera; }
+  // The share of `view`'s read cells that `seen` (SeenBefore's answer for it) leaves out.
+  static double SeenShare(const CellView& view, const cv::Mat& seen);
   // Remembers a fused keyframe's view for the keyframes after it.
   void Remember(CellView view);
 
