@@ -87,6 +87,9 @@ NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$memory_mib State=UNKNOW
 PartitionName=local Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF
 : > "$dir/plugstack.conf"
+# slurmd loads a cgroup plugin even with the plugins above; "autodetect" fails where no cgroup
+# file system is mounted (a container, a chroot), and v1 is only read when a job asks for cgroups.
+echo "CgroupPlugin=cgroup/v1" > "$dir/cgroup.conf"
 export SLURM_CONF="$dir/slurm.conf"
 slurmctld -i
 slurmd -N "$host"
