@@ -8,8 +8,8 @@ run counts. Per clip: ATE RMSE and max [mm], frames lost / relocalized, new loca
 share, frames per second; then the worst clip and the median over clips.
 
 Then the synthetic scenarios of `stillmap synth` (crowd_start, lens_pass, stop_and_go; 300
-frames, seed 1, rendered once into --synth-dir): ATE, ghost share and the mask recall over the
-frames in which a person stands still, worst run of --runs.
+frames, seed 1, rendered once into --synth-dir): ATE, ghost share, mask precision and recall, and
+the mask recall over the frames in which a person stands still, worst run of --runs.
 
   scripts/robustness_suite.py [--sequence DIR]... [--runs 3] [--no-synthetic]
                               [--synth-dir DIR] [-- extra build arguments]
@@ -45,8 +45,11 @@ def build(stillmap, sequence, first, frames, extra, out):
         raise RuntimeError(f"{sequence}: no ATE in report.json (is there a groundtruth.txt?)")
     tracking = report["tracking"]
     quality = report.get("map_quality", {})
-    still = report.get("mask_quality", {}).get("while_still", {})
+    masks = report.get("mask_quality", {})
+    still = masks.get("while_still", {})
     return {
+        "precision": masks.get("precision"),
+        "recall": masks.get("recall"),
         "ghost_share": quality.get("ghost_share"),
         "still_recall": still.get("recall"),
         "ate_rmse_mm": 1000.0 * ate["rmse"],
@@ -116,8 +119,8 @@ def main():
 
 
 def synthetic(args, scratch):
-    print(f"{'scenario':<22}{'ATE mm':>9}{'max mm':>9}{'ghosts':>9}{'still recall':>14}"
-          f"   (worst of {args.runs} runs)")
+    print(f"{'scenario':<22}{'ATE mm':>9}{'max mm':>9}{'ghosts':>9}{'precision':>11}{'recall':>8}"
+          f"{'still recall':>14}   (worst of {args.runs} runs)")
     for scenario in ("crowd_start", "lens_pass", "stop_and_go"):
         sequence = os.path.join(args.synth_dir, scenario)
         if not os.path.isfile(os.path.join(sequence, "synth.json")):
@@ -129,6 +132,7 @@ def synthetic(args, scratch):
         still = worst("still_recall", min) if scenario == "stop_and_go" else None
         print(f"{scenario:<22}{worst('ate_rmse_mm', max):>9.1f}{worst('ate_max_mm', max):>9.1f}"
               f"{100 * worst('ghost_share', max):>8.2f}%"
+              f"{worst('precision', min):>11.3f}{worst('recall', min):>8.3f}"
               f"{'' if still is None else f'{still:.3f}':>14}", flush=True)
 
 
