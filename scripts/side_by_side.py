@@ -9,8 +9,8 @@ Extra build options follow `--`: scripts/side_by_side.py A B SEQ -- --detector n
 Run it on a quiet machine. Only the Python standard library is used.
 
 With --together, each run of A starts at the same moment as a run of B and both share the
-machine: their wall times mean nothing then, but their CPU times are compared under the same
-conditions. On a virtual machine whose speed drifts by 10-15 % from one minute to the next, the
+machine: their wall times are not those of a run alone then, but their CPU times are compared
+under the same conditions. On a virtual machine whose speed drifts by 10-15 % from one minute to the next, the
 same binary measured this way twice differed by 0.7 and 1.8 % in CPU (bonn_crowd_a), where
 alternating runs differed by up to 25 %.
 """
@@ -27,19 +27,33 @@ import time
 
 def start_run(binary, sequence, output, extra):
     command = [binary, "build", sequence, "-o", output, "--quiet"] + extra
-    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    return command, process, time.monotonic()
+    stderr = open(output + ".stderr", "w+b")  # a file, not a pipe: nothing blocks the run
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr)
+    return command, process, stderr, time.monotonic()
 
 
-def finish_run(command, process, start):
-    """Waits for a run: its wall time, CPU time (user + sys) and peak memory [MiB]."""
-    stderr = process.stderr.read().decode(errors="replace")  # before waiting: no full pipe
-    _, status, usage = os.wait4(process.pid, 0)
-    wall = time.monotonic() - start
-    process.stderr.close()
-    if os.waitstatus_to_exitcode(status) != 0:
-        sys.exit(f"side_by_side: {' '.join(command)} failed: {stderr.strip()}")
-    return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0
+def finish_runs(started):
+    """Waits for the runs `started` (key -> start_run's result), each collected as it ends: per
+    key, its wall time, CPU time (user + sys) and peak memory [MiB]."""
+    by_pid = {run[1].pid: key for key, run in started.items()}
+    rows = {}
+    while by_pid:
+        pid, status, usage = os.wait4(-1, 0)
+        if pid not in by_pid:
+            continue
+        key = by_pid.pop(pid)
+        command, process, stderr, start = started[key]
+        process.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
+        wall = time.monotonic() - start
+        stderr.seek(0)
+        message = stderr.read().decode(errors="replace").strip()
+        stderr.close()
+        if process.returncode != 0:
+            for other in by_pid:  # the run started with it would go on writing
+                started[by_pid[other]][1].kill()
+            sys.exit(f"side_by_side: {' '.join(command)} failed: {message}")
+        rows[key] = (wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0)
+    return rows
 
 
 def report(key, i, row):
@@ -66,18 +80,18 @@ def main():
             keys = ("a", "b")
             outputs = {key: os.path.join(work, f"{key}{i}") for key in keys}
             if args.together:
-                started = {key: start_run(getattr(args, key), args.sequence, outputs[key], extra)
-                           for key in keys}
-                rows = {key: finish_run(*started[key]) for key in keys}
+                rows = finish_runs({key: start_run(getattr(args, key), args.sequence,
+                                                   outputs[key], extra) for key in keys})
             else:
                 rows = {}
                 for key in keys:
-                    rows[key] = finish_run(*start_run(getattr(args, key), args.sequence,
-                                                      outputs[key], extra))
+                    rows.update(finish_runs({key: start_run(getattr(args, key), args.sequence,
+                                                            outputs[key], extra)}))
             for key in keys:
                 results[key].append(rows[key])
                 report(key, i, rows[key])
                 shutil.rmtree(outputs[key], ignore_errors=True)
+                os.remove(outputs[key] + ".stderr")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     medians = {}
