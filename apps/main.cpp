@@ -104,7 +104,7 @@ struct BuildCommand {
                      "semantic prior for dynamic rejection: auto (the default: yolox when the "
                      "models are found, else none), none (geometry only), yolox (boxes), deeplab "
                      "(per-pixel), both")
-        ->check(CLI::IsMember({"auto", "none", "yolox", "deeplab", "both"}));
+        ->check(CLI::IsMember({"auto", "none", "yolox", "deeplab", "both", "fastest"}));
     command->add_option("--models", request.models_dir,
                         "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: the first "
                         "that holds one of $STILLMAP_MODELS, ~/.local/share/stillmap/models, "

@@ -154,7 +154,8 @@ void BuildConfig::Validate() const {
   if (run.poses != "tracking" && run.poses != "groundtruth") {
     throw InputError("run.poses must be tracking or groundtruth, not '" + run.poses + "'");
   }
-  const std::vector<std::string> detectors = {"auto", "none", "yolox", "deeplab", "both"};
+  const std::vector<std::string> detectors = {"auto",    "none", "yolox",
+                                              "deeplab", "both", "fastest"};
   if (std::find(detectors.begin(), detectors.end(), run.detector) == detectors.end()) {
     throw InputError("run.detector must be auto, none, yolox, deeplab or both, not '" +
                      run.detector + "'");

@@ -377,6 +377,7 @@ std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::strin
   }
   if (name == "yolox") return MakeYoloxDetector(models_dir, levels, yolox);
   if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels, deeplab);
+  if (name == "fastest") return MakeFastestDetector(models_dir, levels, yolox);
   if (name == "both") {
     return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, yolox),
                                 MakeDeeplabDetector(models_dir, levels, deeplab));

@@ -87,6 +87,12 @@ struct DeeplabOptions {
   }
 };
 
+// Yolo-Fastest 1.1 (an issue-29 experiment) from MODELS_DIR/yolo_fastest_1.1, at 320x256, with
+// YOLOX's score and NMS thresholds.
+std::unique_ptr<Detector> MakeFastestDetector(const std::string& models_dir,
+                                              const MotionLevelTable& levels,
+                                              const YoloxOptions& options = {});
+
 // DeepLabV3-MobileNetV2 (PASCAL VOC, ONNX patched for OpenCV 4.6) from
 // MODELS_DIR/deeplabv3_mnv2_voc/{deeplab_v3_mnv2_voc_opencv46.onnx, voc.names}: per-pixel labels
 // at 257x257, resized (nearest) to the image; each connected segment of a non-background class is
