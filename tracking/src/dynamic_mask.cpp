@@ -192,29 +192,11 @@ std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
   return out;
 }
 
-// A box whose object stands less than 0.6 m tall at its middle's depth, and that the image's top
-// and bottom edges do not cut: no whole person (an experiment, issue 29).
-bool TooSmallForAPerson(const cv::Mat& depth_m, const cv::Rect& box, double fy) {
-  if (box.y <= 2 || box.y + box.height >= depth_m.rows - 2) return false;
-  const cv::Rect middle = Middle(box);
-  std::vector<float> depths;
-  for (int v = middle.y; v < middle.y + middle.height; ++v) {
-    for (int u = middle.x; u < middle.x + middle.width; ++u) {
-      const float z = depth_m.at<float>(v, u);
-      if (z > 0.0f) depths.push_back(z);
-    }
-  }
-  if (depths.size() < 10) return false;
-  std::nth_element(depths.begin(), depths.begin() + static_cast<long>(depths.size() / 2),
-                   depths.end());
-  return box.height * depths[depths.size() / 2] / fy < 0.6;
-}
-
 // The detections' outlines into `mask` (high-level objects always, medium-level ones when
 // geometry sees enough of them moving) and into `claimed` (every outline); counts in `result`.
 void MaskDetections(const std::vector<Detection>& detections, const cv::Mat& gray,
                     const cv::Mat& depth_m, const cv::Mat& geometric, const cv::Mat& consistent,
-                    const DynamicMaskOptions& options, double fy, cv::Mat* mask, cv::Mat* claimed,
+                    const DynamicMaskOptions& options, cv::Mat* mask, cv::Mat* claimed,
                     DynamicMaskResult* result) {
   const cv::Size size = gray.size();
   for (const Detection& detection : detections) {
@@ -241,7 +223,7 @@ void MaskDetections(const std::vector<Detection>& detections, const cv::Mat& gra
     if (area == 0) continue;
     const int moving = cv::countNonZero(geometric(box) & outline);
     (*claimed)(box).setTo(255, outline);
-    if (detection.level == MotionLevel::kHigh && !TooSmallForAPerson(depth_m, box, fy)) {
+    if (detection.level == MotionLevel::kHigh) {
       ++result->high_regions;
       result->high_confirmed += moving > 0 ? 1 : 0;
       (*mask)(box).setTo(255, outline);
@@ -490,8 +472,8 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   cv::Mat mask = geometric.clone();
   cv::Mat claimed(size, CV_8UC1, cv::Scalar(0));  // pixels of any detection's outline
   if (options_.semantics) {
-    MaskDetections(carried_, gray, depth_m, geometric, consistent, options_, camera_.fy, &mask,
-                   &claimed, &result);
+    MaskDetections(carried_, gray, depth_m, geometric, consistent, options_, &mask, &claimed,
+                   &result);
   }
   result.geometric_pixels = cv::countNonZero(geometric);
   result.geometric_only_regions = GeometricOnlyRegions(geometric, claimed);
