@@ -83,6 +83,7 @@ json MaskingJson(const MaskingFigures& masking, const DynamicMaskOptions& option
   out["detections_by_level"] = s.detections_by_level;
   out["high_level_regions"] = s.high_regions;
   out["high_level_confirmed_by_geometry"] = s.high_confirmed;
+  out["high_level_static_by_geometry"] = s.high_static;
   out["medium_level_moving"] = s.medium_moving;
   out["medium_level_static"] = s.medium_static;
   out["geometric_regions_outside_detections"] = s.geometric_only;

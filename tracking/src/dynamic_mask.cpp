@@ -171,7 +171,9 @@ std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
   for (Detection& detection : out) {
     detection.centre_depth_m = CentreDepth(depth_m, detection.box);
     for (const Detection& old : last) {
-      if (old.missed_runs == 0 && same(detection, old)) detection.hits = old.hits + 1;
+      if (!same(detection, old)) continue;
+      if (old.missed_runs == 0) detection.hits = old.hits + 1;
+      detection.seen_moving = detection.seen_moving || old.seen_moving;
     }
   }
   for (const Detection& old : last) {
@@ -194,12 +196,12 @@ std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
 
 // The detections' outlines into `mask` (high-level objects always, medium-level ones when
 // geometry sees enough of them moving) and into `claimed` (every outline); counts in `result`.
-void MaskDetections(const std::vector<Detection>& detections, const cv::Mat& gray,
+void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray,
                     const cv::Mat& depth_m, const cv::Mat& geometric, const cv::Mat& consistent,
                     const DynamicMaskOptions& options, cv::Mat* mask, cv::Mat* claimed,
                     DynamicMaskResult* result) {
   const cv::Size size = gray.size();
-  for (const Detection& detection : detections) {
+  for (Detection& detection : *detections) {
     if (detection.level == MotionLevel::kLow) continue;
     const cv::Rect box = Clip(cv::Rect(detection.box), size);
     if (box.area() == 0) continue;
@@ -223,7 +225,12 @@ void MaskDetections(const std::vector<Detection>& detections, const cv::Mat& gra
     if (area == 0) continue;
     const int moving = cv::countNonZero(geometric(box) & outline);
     (*claimed)(box).setTo(255, outline);
-    if (detection.level == MotionLevel::kHigh) {
+    detection.seen_moving =
+        detection.seen_moving || moving >= options.medium_min_moving_share * area;
+    if (detection.level == MotionLevel::kHigh && !detection.seen_moving && !consistent.empty() &&
+        cv::countNonZero(consistent(box) & outline) >= options.high_static_share * area) {
+      ++result->high_static;
+    } else if (detection.level == MotionLevel::kHigh) {
       ++result->high_regions;
       result->high_confirmed += moving > 0 ? 1 : 0;
       (*mask)(box).setTo(255, outline);
@@ -338,6 +345,8 @@ void DynamicMaskOptions::Validate() const {
   check(max_unknown_steps >= 0 && max_unknown_steps <= 255, "max_unknown_steps must be 0..255");
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
         "medium_min_moving_share must be in (0, 1]");
+  check(high_static_share > 0.0 && high_static_share <= 1.0,
+        "high_static_share must be in (0, 1]");
   check(detector_interval >= 1, "detector_interval must be >= 1");
   check(detection_memory_runs >= 0 && detection_memory_runs <= 100,
         "detection_memory_runs must lie in 0..100");
@@ -472,7 +481,7 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   cv::Mat mask = geometric.clone();
   cv::Mat claimed(size, CV_8UC1, cv::Scalar(0));  // pixels of any detection's outline
   if (options_.semantics) {
-    MaskDetections(carried_, gray, depth_m, geometric, consistent, options_, &mask, &claimed,
+    MaskDetections(&carried_, gray, depth_m, geometric, consistent, options_, &mask, &claimed,
                    &result);
   }
   result.geometric_pixels = cv::countNonZero(geometric);

@@ -79,6 +79,7 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   s.high_confirmed += static_cast<size_t>(result.high_confirmed);
   s.medium_moving += static_cast<size_t>(result.medium_moving);
   s.medium_static += static_cast<size_t>(result.medium_static);
+  s.high_static += static_cast<size_t>(result.high_static);
   s.geometric_only += static_cast<size_t>(result.geometric_only_regions);
   s.frames_with_mask += result.share > 0.0 ? 1 : 0;
   if (truth_.available()) {

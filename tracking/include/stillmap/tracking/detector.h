@@ -43,6 +43,7 @@ struct Detection {
   int missed_runs = 0;
   float centre_depth_m = 0.0f;
   int hits = 1;  // detector runs in a row that found it
+  bool seen_moving = false;  // geometry has seen part of its outline move, in any run so far
 };
 
 class Detector {

@@ -85,6 +85,10 @@ struct DynamicMaskOptions {
   // and the floor at the feet join).
   bool outline_whole_box = true;
   double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
+  // A high-level object that geometry has never seen move, and whose outline the depth check
+  // confirms static for at least this share of it, is left unmasked: a still object the detector
+  // takes for a person (a teddy bear). A person who walked and stopped stays masked.
+  double high_static_share = 0.5;
   // The detector runs every n-th frame; boxes are carried between by the flow of their points
   // (walking_xyz, YOLOX: 1 and 2 give precision 0.942/0.943, recall 0.967/0.967; 11.7 -> 15.8 fps).
   int detector_interval = 2;
@@ -148,6 +152,9 @@ struct DynamicMaskOptions {
           "static");
     visit("medium_min_moving_share", self.medium_min_moving_share,
           "medium-level objects are masked when geometry marks this share of them");
+    visit("high_static_share", self.high_static_share,
+          "a person never seen moving is left unmasked when the depth check confirms this "
+          "share of it static");
     visit("detector_interval", self.detector_interval,
           "run the detector every n-th frame (boxes carried between by flow)");
     visit("detection_memory_runs", self.detection_memory_runs,
@@ -195,6 +202,7 @@ struct DynamicMaskResult {
   int high_confirmed = 0;  // of those, with geometry agreeing
   int medium_moving = 0;
   int medium_static = 0;
+  int high_static = 0;  // high-level, never seen moving, confirmed static: not masked
   int geometric_only_regions = 0;  // moving regions outside every detection
   bool detections_fresh = false;   // the detector ran on this frame (else carried or none)
   double ms = 0.0;
