@@ -101,12 +101,14 @@ struct BuildCommand {
         ->check(CLI::IsMember({"groundtruth", "tracking"}));
     command
         ->add_option("--detector", request.detector,
-                     "semantic prior for dynamic rejection: auto (the default: yolox when the "
-                     "models are found, else none), none (geometry only), yolox (boxes), deeplab "
-                     "(per-pixel), both")
-        ->check(CLI::IsMember({"auto", "none", "yolox", "deeplab", "both", "fastest"}));
+                     "semantic prior for dynamic rejection: auto (the default: yolo-fastest when "
+                     "its model is found, else yolox when its model is, else none), none "
+                     "(geometry only), yolo-fastest (boxes, the fastest), yolox (boxes), deeplab "
+                     "(per-pixel), both (yolox and deeplab)")
+        ->check(CLI::IsMember({"auto", "none", "yolo-fastest", "yolox", "deeplab", "both"}));
     command->add_option("--models", request.models_dir,
-                        "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (default: the first "
+                        "folder holding yolo_fastest_1.1/, yolox_nano/ and deeplabv3_mnv2_voc/ "
+                        "(default: the first "
                         "that holds one of $STILLMAP_MODELS, ~/.local/share/stillmap/models, "
                         "PREFIX/share/stillmap/models, BIN/models, ../shared/models; "
                         "scripts/fetch-models gets them)");

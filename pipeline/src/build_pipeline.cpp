@@ -94,13 +94,14 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
   std::unique_ptr<Detector> detector;
   if (config.masking_enabled) {
     detector = MakeDetector(request.detector, request.models_dir, MotionLevels(config),
-                            config.yolox, config.deeplab);
+                            {config.fastest, config.yolox, config.deeplab});
     if (request.detector == "auto" && detector == nullptr && config.masking.semantics) {
       result->warnings.push_back(
           (request.models_dir.empty() ? "no detector model in " + DescribeModelSearchPath()
-                                      : "no YOLOX-Nano model under '" + request.models_dir + "'") +
+                                      : "no detector model under '" + request.models_dir + "'") +
           ": moving objects are found by geometry only, and people who stand still stay in the "
-          "map (scripts/fetch-models gets the model; or pass --models DIR holding yolox_nano/, "
+          "map (scripts/fetch-models gets the model; or pass --models DIR holding "
+          "yolo_fastest_1.1/ or yolox_nano/, "
           "or --detector none to silence this)");
     }
   }

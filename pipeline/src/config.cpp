@@ -124,6 +124,24 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
   }
 }
 
+// A box detector's thresholds and input size; `prefix` names their keys.
+void CheckNetworkOptions(const std::string& prefix, double score_threshold, double nms_threshold,
+                         int input_width, int input_height) {
+  if (!(score_threshold > 0.0 && score_threshold < 1.0)) {
+    throw InputError(prefix + "score_threshold must be in (0, 1)");
+  }
+  if (!(nms_threshold > 0.0 && nms_threshold <= 1.0)) {
+    throw InputError(prefix + "nms_threshold must be in (0, 1]");
+  }
+  // The network's cost grows with its input: 1280 px is 3x a 640x480 frame's size.
+  for (const int size : {input_width, input_height}) {
+    if (size < 32 || size > 1280 || size % 32 != 0) {
+      throw InputError(prefix + "input_width and " + prefix +
+                       "input_height must be multiples of 32 in 32..1280");
+    }
+  }
+}
+
 }  // namespace
 
 void MergeOptions::Validate() const {
@@ -154,11 +172,12 @@ void BuildConfig::Validate() const {
   if (run.poses != "tracking" && run.poses != "groundtruth") {
     throw InputError("run.poses must be tracking or groundtruth, not '" + run.poses + "'");
   }
-  const std::vector<std::string> detectors = {"auto",    "none", "yolox",
-                                              "deeplab", "both", "fastest"};
+  const std::vector<std::string> detectors = {"auto",  "none",    "yolo-fastest",
+                                              "yolox", "deeplab", "both"};
   if (std::find(detectors.begin(), detectors.end(), run.detector) == detectors.end()) {
-    throw InputError("run.detector must be auto, none, yolox, deeplab or both, not '" +
-                     run.detector + "'");
+    throw InputError(
+        "run.detector must be auto, none, yolo-fastest, yolox, deeplab or both, not '" +
+        run.detector + "'");
   }
   if (run.threads < 1 || run.threads > 64) throw InputError("run.threads must be 1..64");
   if (map.frame != "floor" && map.frame != "camera" && map.frame != "groundtruth") {
@@ -186,19 +205,10 @@ void BuildConfig::Validate() const {
   selection.Validate();
   grid.Validate();
   mesh.Validate();
-  if (!(yolox.score_threshold > 0.0 && yolox.score_threshold < 1.0)) {
-    throw InputError("detector.score_threshold must be in (0, 1)");
-  }
-  if (!(yolox.nms_threshold > 0.0 && yolox.nms_threshold <= 1.0)) {
-    throw InputError("detector.nms_threshold must be in (0, 1]");
-  }
-  // The network's cost grows with its input: 1280 px is 3x a 640x480 frame's size.
-  for (const int size : {yolox.input_width, yolox.input_height}) {
-    if (size < 32 || size > 1280 || size % 32 != 0) {
-      throw InputError(
-          "detector.input_width and detector.input_height must be multiples of 32 in 32..1280");
-    }
-  }
+  CheckNetworkOptions("detector.", yolox.score_threshold, yolox.nms_threshold, yolox.input_width,
+                      yolox.input_height);
+  CheckNetworkOptions("detector.fastest_", fastest.score_threshold, fastest.nms_threshold,
+                      fastest.input_width, fastest.input_height);
   if (render.width < 64 || render.width > 4096 || render.height < 64 || render.height > 4096) {
     throw InputError("render.width and render.height must be 64..4096 px");
   }

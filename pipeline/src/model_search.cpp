@@ -23,8 +23,7 @@ fs::path BinaryFolder() {
 
 bool HoldsModel(const fs::path& folder) {
   std::error_code error;
-  return (fs::is_regular_file(folder / "yolox_nano" / "yolox_nano.onnx", error) &&
-          fs::is_regular_file(folder / "yolox_nano" / "coco.names", error)) ||
+  return HoldsFastest(folder.string()) || HoldsYolox(folder.string()) ||
          fs::is_directory(folder / "deeplabv3_mnv2_voc", error);
 }
 

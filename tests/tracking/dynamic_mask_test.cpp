@@ -189,6 +189,50 @@ TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
   EXPECT_EQ(cv::countNonZero(result.mask(chair)), 0);
 }
 
+// A still object the detector takes for a person (a teddy bear): once the depth check confirms
+// its outline static, it is left unmasked. A person geometry saw move keeps being masked at rest
+// (carried from run to run by the detections' overlap), whatever the references confirm.
+TEST(DynamicMaskerTest, PersonNeverSeenMovingIsLeftOutWhenConfirmedStatic) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  DynamicMaskOptions options;
+  options.margin_px = 0;
+  options.min_region_px = 0;
+  options.flow_check = false;
+  options.reference_keyframes = 1;  // the newest reference only
+  const cv::Rect object(60, 30, 30, 60);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  depth(object).setTo(1.5f);
+  const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
+  const cv::Mat no_mask(depth.size(), CV_8UC1, cv::Scalar(0));
+  Detection person;
+  person.box = cv::Rect2f(52, 24, 46, 72);
+  person.level = MotionLevel::kHigh;
+  const std::vector<Detection> detections = {person};
+  const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  const MaskReference saw_it{1.0, depth.clone(), no_mask.clone(), pose, cv::Mat()};
+
+  // Never seen moving: the reference saw the object where it is now.
+  DynamicMasker still(camera, options);
+  still.AddReference(saw_it);
+  const DynamicMaskResult left = still.Compute(gray, depth, pose, &detections);
+  EXPECT_EQ(left.high_static, 1);
+  EXPECT_EQ(left.high_regions, 0);
+  EXPECT_EQ(cv::countNonZero(left.mask), 0);
+
+  // Seen moving first (the reference saw the wall where the person stands), then confirmed
+  // static by a newer reference: still masked.
+  DynamicMasker walked(camera, options);
+  MaskReference wall = WallReference(camera);
+  walked.AddReference(wall);
+  const DynamicMaskResult moving = walked.Compute(gray, depth, pose, &detections);
+  EXPECT_EQ(moving.high_confirmed, 1);
+  walked.AddReference(saw_it);
+  const DynamicMaskResult kept = walked.Compute(gray, depth, pose, &detections);
+  EXPECT_EQ(kept.high_static, 0);
+  EXPECT_EQ(kept.high_regions, 1);
+  EXPECT_EQ(cv::countNonZero(kept.mask(object)), object.area());
+}
+
 // The depth outline of a person whose arm background parts from the torso: seeded in the centre
 // only, the arm is lost; seeded over the whole box, it is kept, while an object at the same depth
 // in the box that the depth check confirms static is not taken. The reference saw the person at

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "model_files.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/input_files.h"
@@ -65,56 +66,11 @@ void MotionLevelTable::Set(const std::string& name, const std::string& level) {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::vector<std::string> ReadNames(const fs::path& path) {
-  std::vector<std::string> names;
-  for (std::string line : ReadTextLines(path.string(), "class names file")) {
-    while (!line.empty() && line.back() == ' ') line.pop_back();
-    if (!line.empty()) names.push_back(line);
-  }
-  return names;
-}
-
-// Where the right files come from, for the messages about wrong ones.
-std::string ModelAdvice(const fs::path& dir) {
-  return "the right files are in ../shared/models/" + dir.filename().string() +
-         "/ (see its PROVENANCE.txt); pass that folder's parent with --models";
-}
-
-cv::dnn::Net LoadOnnx(const fs::path& model, const fs::path& dir) {
-  try {
-    return cv::dnn::readNetFromONNX(model.string());
-  } catch (const cv::Exception& e) {
-    throw InputError(model.string() + ": OpenCV cannot read this file as an ONNX model (" +
-                     Quoted(e.err, 120) + "); it is damaged or another kind of file; " +
-                     ModelAdvice(dir));
-  }
-}
-
-// Runs the network once on a blank input of the shape the decoder feeds it and returns the
-// output, so that a model of another kind (another input size, another head) is named at load
-// instead of failing inside OpenCV mid-run. Throws InputError naming `model`.
-cv::Mat ForwardBlank(cv::dnn::Net* net, const cv::Mat& blob, const fs::path& model,
-                     const fs::path& dir) {
-  try {
-    net->setInput(blob);
-    return net->forward().clone();
-  } catch (const cv::Exception&) {
-    throw InputError(model.string() + ": the model does not take the input " +
-                     dir.filename().string() +
-                     " needs (is it another model, or the files swapped?); " + ModelAdvice(dir));
-  }
-}
-
-// The class count of the model's output against the names file's lines.
-void CheckNames(const std::vector<std::string>& names, int classes, const fs::path& names_path,
-                const fs::path& dir) {
-  if (static_cast<int>(names.size()) != classes) {
-    throw InputError(names_path.string() + ": holds " + std::to_string(names.size()) +
-                     " class names but the model gives " + std::to_string(classes) +
-                     " classes (one name per line, in the model's order); " + ModelAdvice(dir));
-  }
-}
+using model_files::CheckNames;
+using model_files::ForwardBlank;
+using model_files::LoadOnnx;
+using model_files::ModelAdvice;
+using model_files::ReadNames;
 
 // YOLOX decoding (PROVENANCE.txt): rows [cx cy w h obj cls...] on the grids of strides 8, 16
 // and 32, raw; xy = (xy + grid) * stride, wh = exp(wh) * stride, score = obj * cls.
@@ -352,37 +308,50 @@ std::unique_ptr<Detector> MakeYoloxDetector(const std::string& models_dir,
   return std::make_unique<YoloxDetector>(models_dir, levels, options);
 }
 
+bool HoldsFastest(const std::string& models_dir) {
+  std::error_code error;
+  const fs::path dir = fs::path(models_dir) / "yolo_fastest_1.1";
+  return fs::is_regular_file(dir / "yolo-fastest-1.1.cfg", error) &&
+         fs::is_regular_file(dir / "yolo-fastest-1.1.weights", error) &&
+         fs::is_regular_file(dir / "coco.names", error);
+}
+
+bool HoldsYolox(const std::string& models_dir) {
+  std::error_code error;
+  const fs::path dir = fs::path(models_dir) / "yolox_nano";
+  return fs::is_regular_file(dir / "yolox_nano.onnx", error) &&
+         fs::is_regular_file(dir / "coco.names", error);
+}
+
 std::string ResolveDetectorName(const std::string& name, const std::string& models_dir) {
   if (name != "auto") return name;
   if (models_dir.empty()) return "none";
-  std::error_code error;
-  const fs::path dir = fs::path(models_dir) / "yolox_nano";
-  const bool found = fs::is_regular_file(dir / "yolox_nano.onnx", error) &&
-                     fs::is_regular_file(dir / "coco.names", error);
-  return found ? "yolox" : "none";
+  if (HoldsFastest(models_dir)) return "yolo-fastest";
+  return HoldsYolox(models_dir) ? "yolox" : "none";
 }
 
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
-                                       const MotionLevelTable& levels, const YoloxOptions& yolox,
-                                       const DeeplabOptions& deeplab) {
+                                       const MotionLevelTable& levels,
+                                       const DetectorOptions& options) {
   if (name == "none" || name.empty()) return nullptr;
   if (name == "auto") {
-    return MakeDetector(ResolveDetectorName(name, models_dir), models_dir, levels, yolox, deeplab);
+    return MakeDetector(ResolveDetectorName(name, models_dir), models_dir, levels, options);
   }
   if (models_dir.empty()) {
     throw InputError("--detector " + name +
                      " needs the models and none were found: run scripts/fetch-models, or pass "
-                     "--models DIR (the folder holding yolox_nano/ and deeplabv3_mnv2_voc/) or "
-                     "set STILLMAP_MODELS");
+                     "--models DIR (the folder holding yolo_fastest_1.1/, yolox_nano/ and "
+                     "deeplabv3_mnv2_voc/) or set STILLMAP_MODELS");
   }
-  if (name == "yolox") return MakeYoloxDetector(models_dir, levels, yolox);
-  if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels, deeplab);
-  if (name == "fastest") return MakeFastestDetector(models_dir, levels, yolox);
+  if (name == "yolo-fastest") return MakeFastestDetector(models_dir, levels, options.fastest);
+  if (name == "yolox") return MakeYoloxDetector(models_dir, levels, options.yolox);
+  if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels, options.deeplab);
   if (name == "both") {
-    return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, yolox),
-                                MakeDeeplabDetector(models_dir, levels, deeplab));
+    return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, options.yolox),
+                                MakeDeeplabDetector(models_dir, levels, options.deeplab));
   }
-  throw InputError("--detector " + name + ": expected auto, none, yolox, deeplab or both");
+  throw InputError("--detector " + name +
+                   ": expected auto, none, yolo-fastest, yolox, deeplab or both");
 }
 
 }  // namespace stillmap

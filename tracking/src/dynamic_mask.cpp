@@ -196,8 +196,8 @@ std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
 
 // The detections' outlines into `mask` (high-level objects always, medium-level ones when
 // geometry sees enough of them moving) and into `claimed` (every outline); counts in `result`.
-void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray,
-                    const cv::Mat& depth_m, const cv::Mat& geometric, const cv::Mat& consistent,
+void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray, const cv::Mat& depth_m,
+                    const cv::Mat& geometric, const cv::Mat& consistent,
                     const DynamicMaskOptions& options, cv::Mat* mask, cv::Mat* claimed,
                     DynamicMaskResult* result) {
   const cv::Size size = gray.size();
@@ -345,8 +345,7 @@ void DynamicMaskOptions::Validate() const {
   check(max_unknown_steps >= 0 && max_unknown_steps <= 255, "max_unknown_steps must be 0..255");
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,
         "medium_min_moving_share must be in (0, 1]");
-  check(high_static_share > 0.0 && high_static_share <= 1.0,
-        "high_static_share must be in (0, 1]");
+  check(high_static_share > 0.0 && high_static_share <= 1.0, "high_static_share must be in (0, 1]");
   check(detector_interval >= 1, "detector_interval must be >= 1");
   check(detection_memory_runs >= 0 && detection_memory_runs <= 100,
         "detection_memory_runs must lie in 0..100");

@@ -1,12 +1,13 @@
-// Yolo-Fastest 1.1 (Darknet, COCO) as a detector: an experiment for issue 29 (a network about four
-// times cheaper than YOLOX-Nano). PROVENANCE.txt: blobFromImage(1/255, swapRB), two yolo layers
-// whose rows are [cx, cy, w, h (normalised), objectness, 80 class scores times objectness].
+// Yolo-Fastest 1.1 (Darknet, COCO): a network about four times cheaper than YOLOX-Nano (issue 29).
+// PROVENANCE.txt: blobFromImage(1/255, swapRB), two yolo layers whose rows are [cx, cy, w, h
+// (normalised to the image), objectness, 80 class scores already multiplied by objectness].
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <opencv2/dnn.hpp>
 
+#include "model_files.h"
+#include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
 #include "stillmap/tracking/detector.h"
 
@@ -15,56 +16,52 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Boxes and scores of one class, before non-maximum suppression.
+struct ClassBoxes {
+  std::vector<cv::Rect2d> boxes;
+  std::vector<float> scores;
+};
+
 class FastestDetector : public Detector {
  public:
   FastestDetector(const std::string& models_dir, const MotionLevelTable& levels,
-                  const YoloxOptions& options, int width, int height)
-      : levels_(levels), options_(options), size_(width, height) {
+                  const FastestOptions& options)
+      : levels_(levels), options_(options) {
     const fs::path dir = fs::path(models_dir) / "yolo_fastest_1.1";
-    const fs::path cfg = dir / "yolo-fastest-1.1.cfg", weights = dir / "yolo-fastest-1.1.weights";
-    CheckInputFile(cfg.string(), "Yolo-Fastest configuration");
-    CheckInputFile(weights.string(), "Yolo-Fastest weights");
-    net_ = cv::dnn::readNetFromDarknet(cfg.string(), weights.string());
-    std::ifstream names(dir / "coco.names");
-    for (std::string line; std::getline(names, line);) names_.push_back(line);
+    const fs::path cfg = dir / "yolo-fastest-1.1.cfg";
+    const fs::path weights = dir / "yolo-fastest-1.1.weights";
+    const std::string hint = " (pass --models DIR holding yolo_fastest_1.1/)";
+    CheckInputFile(cfg.string(), "Yolo-Fastest configuration" + hint);
+    CheckInputFile(weights.string(), "Yolo-Fastest weights" + hint);
+    if (options.input_width % 32 != 0 || options.input_height % 32 != 0 ||
+        options.input_width <= 0 || options.input_height <= 0) {
+      throw InputError("the Yolo-Fastest input size must be a positive multiple of 32");
+    }
+    names_ = model_files::ReadNames(dir / "coco.names");
+    net_ = model_files::LoadDarknet(cfg, weights, dir);
+    // A blank image through the network: another model's output is named here, not mid-run.
+    const cv::Mat blank(options.input_height, options.input_width, CV_8UC3, cv::Scalar::all(0));
+    const cv::Mat out =
+        model_files::ForwardBlank(&net_, cv::dnn::blobFromImage(blank, 1.0 / 255.0), weights, dir);
+    if (out.dims != 2 || out.cols < 6) {
+      throw InputError(weights.string() + ": the model's output is not a YOLO layer's (rows of " +
+                       "box, objectness and class scores); " + model_files::ModelAdvice(dir));
+    }
+    model_files::CheckNames(names_, out.cols - 5, dir / "coco.names", dir);
+    outputs_ = net_.getUnconnectedOutLayersNames();
   }
 
-  std::string name() const override { return "fastest"; }
+  std::string name() const override { return "yolo-fastest"; }
 
   std::vector<Detection> Detect(const cv::Mat& bgr) override {
-    net_.setInput(cv::dnn::blobFromImage(bgr, 1.0 / 255.0, size_, cv::Scalar(), true, false));
+    CV_Assert(bgr.type() == CV_8UC3);
+    const cv::Size input(options_.input_width, options_.input_height);
+    net_.setInput(cv::dnn::blobFromImage(bgr, 1.0 / 255.0, input, cv::Scalar(), true, false));
     std::vector<cv::Mat> outputs;
-    net_.forward(outputs, net_.getUnconnectedOutLayersNames());
-    std::map<int, std::pair<std::vector<cv::Rect2d>, std::vector<float>>> by_class;
-    for (const cv::Mat& out : outputs) {
-      for (int i = 0; i < out.rows; ++i) {
-        const float* row = out.ptr<float>(i);
-        const int best = static_cast<int>(std::max_element(row + 5, row + out.cols) - (row + 5));
-        const float score = row[5 + best];
-        if (score < options_.score_threshold) continue;
-        const double w = row[2] * bgr.cols, h = row[3] * bgr.rows;
-        auto& [boxes, scores] = by_class[best];
-        boxes.emplace_back(row[0] * bgr.cols - w / 2, row[1] * bgr.rows - h / 2, w, h);
-        scores.push_back(score);
-      }
-    }
+    net_.forward(outputs, outputs_);
     std::vector<Detection> detections;
-    const cv::Rect2f image(0.0f, 0.0f, static_cast<float>(bgr.cols), static_cast<float>(bgr.rows));
-    for (const auto& [c, found] : by_class) {
-      std::vector<int> kept;
-      cv::dnn::NMSBoxes(found.first, found.second, static_cast<float>(options_.score_threshold),
-                        static_cast<float>(options_.nms_threshold), kept);
-      for (int k : kept) {
-        Detection detection;
-        detection.box = cv::Rect2f(found.first[static_cast<size_t>(k)]) & image;
-        if (detection.box.area() <= 0.0f) continue;
-        detection.class_id = c;
-        detection.name = c < static_cast<int>(names_.size()) ? names_[static_cast<size_t>(c)]
-                                                             : std::to_string(c);
-        detection.score = found.second[static_cast<size_t>(k)];
-        detection.level = levels_.Level(detection.name);
-        detections.push_back(detection);
-      }
+    for (const auto& [class_id, found] : Candidates(outputs, bgr.size())) {
+      Keep(class_id, found, bgr.size(), &detections);
     }
     std::sort(detections.begin(), detections.end(),
               [](const Detection& a, const Detection& b) { return a.score > b.score; });
@@ -72,10 +69,50 @@ class FastestDetector : public Detector {
   }
 
  private:
+  // Each row's best class, when its score reaches the threshold, as a box in image pixels.
+  std::map<int, ClassBoxes> Candidates(const std::vector<cv::Mat>& outputs,
+                                       const cv::Size& image) const {
+    std::map<int, ClassBoxes> by_class;
+    for (const cv::Mat& out : outputs) {
+      for (int i = 0; i < out.rows; ++i) {
+        const float* row = out.ptr<float>(i);
+        const float* best = std::max_element(row + 5, row + out.cols);
+        if (*best < options_.score_threshold) continue;
+        const double w = row[2] * image.width, h = row[3] * image.height;
+        ClassBoxes& found = by_class[static_cast<int>(best - (row + 5))];
+        found.boxes.emplace_back(row[0] * image.width - w / 2, row[1] * image.height - h / 2, w, h);
+        found.scores.push_back(*best);
+      }
+    }
+    return by_class;
+  }
+
+  // One class's boxes after non-maximum suppression, clipped to the image, into `detections`.
+  void Keep(int class_id, const ClassBoxes& found, const cv::Size& image,
+            std::vector<Detection>* detections) const {
+    std::vector<int> kept;
+    cv::dnn::NMSBoxes(found.boxes, found.scores, static_cast<float>(options_.score_threshold),
+                      static_cast<float>(options_.nms_threshold), kept);
+    const cv::Rect2f frame(0.0f, 0.0f, static_cast<float>(image.width),
+                           static_cast<float>(image.height));
+    for (const int k : kept) {
+      Detection detection;
+      detection.box = cv::Rect2f(found.boxes[static_cast<size_t>(k)]) & frame;
+      if (detection.box.area() <= 0.0f) continue;
+      detection.class_id = class_id;
+      detection.name = class_id < static_cast<int>(names_.size())
+                           ? names_[static_cast<size_t>(class_id)]
+                           : std::to_string(class_id);
+      detection.score = found.scores[static_cast<size_t>(k)];
+      detection.level = levels_.Level(detection.name);
+      detections->push_back(detection);
+    }
+  }
+
   MotionLevelTable levels_;
-  YoloxOptions options_;
-  cv::Size size_;
+  FastestOptions options_;
   cv::dnn::Net net_;
+  std::vector<std::string> outputs_;
   std::vector<std::string> names_;
 };
 
@@ -83,8 +120,8 @@ class FastestDetector : public Detector {
 
 std::unique_ptr<Detector> MakeFastestDetector(const std::string& models_dir,
                                               const MotionLevelTable& levels,
-                                              const YoloxOptions& options) {
-  return std::make_unique<FastestDetector>(models_dir, levels, options, 320, 256);
+                                              const FastestOptions& options) {
+  return std::make_unique<FastestDetector>(models_dir, levels, options);
 }
 
 }  // namespace stillmap

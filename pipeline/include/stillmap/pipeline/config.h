@@ -24,7 +24,7 @@ namespace stillmap {
 // the run (`--config OUT/config.yaml`); --poses, --detector, --models and --threads override it.
 struct RunSettings {
   std::string poses = "tracking";  // tracking | groundtruth
-  std::string detector = "auto";   // auto | none | yolox | deeplab | both
+  std::string detector = "auto";   // auto | none | yolo-fastest | yolox | deeplab | both
   std::string models;              // "" = $STILLMAP_MODELS, else ../shared/models when present
   int threads = 2;
 
@@ -33,8 +33,10 @@ struct RunSettings {
   static void VisitFields(Self& self, Visitor& visit) {
     visit("poses", self.poses,
           "tracking, or groundtruth: map from the ground-truth poses (--poses)");
-    visit("detector", self.detector, "auto, none, yolox, deeplab or both (--detector)");
-    visit("models", self.models, "folder holding yolox_nano/ and deeplabv3_mnv2_voc/ (--models)");
+    visit("detector", self.detector,
+          "auto, none, yolo-fastest, yolox, deeplab or both (--detector)");
+    visit("models", self.models,
+          "folder holding yolo_fastest_1.1/, yolox_nano/ and deeplabv3_mnv2_voc/ (--models)");
     visit("threads", self.threads, "threads, 1..64 (--threads)");
   }
 };
@@ -78,6 +80,7 @@ struct BuildConfig {
   GridOptions grid;
   MapMeshOptions mesh;
   RenderOptions render;
+  FastestOptions fastest;
   YoloxOptions yolox;
   DeeplabOptions deeplab;
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
@@ -117,6 +120,7 @@ struct BuildConfig {
     visit.Section("grid", self.grid);
     visit.Section("mesh", self.mesh);
     visit.Section("render", self.render);
+    visit.Section("detector", self.fastest);
     visit.Section("detector", self.yolox);
     visit.Section("detector", self.deeplab);
     visit("detector.levels", self.detector_levels,

@@ -7,8 +7,8 @@
 //      was configured with
 //   4. beside the binary: BIN/models
 //   5. ../shared/models (a developer's checkout beside the shared data)
-// A folder holds a model when it has yolox_nano/yolox_nano.onnx and coco.names, or
-// deeplabv3_mnv2_voc/.
+// A folder holds a model when it has yolo_fastest_1.1/ (cfg, weights, coco.names), or
+// yolox_nano/yolox_nano.onnx and coco.names, or deeplabv3_mnv2_voc/.
 #pragma once
 
 #include <optional>

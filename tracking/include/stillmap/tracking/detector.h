@@ -42,7 +42,7 @@ struct Detection {
   // and the median depth of its box's centre then [m] (0: not known).
   int missed_runs = 0;
   float centre_depth_m = 0.0f;
-  int hits = 1;  // detector runs in a row that found it
+  int hits = 1;              // detector runs in a row that found it
   bool seen_moving = false;  // geometry has seen part of its outline move, in any run so far
 };
 
@@ -88,11 +88,33 @@ struct DeeplabOptions {
   }
 };
 
-// Yolo-Fastest 1.1 (an issue-29 experiment) from MODELS_DIR/yolo_fastest_1.1, at 320x256, with
-// YOLOX's score and NMS thresholds.
+struct FastestOptions {
+  // Input size: 320x256 keeps a 640x480 frame's shape (the model was trained at 320x320); per
+  // image 21 ms on one core here against YOLOX-Nano's 83 ms (docs/figures.md).
+  int input_width = 320;
+  int input_height = 256;
+  double score_threshold = 0.3;  // objectness x class probability, as YOLOX's
+  double nms_threshold = 0.45;   // IoU, per class
+
+  // Every field under its configuration key (io/option_fields.h).
+  template <typename Self, typename Visitor>
+  static void VisitFields(Self& self, Visitor& visit) {
+    visit("fastest_input_width", self.input_width,
+          "Yolo-Fastest input width [px] (a multiple of 32)");
+    visit("fastest_input_height", self.input_height,
+          "Yolo-Fastest input height [px] (a multiple of 32)");
+    visit("fastest_score_threshold", self.score_threshold,
+          "Yolo-Fastest: objectness x class probability");
+    visit("fastest_nms_threshold", self.nms_threshold,
+          "Yolo-Fastest: non-maximum suppression IoU, per class");
+  }
+};
+
+// Yolo-Fastest 1.1 (COCO, Darknet) from MODELS_DIR/yolo_fastest_1.1/{yolo-fastest-1.1.cfg,
+// yolo-fastest-1.1.weights, coco.names}. Throws InputError naming the missing file.
 std::unique_ptr<Detector> MakeFastestDetector(const std::string& models_dir,
                                               const MotionLevelTable& levels,
-                                              const YoloxOptions& options = {});
+                                              const FastestOptions& options = {});
 
 // DeepLabV3-MobileNetV2 (PASCAL VOC, ONNX patched for OpenCV 4.6) from
 // MODELS_DIR/deeplabv3_mnv2_voc/{deeplab_v3_mnv2_voc_opencv46.onnx, voc.names}: per-pixel labels
@@ -107,15 +129,27 @@ std::unique_ptr<Detector> MakeDeeplabDetector(const std::string& models_dir,
 std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
                                                std::unique_ptr<Detector> second);
 
-// "auto" (the default) is "yolox" when MODELS_DIR holds yolox_nano/yolox_nano.onnx and
-// coco.names, else "none"; other names are returned as they are.
+// Whether MODELS_DIR holds Yolo-Fastest's three files, and YOLOX-Nano's two.
+bool HoldsFastest(const std::string& models_dir);
+bool HoldsYolox(const std::string& models_dir);
+
+// "auto" (the default) is "yolo-fastest" when MODELS_DIR holds it, else "yolox" when it holds
+// YOLOX-Nano, else "none"; other names are returned as they are.
 std::string ResolveDetectorName(const std::string& name, const std::string& models_dir);
 
+// Every detector's options.
+struct DetectorOptions {
+  FastestOptions fastest;
+  YoloxOptions yolox;
+  DeeplabOptions deeplab;
+};
+
 // The detector named on the command line: "auto" (see ResolveDetectorName), "none" (or empty:
-// nullptr), "yolox", "deeplab" or "both", with its models from MODELS_DIR. Throws InputError for
-// an unknown name, a missing models folder or a missing model file.
+// nullptr), "yolo-fastest", "yolox", "deeplab" or "both" (YOLOX and DeepLab), with its models from
+// MODELS_DIR. Throws InputError for an unknown name, a missing models folder or a missing model
+// file.
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
-                                       const MotionLevelTable& levels, const YoloxOptions& yolox,
-                                       const DeeplabOptions& deeplab);
+                                       const MotionLevelTable& levels,
+                                       const DetectorOptions& options);
 
 }  // namespace stillmap

@@ -202,7 +202,7 @@ struct DynamicMaskResult {
   int high_confirmed = 0;  // of those, with geometry agreeing
   int medium_moving = 0;
   int medium_static = 0;
-  int high_static = 0;  // high-level, never seen moving, confirmed static: not masked
+  int high_static = 0;             // high-level, never seen moving, confirmed static: not masked
   int geometric_only_regions = 0;  // moving regions outside every detection
   bool detections_fresh = false;   // the detector ran on this frame (else carried or none)
   double ms = 0.0;
