@@ -375,7 +375,7 @@ TEST_F(ReliabilityTest, WithoutTheModelTheDefaultDetectorWarns) {
   std::string output;
   ASSERT_EQ(Build("--models " + (dir_ / "no_models") + " --set map.frame=groundtruth", &output), 0)
       << output;
-  EXPECT_NE(output.find("warning: no YOLOX-Nano model under"), std::string::npos) << output;
+  EXPECT_NE(output.find("warning: no detector model under"), std::string::npos) << output;
   EXPECT_EQ(output.find("warning", output.find("warning") + 1), std::string::npos) << output;
 }
 

@@ -54,11 +54,7 @@ TEST(YoloxDetectorTest, MissingModelIsNamed) {
 // them in 17 of 24 sampled frames and holds 80 % of their pixels in 13. People seen from the side
 // at the image border are missed, or taken for chairs; issue 5's geometric checks and the
 // carrying of masks between frames are there for those.
-TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
-  const auto models = testing::SharedModels("yolox_nano");
-  if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
-  const std::unique_ptr<Detector> detector =
-      MakeYoloxDetector(*models, MotionLevelTable::Default());
+void ExpectPersonBoxesOnRenderedPeople(Detector* detector) {
   testing::TempDir dir;
   const Sequence sequence = testing::RenderSequence(dir / "seq", "walking_xyz", 240);
   int frames = 0, seen = 0, covered = 0, person_boxes = 0, boxes_on_people = 0;
@@ -87,6 +83,75 @@ TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   ASSERT_GE(frames, 10);
   EXPECT_GE(seen, 0.6 * frames);  // the rendered people look like people to the model
   EXPECT_GE(covered, 0.5 * frames);
+}
+
+
+TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
+  const auto models = testing::SharedModels("yolox_nano");
+  if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
+  ExpectPersonBoxesOnRenderedPeople(MakeYoloxDetector(*models, MotionLevelTable::Default()).get());
+}
+
+// Yolo-Fastest on the same renderings, with the same bars.
+TEST(FastestDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
+  const auto models = testing::SharedModels("yolo_fastest_1.1");
+  if (!models) {
+    GTEST_SKIP() << "yolo_fastest_1.1 not found (set STILLMAP_MODELS or ../shared/models)";
+  }
+  ExpectPersonBoxesOnRenderedPeople(
+      MakeFastestDetector(*models, MotionLevelTable::Default()).get());
+}
+
+TEST(FastestDetectorTest, MissingOrDamagedModelIsNamed) {
+  testing::TempDir dir;
+  auto error_of = [&dir]() -> std::string {
+    try {
+      MakeFastestDetector(dir.path(), MotionLevelTable::Default());
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(error_of().find("yolo-fastest-1.1.cfg"), std::string::npos) << error_of();
+  const std::filesystem::path folder = std::filesystem::path(dir.path()) / "yolo_fastest_1.1";
+  std::filesystem::create_directories(folder);
+  testing::WriteText((folder / "yolo-fastest-1.1.cfg").string(), "[net]\nwidth=oops\n");
+  EXPECT_NE(error_of().find("yolo-fastest-1.1.weights"), std::string::npos) << error_of();
+  testing::WriteText((folder / "yolo-fastest-1.1.weights").string(), "not weights");
+  testing::WriteText((folder / "coco.names").string(), "person\n");
+  EXPECT_NE(error_of().find("cannot read them as a Darknet model"), std::string::npos)
+      << error_of();
+  // The real configuration with its weights cut short (OpenCV itself reads them without a word).
+  const auto models = testing::SharedModels("yolo_fastest_1.1");
+  if (!models) GTEST_SKIP() << "yolo_fastest_1.1 not found: the cut weights are not tried";
+  const std::filesystem::path real = std::filesystem::path(*models) / "yolo_fastest_1.1";
+  std::filesystem::copy_file(real / "yolo-fastest-1.1.cfg", folder / "yolo-fastest-1.1.cfg",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(real / "coco.names", folder / "coco.names",
+                             std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(real / "yolo-fastest-1.1.weights",
+                             folder / "yolo-fastest-1.1.weights",
+                             std::filesystem::copy_options::overwrite_existing);
+  EXPECT_NO_THROW(MakeFastestDetector(dir.path(), MotionLevelTable::Default()));
+  std::filesystem::resize_file(folder / "yolo-fastest-1.1.weights", 700000);
+  EXPECT_NE(error_of().find("cut short"), std::string::npos) << error_of();
+}
+
+// auto: Yolo-Fastest when its three files are there, else YOLOX-Nano, else none.
+TEST(DetectorChoiceTest, AutoPrefersYoloFastestThenYolox) {
+  testing::TempDir dir;
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "none");
+  std::filesystem::create_directories(dir / "yolox_nano");
+  testing::WriteText(dir / "yolox_nano/yolox_nano.onnx", "x");
+  testing::WriteText(dir / "yolox_nano/coco.names", "person\n");
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolox");
+  std::filesystem::create_directories(dir / "yolo_fastest_1.1");
+  testing::WriteText(dir / "yolo_fastest_1.1/yolo-fastest-1.1.cfg", "x");
+  testing::WriteText(dir / "yolo_fastest_1.1/coco.names", "person\n");
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolox");  // no weights yet
+  testing::WriteText(dir / "yolo_fastest_1.1/yolo-fastest-1.1.weights", "x");
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolo-fastest");
+  EXPECT_EQ(ResolveDetectorName("yolox", dir.path()), "yolox");
 }
 
 // The rewritten YOLOX-Nano (yolox_net.h, onnx_graph.h) on the shared model: both rewrites taken

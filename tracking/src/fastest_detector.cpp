@@ -2,6 +2,7 @@
 // PROVENANCE.txt: blobFromImage(1/255, swapRB), two yolo layers whose rows are [cx, cy, w, h
 // (normalised to the image), objectness, 80 class scores already multiplied by objectness].
 #include <algorithm>
+#include <cstdint>
 #include <filesystem>
 #include <map>
 #include <opencv2/dnn.hpp>
@@ -22,6 +23,26 @@ struct ClassBoxes {
   std::vector<float> scores;
 };
 
+// OpenCV reads a truncated Darknet weights file without a word (the missing weights stay zero):
+// the file must hold the header (16 or 20 bytes, by its version) and one float for every weight
+// the configuration's layers hold (the yolo layers' anchors come from the configuration).
+void CheckWeightsSize(const cv::dnn::Net& net, const fs::path& weights, const fs::path& dir) {
+  std::uintmax_t floats = 0;
+  for (const std::string& name : net.getLayerNames()) {
+    const cv::Ptr<cv::dnn::Layer> layer = net.getLayer(name);
+    if (layer->type == "Region") continue;
+    for (const cv::Mat& blob : layer->blobs) floats += blob.total();
+  }
+  const std::uintmax_t bytes = fs::file_size(weights);
+  if (bytes != 16 + 4 * floats && bytes != 20 + 4 * floats) {
+    throw InputError(weights.string() + ": " + std::to_string(bytes) +
+                     " bytes, but its configuration needs " + std::to_string(floats) +
+                     " weights (" + std::to_string(20 + 4 * floats) +
+                     " bytes): the file is cut short or belongs to another model; " +
+                     model_files::ModelAdvice(dir));
+  }
+}
+
 class FastestDetector : public Detector {
  public:
   FastestDetector(const std::string& models_dir, const MotionLevelTable& levels,
@@ -39,6 +60,7 @@ class FastestDetector : public Detector {
     }
     names_ = model_files::ReadNames(dir / "coco.names");
     net_ = model_files::LoadDarknet(cfg, weights, dir);
+    CheckWeightsSize(net_, weights, dir);
     // A blank image through the network: another model's output is named here, not mid-run.
     const cv::Mat blank(options.input_height, options.input_width, CV_8UC3, cv::Scalar::all(0));
     const cv::Mat out =
