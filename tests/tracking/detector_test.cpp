@@ -85,7 +85,6 @@ void ExpectPersonBoxesOnRenderedPeople(Detector* detector) {
   EXPECT_GE(covered, 0.5 * frames);
 }
 
-
 TEST(YoloxDetectorTest, PersonBoxesLieOnTheRenderedPeople) {
   const auto models = testing::SharedModels("yolox_nano");
   if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
@@ -129,8 +128,7 @@ TEST(FastestDetectorTest, MissingOrDamagedModelIsNamed) {
                              std::filesystem::copy_options::overwrite_existing);
   std::filesystem::copy_file(real / "coco.names", folder / "coco.names",
                              std::filesystem::copy_options::overwrite_existing);
-  std::filesystem::copy_file(real / "yolo-fastest-1.1.weights",
-                             folder / "yolo-fastest-1.1.weights",
+  std::filesystem::copy_file(real / "yolo-fastest-1.1.weights", folder / "yolo-fastest-1.1.weights",
                              std::filesystem::copy_options::overwrite_existing);
   EXPECT_NO_THROW(MakeFastestDetector(dir.path(), MotionLevelTable::Default()));
   std::filesystem::resize_file(folder / "yolo-fastest-1.1.weights", 700000);
