@@ -194,8 +194,10 @@ std::vector<Detection> WithRemembered(const std::vector<Detection>& fresh,
   return out;
 }
 
-// The detections' outlines into `mask` (high-level objects always, medium-level ones when
-// geometry sees enough of them moving) and into `claimed` (every outline); counts in `result`.
+// The detections' outlines into `mask` and into `claimed` (every outline); counts in `result`.
+// High-level objects are masked unless geometry never saw them move and the depth check confirms
+// them static (options.high_static_share); medium-level ones when geometry sees enough of them
+// moving. Whether geometry saw each one move is noted in it, and carried to later runs.
 void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray, const cv::Mat& depth_m,
                     const cv::Mat& geometric, const cv::Mat& consistent,
                     const DynamicMaskOptions& options, cv::Mat* mask, cv::Mat* claimed,
