@@ -136,8 +136,9 @@ void CheckNetworkOptions(const std::string& prefix, double score_threshold, doub
   // The network's cost grows with its input: 1280 px is 3x a 640x480 frame's size.
   for (const int size : {input_width, input_height}) {
     if (size < 32 || size > 1280 || size % 32 != 0) {
-      throw InputError(prefix + "input_width and " + prefix +
-                       "input_height must be multiples of 32 in 32..1280");
+      std::string message = prefix + "input_width and ";
+      message += prefix + "input_height must be multiples of 32 in 32..1280";
+      throw InputError(message);
     }
   }
 }

@@ -56,6 +56,26 @@ TEST(ConfigTest, UnknownKeysAndBadValuesAreNamed) {
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("mapping.max_depth"), std::string::npos);
 }
 
+// Each detector's input size and thresholds under their own keys, each checked and named.
+TEST(ConfigTest, DetectorOptionsAreCheckedUnderTheirOwnKeys) {
+  BuildConfig config;
+  ApplySetArgument(&config, "detector.fastest_input_width=416");
+  ApplySetArgument(&config, "detector.input_width=320");
+  EXPECT_EQ(config.fastest.input_width, 416);
+  EXPECT_EQ(config.yolox.input_width, 320);
+  EXPECT_NO_THROW(config.Validate());
+  ApplySetArgument(&config, "detector.fastest_input_height=250");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("detector.fastest_input_height"),
+            std::string::npos);
+  config = BuildConfig();
+  ApplySetArgument(&config, "detector.fastest_score_threshold=1.5");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("detector.fastest_score_threshold"),
+            std::string::npos);
+  config = BuildConfig();
+  ApplySetArgument(&config, "masking.high_static_share=0");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("high_static_share"), std::string::npos);
+}
+
 TEST(ConfigTest, FileErrorsNameTheLine) {
   testing::TempDir dir;
   testing::WriteText(dir / "c.yaml", "mapping:\n  voxel_leaf_size: 0.02\n  voxel_size: 3\n");
