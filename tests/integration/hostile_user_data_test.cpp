@@ -383,23 +383,30 @@ TEST(HostileUserDataTest, SynthRerunsKeepTheUsersFiles) {
 TEST(HostileUserDataTest, ModelsAndNamesThatDoNotFitAreNamedAtLoad) {
   const std::optional<std::string> yolox = testing::SharedModels("yolox_nano");
   const std::optional<std::string> deeplab = testing::SharedModels("deeplabv3_mnv2_voc");
-  if (!yolox || !deeplab) GTEST_SKIP() << "no detector models in ../shared/models";
+  const std::optional<std::string> fastest = testing::SharedModels("yolo_fastest_1.1");
+  if (!yolox || !deeplab || !fastest) GTEST_SKIP() << "no detector models in ../shared/models";
+  // Per detector: its folder, names file and model file (Yolo-Fastest's weights).
+  struct Model {
+    std::string detector, folder, names, file;
+  };
+  const std::vector<Model> kinds = {
+      {"yolox", "yolox_nano", "coco.names", "yolox_nano.onnx"},
+      {"deeplab", "deeplabv3_mnv2_voc", "voc.names", "deeplab_v3_mnv2_voc_opencv46.onnx"},
+      {"yolo-fastest", "yolo_fastest_1.1", "coco.names", "yolo-fastest-1.1.weights"}};
   Generator g(36);
   for (size_t i = 0; i < kInstances * 3; ++i) {
     Case c;
     const std::string models = c.dir / "models";
     fs::create_directories(models);
-    fs::copy(*yolox + "/yolox_nano", models + "/yolox_nano", fs::copy_options::recursive);
-    fs::copy(*deeplab + "/deeplabv3_mnv2_voc", models + "/deeplabv3_mnv2_voc",
-             fs::copy_options::recursive);
-    const bool use_yolox = g.Below(2) == 0;
-    const std::string folder = models + (use_yolox ? "/yolox_nano/" : "/deeplabv3_mnv2_voc/");
-    const std::string names = folder + (use_yolox ? "coco.names" : "voc.names");
-    const std::string model =
-        folder + (use_yolox ? "yolox_nano.onnx" : "deeplab_v3_mnv2_voc_opencv46.onnx");
-    const std::string other = use_yolox
-                                  ? models + "/deeplabv3_mnv2_voc/deeplab_v3_mnv2_voc_opencv46.onnx"
-                                  : models + "/yolox_nano/yolox_nano.onnx";
+    for (const Model& each : kinds) {
+      fs::copy(*yolox + "/" + each.folder, models + "/" + each.folder, fs::copy_options::recursive);
+    }
+    const Model& chosen = kinds[g.Below(kinds.size())];
+    const Model& another = kinds[chosen.detector == "yolox" ? 1 : 0];
+    const std::string folder = models + "/" + chosen.folder + "/";
+    const std::string names = folder + chosen.names;
+    const std::string model = folder + chosen.file;
+    const std::string other = models + "/" + another.folder + "/" + another.file;
     const size_t kind = g.Below(7);
     std::string wrong = names;
     if (kind == 0) {
@@ -426,9 +433,7 @@ TEST(HostileUserDataTest, ModelsAndNamesThatDoNotFitAreNamedAtLoad) {
       wrong = model;
     }
     std::string output;
-    const int status = c.Build(
-        "--detector " + std::string(use_yolox ? "yolox" : "deeplab") + " --models " + models,
-        &output);
+    const int status = c.Build("--detector " + chosen.detector + " --models " + models, &output);
     EXPECT_EQ(status, 2) << "kind " << kind << "\n" << output;
     EXPECT_NE(output.find(wrong), std::string::npos) << "kind " << kind << "\n" << output;
     EXPECT_FALSE(fs::exists(c.out + "/map.ply"));

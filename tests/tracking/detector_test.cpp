@@ -131,6 +131,11 @@ TEST(FastestDetectorTest, MissingOrDamagedModelIsNamed) {
   std::filesystem::copy_file(real / "yolo-fastest-1.1.weights", folder / "yolo-fastest-1.1.weights",
                              std::filesystem::copy_options::overwrite_existing);
   EXPECT_NO_THROW(MakeFastestDetector(dir.path(), MotionLevelTable::Default()));
+  // One weight's exponent byte damaged (bytes 1000-1003: -0.55 becomes -4e22).
+  std::string weights = testing::ReadText((folder / "yolo-fastest-1.1.weights").string());
+  weights[1003] = static_cast<char>(weights[1003] ^ 0x5a);
+  testing::WriteText((folder / "yolo-fastest-1.1.weights").string(), weights);
+  EXPECT_NE(error_of().find("not finite or beyond 1e6"), std::string::npos) << error_of();
   std::filesystem::resize_file(folder / "yolo-fastest-1.1.weights", 700000);
   EXPECT_NE(error_of().find("cut short"), std::string::npos) << error_of();
 }

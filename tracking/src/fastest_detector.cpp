@@ -23,15 +23,21 @@ struct ClassBoxes {
   std::vector<float> scores;
 };
 
-// OpenCV reads a truncated Darknet weights file without a word (the missing weights stay zero):
-// the file must hold the header (16 or 20 bytes, by its version) and one float for every weight
-// the configuration's layers hold (the yolo layers' anchors come from the configuration).
-void CheckWeightsSize(const cv::dnn::Net& net, const fs::path& weights, const fs::path& dir) {
+// OpenCV reads a truncated or damaged Darknet weights file without a word (missing weights stay
+// zero). The file must hold the header (16 or 20 bytes, by its version) and one float for every
+// weight the configuration's layers hold (the yolo layers' anchors come from the configuration),
+// and every weight must be finite and of a trained network's size: Yolo-Fastest's largest is
+// 365, while a damaged exponent byte makes one 1e20 or more.
+void CheckWeights(const cv::dnn::Net& net, const fs::path& weights, const fs::path& dir) {
   std::uintmax_t floats = 0;
+  bool plausible = true;
   for (const std::string& name : net.getLayerNames()) {
     const cv::Ptr<cv::dnn::Layer> layer = net.getLayer(name);
     if (layer->type == "Region") continue;
-    for (const cv::Mat& blob : layer->blobs) floats += blob.total();
+    for (const cv::Mat& blob : layer->blobs) {
+      floats += blob.total();
+      plausible = plausible && cv::checkRange(blob, true, nullptr, -1e6, 1e6);
+    }
   }
   const std::uintmax_t bytes = fs::file_size(weights);
   if (bytes != 16 + 4 * floats && bytes != 20 + 4 * floats) {
@@ -40,6 +46,10 @@ void CheckWeightsSize(const cv::dnn::Net& net, const fs::path& weights, const fs
                      " weights (" + std::to_string(20 + 4 * floats) +
                      " bytes): the file is cut short or belongs to another model; " +
                      model_files::ModelAdvice(dir));
+  }
+  if (!plausible) {
+    throw InputError(weights.string() + ": weights that are not finite or beyond 1e6: the file " +
+                     "is damaged; " + model_files::ModelAdvice(dir));
   }
 }
 
@@ -60,7 +70,7 @@ class FastestDetector : public Detector {
     }
     names_ = model_files::ReadNames(dir / "coco.names");
     net_ = model_files::LoadDarknet(cfg, weights, dir);
-    CheckWeightsSize(net_, weights, dir);
+    CheckWeights(net_, weights, dir);
     // A blank image through the network: another model's output is named here, not mid-run.
     const cv::Mat blank(options.input_height, options.input_width, CV_8UC3, cv::Scalar::all(0));
     const cv::Mat out =

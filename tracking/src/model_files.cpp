@@ -35,7 +35,7 @@ cv::dnn::Net LoadDarknet(const fs::path& cfg, const fs::path& weights, const fs:
   try {
     return cv::dnn::readNetFromDarknet(cfg.string(), weights.string());
   } catch (const cv::Exception& e) {
-    throw InputError(cfg.string() + " and " + weights.filename().string() +
+    throw InputError(cfg.string() + " and " + weights.string() +
                      ": OpenCV cannot read them as a Darknet model (" + Quoted(e.err, 120) +
                      "); they are damaged or other kinds of file; " + ModelAdvice(dir));
   }
