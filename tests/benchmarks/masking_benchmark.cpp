@@ -88,27 +88,30 @@ void BM_FlowPyramid(benchmark::State& state) {  // NOLINT(readability-identifier
 }
 BENCHMARK(BM_FlowPyramid)->Unit(benchmark::kMillisecond);
 
-// Arg 0: from the images (two pyramids built per check); 1: from pyramids built beforehand.
+// First argument 0: from the images (two pyramids built per check); 1: from pyramids built
+// beforehand. Second: the KLT window's edge [px] (masking.flow_klt_window; 21 before issue 29).
 void BM_FlowCheck(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const Input& in = GetInput();
   if (Skip(state, in)) return;
+  FlowCheckOptions options;
+  options.klt_window = static_cast<int>(state.range(1));
   std::vector<FlowPyramid> pyramids;
   std::vector<std::vector<cv::Point2f>> corners;
   for (const cv::Mat& gray : in.grays) {
-    pyramids.push_back(BuildFlowPyramid(gray));
+    pyramids.push_back(BuildFlowPyramid(gray, options));
     corners.push_back(FlowCorners(gray, 400, 8.0));
   }
   size_t k = 0, dynamic = 0;
   for (auto _ : state) {
     const size_t i = k++ % (in.grays.size() - 1);
-    const FlowCheckResult result = state.range(0) == 0
-                                       ? CheckFlow(in.grays[i], in.grays[i + 1], corners[i])
-                                       : CheckFlow(pyramids[i], pyramids[i + 1], corners[i]);
+    const FlowCheckResult result =
+        state.range(0) == 0 ? CheckFlow(in.grays[i], in.grays[i + 1], corners[i], options)
+                            : CheckFlow(pyramids[i], pyramids[i + 1], corners[i], options);
     dynamic = static_cast<size_t>(std::count(result.dynamic.begin(), result.dynamic.end(), 1));
   }
   state.counters["dynamic_points"] = static_cast<double>(dynamic);
 }
-BENCHMARK(BM_FlowCheck)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FlowCheck)->Args({0, 21})->Args({1, 21})->Args({1, 15})->Unit(benchmark::kMillisecond);
 
 // The depth check and growth against three references 5, 10 and 15 frames back.
 void BM_DepthCheckMask(benchmark::State& state) {  // NOLINT(readability-identifier-naming)

@@ -180,6 +180,23 @@ void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier
 }
 BENCHMARK(BM_YoloxDetect)->Unit(benchmark::kMillisecond);
 
+// Yolo-Fastest 1.1 at 320x256 (the default detector since issue 29) on the same teddy frame.
+void BM_FastestDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
+  const Input& in = GetInput();
+  const auto models = testing::SharedModels("yolo_fastest_1.1");
+  if (!models) state.SkipWithError("yolo_fastest_1.1 not found in ../shared/models");
+  if (Skip(state, in) || !models) return;
+  const std::unique_ptr<Detector> detector =
+      MakeFastestDetector(*models, MotionLevelTable::Default());
+  size_t count = 0;
+  for (auto _ : state) {
+    count = detector->Detect(in.frames[10].color).size();
+    benchmark::DoNotOptimize(count);
+  }
+  state.counters["detections"] = static_cast<double>(count);
+}
+BENCHMARK(BM_FastestDetect)->Unit(benchmark::kMillisecond);
+
 // The YOLOX-Nano network alone on the letterboxed teddy frame, as OpenCV loads the ONNX file (arg
 // 0) and rewritten (arg 1: yolox_net.h, SiLU fused and the slicing stem cut). Arg 0 also gives
 // OpenCV's own time per layer type (Net::getPerfProfile) as counters [ms]. Run on one core for CPU
