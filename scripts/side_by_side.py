@@ -10,9 +10,9 @@ Run it on a quiet machine. Only the Python standard library is used.
 
 With --together, each run of A starts at the same moment as a run of B and both share the
 machine: their wall times are not those of a run alone then, but their CPU times are compared
-under the same conditions. On a virtual machine whose speed drifts by 10-15 % from one minute to the next, the
-same binary measured this way twice differed by 0.7 and 1.8 % in CPU (bonn_crowd_a), where
-alternating runs differed by up to 25 %.
+under the same conditions. On a virtual machine whose speed drifts by 10-15 % from one minute to
+the next, the same binary measured this way twice differed by 0.7 and 1.8 % in CPU
+(bonn_crowd_a), where alternating runs differed by up to 25 %.
 """
 
 import argparse
@@ -79,19 +79,18 @@ def main():
         for i in range(args.runs):
             keys = ("a", "b")
             outputs = {key: os.path.join(work, f"{key}{i}") for key in keys}
+
+            def start(key):
+                return start_run(getattr(args, key), args.sequence, outputs[key], extra)
+
             if args.together:
-                rows = finish_runs({key: start_run(getattr(args, key), args.sequence,
-                                                   outputs[key], extra) for key in keys})
+                rows = finish_runs({key: start(key) for key in keys})
             else:
-                rows = {}
-                for key in keys:
-                    rows.update(finish_runs({key: start_run(getattr(args, key), args.sequence,
-                                                            outputs[key], extra)}))
+                rows = {key: finish_runs({key: start(key)})[key] for key in keys}
             for key in keys:
                 results[key].append(rows[key])
                 report(key, i, rows[key])
-                shutil.rmtree(outputs[key], ignore_errors=True)
-                os.remove(outputs[key] + ".stderr")
+                shutil.rmtree(outputs[key], ignore_errors=True)  # the maps are large
     finally:
         shutil.rmtree(work, ignore_errors=True)
     medians = {}
