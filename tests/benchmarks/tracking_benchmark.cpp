@@ -164,13 +164,12 @@ std::optional<std::string> YoloxModels(benchmark::State& state) {
   return models;
 }
 
-// YOLOX-Nano at its 416x320 letterbox on a teddy frame: pre-processing, forward, decoding, NMS.
-void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
+// A detector's whole Detect on a teddy frame: pre-processing, forward, decoding, NMS.
+template <typename Make>
+void TimeDetect(benchmark::State& state, const std::optional<std::string>& models, Make make) {
   const Input& in = GetInput();
-  const auto models = YoloxModels(state);
   if (Skip(state, in) || !models) return;
-  const std::unique_ptr<Detector> detector =
-      MakeYoloxDetector(*models, MotionLevelTable::Default());
+  const std::unique_ptr<Detector> detector = make(*models, MotionLevelTable::Default());
   size_t count = 0;
   for (auto _ : state) {
     count = detector->Detect(in.frames[10].color).size();
@@ -178,22 +177,22 @@ void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier
   }
   state.counters["detections"] = static_cast<double>(count);
 }
+
+// YOLOX-Nano at its 416x320 letterbox.
+void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
+  TimeDetect(state, YoloxModels(state), [](const std::string& folder, const MotionLevelTable& l) {
+    return MakeYoloxDetector(folder, l);
+  });
+}
 BENCHMARK(BM_YoloxDetect)->Unit(benchmark::kMillisecond);
 
-// Yolo-Fastest 1.1 at 320x256 (the default detector since issue 29) on the same teddy frame.
+// Yolo-Fastest 1.1 at 320x256 (the default detector since issue 29).
 void BM_FastestDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
-  const Input& in = GetInput();
   const auto models = testing::SharedModels("yolo_fastest_1.1");
   if (!models) state.SkipWithError("yolo_fastest_1.1 not found in ../shared/models");
-  if (Skip(state, in) || !models) return;
-  const std::unique_ptr<Detector> detector =
-      MakeFastestDetector(*models, MotionLevelTable::Default());
-  size_t count = 0;
-  for (auto _ : state) {
-    count = detector->Detect(in.frames[10].color).size();
-    benchmark::DoNotOptimize(count);
-  }
-  state.counters["detections"] = static_cast<double>(count);
+  TimeDetect(state, models, [](const std::string& folder, const MotionLevelTable& l) {
+    return MakeFastestDetector(folder, l);
+  });
 }
 BENCHMARK(BM_FastestDetect)->Unit(benchmark::kMillisecond);
 
