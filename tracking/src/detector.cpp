@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <opencv2/dnn.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -126,8 +127,7 @@ class YoloxDetector : public Detector {
     }
     const float* data = out.ptr<float>();
 
-    std::vector<std::vector<cv::Rect2d>> boxes(static_cast<size_t>(classes));
-    std::vector<std::vector<float>> scores(static_cast<size_t>(classes));
+    std::map<int, model_files::ClassBoxes> by_class;
     for (int i = 0; i < rows; ++i) {
       const float* row = data + static_cast<ptrdiff_t>(i) * width;
       const float objectness = row[4];
@@ -140,37 +140,13 @@ class YoloxDetector : public Detector {
       const float cy = (row[1] + static_cast<float>(cell.y)) * static_cast<float>(cell.stride);
       const float w = std::exp(row[2]) * static_cast<float>(cell.stride);
       const float h = std::exp(row[3]) * static_cast<float>(cell.stride);
-      boxes[static_cast<size_t>(best)].emplace_back((cx - w / 2) / scale, (cy - h / 2) / scale,
-                                                    w / scale, h / scale);
-      scores[static_cast<size_t>(best)].push_back(score);
+      model_files::ClassBoxes& found = by_class[best];
+      found.boxes.emplace_back((cx - w / 2) / scale, (cy - h / 2) / scale, w / scale, h / scale);
+      found.scores.push_back(score);
     }
-    // Class-aware non-maximum suppression (OpenCV 4.6 has no batched NMS: one call per class).
-    std::vector<Detection> detections;
-    const cv::Rect2f image(0.0f, 0.0f, static_cast<float>(bgr.cols), static_cast<float>(bgr.rows));
-    for (int c = 0; c < classes; ++c) {
-      if (boxes[static_cast<size_t>(c)].empty()) continue;
-      std::vector<int> kept;
-      cv::dnn::NMSBoxes(boxes[static_cast<size_t>(c)], scores[static_cast<size_t>(c)],
-                        static_cast<float>(options_.score_threshold),
-                        static_cast<float>(options_.nms_threshold), kept);
-      for (int k : kept) {
-        Detection detection;
-        const cv::Rect2d& box = boxes[static_cast<size_t>(c)][static_cast<size_t>(k)];
-        detection.box = cv::Rect2f(static_cast<float>(box.x), static_cast<float>(box.y),
-                                   static_cast<float>(box.width), static_cast<float>(box.height)) &
-                        image;
-        if (detection.box.area() <= 0.0f) continue;
-        detection.class_id = c;
-        detection.name = c < static_cast<int>(names_.size()) ? names_[static_cast<size_t>(c)]
-                                                             : std::to_string(c);
-        detection.score = scores[static_cast<size_t>(c)][static_cast<size_t>(k)];
-        detection.level = levels_.Level(detection.name);
-        detections.push_back(detection);
-      }
-    }
-    std::sort(detections.begin(), detections.end(),
-              [](const Detection& a, const Detection& b) { return a.score > b.score; });
-    return detections;
+    return model_files::SuppressPerClass(by_class, static_cast<float>(options_.score_threshold),
+                                         static_cast<float>(options_.nms_threshold), bgr.size(),
+                                         names_, levels_);
   }
 
  private:

@@ -17,11 +17,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Boxes and scores of one class, before non-maximum suppression.
-struct ClassBoxes {
-  std::vector<cv::Rect2d> boxes;
-  std::vector<float> scores;
-};
+using model_files::ClassBoxes;
 
 // OpenCV reads a truncated or damaged Darknet weights file without a word (missing weights stay
 // zero). The file must hold the header (16 or 20 bytes, by its version) and one float for every
@@ -91,13 +87,9 @@ class FastestDetector : public Detector {
     net_.setInput(cv::dnn::blobFromImage(bgr, 1.0 / 255.0, input, cv::Scalar(), true, false));
     std::vector<cv::Mat> outputs;
     net_.forward(outputs, outputs_);
-    std::vector<Detection> detections;
-    for (const auto& [class_id, found] : Candidates(outputs, bgr.size())) {
-      Keep(class_id, found, bgr.size(), &detections);
-    }
-    std::sort(detections.begin(), detections.end(),
-              [](const Detection& a, const Detection& b) { return a.score > b.score; });
-    return detections;
+    return model_files::SuppressPerClass(
+        Candidates(outputs, bgr.size()), static_cast<float>(options_.score_threshold),
+        static_cast<float>(options_.nms_threshold), bgr.size(), names_, levels_);
   }
 
  private:
@@ -117,28 +109,6 @@ class FastestDetector : public Detector {
       }
     }
     return by_class;
-  }
-
-  // One class's boxes after non-maximum suppression, clipped to the image, into `detections`.
-  void Keep(int class_id, const ClassBoxes& found, const cv::Size& image,
-            std::vector<Detection>* detections) const {
-    std::vector<int> kept;
-    cv::dnn::NMSBoxes(found.boxes, found.scores, static_cast<float>(options_.score_threshold),
-                      static_cast<float>(options_.nms_threshold), kept);
-    const cv::Rect2f frame(0.0f, 0.0f, static_cast<float>(image.width),
-                           static_cast<float>(image.height));
-    for (const int k : kept) {
-      Detection detection;
-      detection.box = cv::Rect2f(found.boxes[static_cast<size_t>(k)]) & frame;
-      if (detection.box.area() <= 0.0f) continue;
-      detection.class_id = class_id;
-      detection.name = class_id < static_cast<int>(names_.size())
-                           ? names_[static_cast<size_t>(class_id)]
-                           : std::to_string(class_id);
-      detection.score = found.scores[static_cast<size_t>(k)];
-      detection.level = levels_.Level(detection.name);
-      detections->push_back(detection);
-    }
   }
 
   MotionLevelTable levels_;

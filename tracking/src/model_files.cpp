@@ -1,5 +1,7 @@
 #include "model_files.h"
 
+#include <algorithm>
+
 #include "stillmap/io/error.h"
 #include "stillmap/io/file_list.h"
 
@@ -60,6 +62,34 @@ void CheckNames(const std::vector<std::string>& names, int classes, const fs::pa
                      " class names but the model gives " + std::to_string(classes) +
                      " classes (one name per line, in the model's order); " + ModelAdvice(dir));
   }
+}
+
+std::vector<Detection> SuppressPerClass(const std::map<int, ClassBoxes>& by_class,
+                                        float score_threshold, float nms_threshold,
+                                        const cv::Size& image,
+                                        const std::vector<std::string>& names,
+                                        const MotionLevelTable& levels) {
+  std::vector<Detection> detections;
+  const cv::Rect2f frame(0.0f, 0.0f, static_cast<float>(image.width),
+                         static_cast<float>(image.height));
+  for (const auto& [c, found] : by_class) {
+    std::vector<int> kept;
+    cv::dnn::NMSBoxes(found.boxes, found.scores, score_threshold, nms_threshold, kept);
+    for (const int k : kept) {
+      Detection detection;
+      detection.box = cv::Rect2f(found.boxes[static_cast<size_t>(k)]) & frame;
+      if (detection.box.area() <= 0.0f) continue;
+      detection.class_id = c;
+      detection.name =
+          c < static_cast<int>(names.size()) ? names[static_cast<size_t>(c)] : std::to_string(c);
+      detection.score = found.scores[static_cast<size_t>(k)];
+      detection.level = levels.Level(detection.name);
+      detections.push_back(detection);
+    }
+  }
+  std::sort(detections.begin(), detections.end(),
+            [](const Detection& a, const Detection& b) { return a.score > b.score; });
+  return detections;
 }
 
 }  // namespace stillmap::model_files

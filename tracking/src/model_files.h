@@ -3,9 +3,12 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <opencv2/dnn.hpp>
 #include <string>
 #include <vector>
+
+#include "stillmap/tracking/detector.h"
 
 namespace stillmap::model_files {
 
@@ -29,5 +32,19 @@ cv::Mat ForwardBlank(cv::dnn::Net* net, const cv::Mat& blob, const std::filesyst
 // The class count of the model's output against the names file's lines. Throws InputError.
 void CheckNames(const std::vector<std::string>& names, int classes,
                 const std::filesystem::path& names_path, const std::filesystem::path& dir);
+
+// One class's candidate boxes (image pixels) and scores, before non-maximum suppression.
+struct ClassBoxes {
+  std::vector<cv::Rect2d> boxes;
+  std::vector<float> scores;
+};
+
+// Class-aware non-maximum suppression (OpenCV 4.6 has no batched NMS: one call per class), the
+// boxes clipped to the image, named and given their motion level; highest score first.
+std::vector<Detection> SuppressPerClass(const std::map<int, ClassBoxes>& by_class,
+                                        float score_threshold, float nms_threshold,
+                                        const cv::Size& image,
+                                        const std::vector<std::string>& names,
+                                        const MotionLevelTable& levels);
 
 }  // namespace stillmap::model_files
