@@ -210,6 +210,15 @@ void BuildConfig::Validate() const {
                       yolox.input_height);
   CheckNetworkOptions("detector.fastest_", fastest.score_threshold, fastest.nms_threshold,
                       fastest.input_width, fastest.input_height);
+  const int coarse_width = fastest.coarse_input_width, coarse_height = fastest.coarse_input_height;
+  const bool coarse_valid = coarse_width >= 32 && coarse_width <= fastest.input_width &&
+                            coarse_height >= 32 && coarse_height <= fastest.input_height &&
+                            coarse_width % 32 == 0 && coarse_height % 32 == 0;
+  if (!(coarse_width == 0 && coarse_height == 0) && !coarse_valid) {
+    throw InputError(
+        "detector.fastest_coarse_input_width and detector.fastest_coarse_input_height must both "
+        "be 0 (no coarse pass) or multiples of 32 from 32 up to the first pass's size");
+  }
   if (render.width < 64 || render.width > 4096 || render.height < 64 || render.height > 4096) {
     throw InputError("render.width and render.height must be 64..4096 px");
   }

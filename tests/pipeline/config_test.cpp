@@ -68,6 +68,16 @@ TEST(ConfigTest, DetectorOptionsAreCheckedUnderTheirOwnKeys) {
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("detector.fastest_input_height"),
             std::string::npos);
   config = BuildConfig();
+  ApplySetArgument(&config, "detector.fastest_coarse_input_width=0");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("detector.fastest_coarse_input_width"),
+            std::string::npos);
+  ApplySetArgument(&config, "detector.fastest_coarse_input_height=0");
+  EXPECT_NO_THROW(config.Validate());
+  ApplySetArgument(&config, "detector.fastest_coarse_input_width=352");
+  ApplySetArgument(&config, "detector.fastest_coarse_input_height=128");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("detector.fastest_coarse_input_width"),
+            std::string::npos);
+  config = BuildConfig();
   ApplySetArgument(&config, "detector.fastest_score_threshold=1.5");
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("detector.fastest_score_threshold"),
             std::string::npos);

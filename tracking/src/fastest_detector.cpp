@@ -60,10 +60,7 @@ class FastestDetector : public Detector {
     const std::string hint = " (pass --models DIR holding yolo_fastest_1.1/)";
     CheckInputFile(cfg.string(), "Yolo-Fastest configuration" + hint);
     CheckInputFile(weights.string(), "Yolo-Fastest weights" + hint);
-    if (options.input_width % 32 != 0 || options.input_height % 32 != 0 ||
-        options.input_width <= 0 || options.input_height <= 0) {
-      throw InputError("the Yolo-Fastest input size must be a positive multiple of 32");
-    }
+    CheckInputSizes(options);
     names_ = model_files::ReadNames(dir / "coco.names");
     net_ = model_files::LoadDarknet(cfg, weights, dir);
     CheckWeights(net_, weights, dir);
@@ -77,43 +74,67 @@ class FastestDetector : public Detector {
     }
     model_files::CheckNames(names_, out.cols - 5, dir / "coco.names", dir);
     outputs_ = net_.getUnconnectedOutLayersNames();
+    // Its own network: one Net reshaped between two input sizes reallocates its buffers each time.
+    if (options.coarse_input_width > 0) coarse_net_ = model_files::LoadDarknet(cfg, weights, dir);
   }
 
   std::string name() const override { return "yolo-fastest"; }
 
   std::vector<Detection> Detect(const cv::Mat& bgr) override {
     CV_Assert(bgr.type() == CV_8UC3);
-    const cv::Size input(options_.input_width, options_.input_height);
-    net_.setInput(cv::dnn::blobFromImage(bgr, 1.0 / 255.0, input, cv::Scalar(), true, false));
-    std::vector<cv::Mat> outputs;
-    net_.forward(outputs, outputs_);
-    return model_files::SuppressPerClass(
-        Candidates(outputs, bgr.size()), static_cast<float>(options_.score_threshold),
-        static_cast<float>(options_.nms_threshold), bgr.size(), names_, levels_);
+    std::map<int, ClassBoxes> by_class;
+    AddCandidates(&net_, bgr, cv::Size(options_.input_width, options_.input_height), &by_class);
+    if (options_.coarse_input_width > 0) {
+      const cv::Size coarse(options_.coarse_input_width, options_.coarse_input_height);
+      AddCandidates(&coarse_net_, bgr, coarse, &by_class);
+    }
+    return model_files::SuppressPerClass(by_class, static_cast<float>(options_.score_threshold),
+                                         static_cast<float>(options_.nms_threshold), bgr.size(),
+                                         names_, levels_);
   }
 
  private:
-  // Each row's best class, when its score reaches the threshold, as a box in image pixels.
-  std::map<int, ClassBoxes> Candidates(const std::vector<cv::Mat>& outputs,
-                                       const cv::Size& image) const {
-    std::map<int, ClassBoxes> by_class;
+  static void CheckInputSizes(const FastestOptions& options) {
+    const auto valid = [](int size) { return size > 0 && size % 32 == 0; };
+    if (!valid(options.input_width) || !valid(options.input_height)) {
+      throw InputError("the Yolo-Fastest input size must be a positive multiple of 32");
+    }
+    const bool no_coarse = options.coarse_input_width == 0 && options.coarse_input_height == 0;
+    if (!no_coarse && (!valid(options.coarse_input_width) || !valid(options.coarse_input_height))) {
+      throw InputError(
+          "the Yolo-Fastest coarse input size must be 0x0 or a positive multiple of 32");
+    }
+  }
+
+  // The network on `bgr` scaled to `input`: each row's best class, when its score reaches the
+  // threshold, as a box in image pixels.
+  void AddCandidates(cv::dnn::Net* net, const cv::Mat& bgr, const cv::Size& input,
+                     std::map<int, ClassBoxes>* by_class) {
+    net->setInput(cv::dnn::blobFromImage(bgr, 1.0 / 255.0, input, cv::Scalar(), true, false));
+    std::vector<cv::Mat> outputs;
+    net->forward(outputs, outputs_);
+    AddRows(outputs, bgr.size(), by_class);
+  }
+
+  void AddRows(const std::vector<cv::Mat>& outputs, const cv::Size& image,
+               std::map<int, ClassBoxes>* by_class) const {
     for (const cv::Mat& out : outputs) {
       for (int i = 0; i < out.rows; ++i) {
         const float* row = out.ptr<float>(i);
         const float* best = std::max_element(row + 5, row + out.cols);
         if (*best < options_.score_threshold) continue;
         const double w = row[2] * image.width, h = row[3] * image.height;
-        ClassBoxes& found = by_class[static_cast<int>(best - (row + 5))];
+        ClassBoxes& found = (*by_class)[static_cast<int>(best - (row + 5))];
         found.boxes.emplace_back(row[0] * image.width - w / 2, row[1] * image.height - h / 2, w, h);
         found.scores.push_back(*best);
       }
     }
-    return by_class;
   }
 
   MotionLevelTable levels_;
   FastestOptions options_;
   cv::dnn::Net net_;
+  cv::dnn::Net coarse_net_;
   std::vector<std::string> outputs_;
   std::vector<std::string> names_;
 };
