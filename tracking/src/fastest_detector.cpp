@@ -80,17 +80,28 @@ class FastestDetector : public Detector {
 
   std::string name() const override { return "yolo-fastest"; }
 
+  // The coarse pass adds the objects the first did not find: a coarse box that lies mostly on a
+  // first-pass box of its class is dropped (the coarse boxes are looser).
   std::vector<Detection> Detect(const cv::Mat& bgr) override {
     CV_Assert(bgr.type() == CV_8UC3);
-    std::map<int, ClassBoxes> by_class;
-    AddCandidates(&net_, bgr, cv::Size(options_.input_width, options_.input_height), &by_class);
-    if (options_.coarse_input_width > 0) {
-      const cv::Size coarse(options_.coarse_input_width, options_.coarse_input_height);
-      AddCandidates(&coarse_net_, bgr, coarse, &by_class);
+    const cv::Size fine(options_.input_width, options_.input_height);
+    std::vector<Detection> detections = Pass(&net_, bgr, fine);
+    if (options_.coarse_input_width == 0) return detections;
+    const cv::Size coarse(options_.coarse_input_width, options_.coarse_input_height);
+    const size_t first_pass = detections.size();
+    for (Detection& extra : Pass(&coarse_net_, bgr, coarse)) {
+      const auto covers = [&extra](const Detection& found) {
+        return found.class_id == extra.class_id &&
+               (found.box & extra.box).area() >=
+                   0.5f * std::min(found.box.area(), extra.box.area());
+      };
+      if (std::none_of(detections.begin(), detections.begin() + first_pass, covers)) {
+        detections.push_back(std::move(extra));
+      }
     }
-    return model_files::SuppressPerClass(by_class, static_cast<float>(options_.score_threshold),
-                                         static_cast<float>(options_.nms_threshold), bgr.size(),
-                                         names_, levels_);
+    std::stable_sort(detections.begin(), detections.end(),
+                     [](const Detection& a, const Detection& b) { return a.score > b.score; });
+    return detections;
   }
 
  private:
@@ -106,16 +117,19 @@ class FastestDetector : public Detector {
     }
   }
 
-  // The network on `bgr` scaled to `input`: each row's best class, when its score reaches the
-  // threshold, as a box in image pixels.
-  void AddCandidates(cv::dnn::Net* net, const cv::Mat& bgr, const cv::Size& input,
-                     std::map<int, ClassBoxes>* by_class) {
+  // The network on `bgr` scaled to `input`, after the per-class non-maximum suppression.
+  std::vector<Detection> Pass(cv::dnn::Net* net, const cv::Mat& bgr, const cv::Size& input) {
     net->setInput(cv::dnn::blobFromImage(bgr, 1.0 / 255.0, input, cv::Scalar(), true, false));
     std::vector<cv::Mat> outputs;
     net->forward(outputs, outputs_);
-    AddRows(outputs, bgr.size(), by_class);
+    std::map<int, ClassBoxes> by_class;
+    AddRows(outputs, bgr.size(), &by_class);
+    return model_files::SuppressPerClass(by_class, static_cast<float>(options_.score_threshold),
+                                         static_cast<float>(options_.nms_threshold), bgr.size(),
+                                         names_, levels_);
   }
 
+  // Each row's best class, when its score reaches the threshold, as a box in image pixels.
   void AddRows(const std::vector<cv::Mat>& outputs, const cv::Size& image,
                std::map<int, ClassBoxes>* by_class) const {
     for (const cv::Mat& out : outputs) {

@@ -96,7 +96,7 @@ struct FastestOptions {
   // A second, coarse pass for people near the lens: at 320x256 the network misses most people
   // who fill half the frame (its anchors are for smaller objects), at 160x128 it finds them as
   // often as YOLOX-Nano does (docs/figures.md); the coarse pass costs a quarter of the first.
-  // 0x0: no coarse pass.
+  // The first pass's boxes take precedence (the coarse boxes are looser). 0x0: no coarse pass.
   int coarse_input_width = 160;
   int coarse_input_height = 128;
   double score_threshold = 0.3;  // objectness x class probability, as YOLOX's
