@@ -186,15 +186,18 @@ void BM_YoloxDetect(benchmark::State& state) {  // NOLINT(readability-identifier
 }
 BENCHMARK(BM_YoloxDetect)->Unit(benchmark::kMillisecond);
 
-// Yolo-Fastest 1.1 at 320x256 (the default detector since issue 29).
+// Yolo-Fastest 1.1 (the default detector since issue 29) at 320x256, without (arg 0) and with
+// (arg 1, the default) its coarse 160x128 pass.
 void BM_FastestDetect(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
   const auto models = testing::SharedModels("yolo_fastest_1.1");
   if (!models) state.SkipWithError("yolo_fastest_1.1 not found in ../shared/models");
-  TimeDetect(state, models, [](const std::string& folder, const MotionLevelTable& l) {
-    return MakeFastestDetector(folder, l);
+  FastestOptions options;
+  if (state.range(0) == 0) options.coarse_input_width = options.coarse_input_height = 0;
+  TimeDetect(state, models, [&options](const std::string& folder, const MotionLevelTable& l) {
+    return MakeFastestDetector(folder, l, options);
   });
 }
-BENCHMARK(BM_FastestDetect)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FastestDetect)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The YOLOX-Nano network alone on the letterboxed teddy frame, as OpenCV loads the ONNX file (arg
 // 0) and rewritten (arg 1: yolox_net.h, SiLU fused and the slicing stem cut). Arg 0 also gives
