@@ -159,7 +159,7 @@ BENCHMARK(BM_RefinePose)->Unit(benchmark::kMillisecond);
 
 // The shared models folder holding yolox_nano/ (nothing, and the benchmark skipped, without).
 std::optional<std::string> YoloxModels(benchmark::State& state) {
-  const auto models = testing::SharedModels("yolox_nano");
+  auto models = testing::SharedModels("yolox_nano");
   if (!models) state.SkipWithError("yolox_nano not found in ../shared/models or $STILLMAP_MODELS");
   return models;
 }
