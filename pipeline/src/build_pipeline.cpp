@@ -125,7 +125,7 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
   ProgressLine progress("stillmap build", inputs.frame_indices.size(), request.show_progress);
   std::optional<FlowTracker> flow;
   if (config.masking_enabled && config.masking.TracksFlow()) {
-    flow.emplace(config.masking.flow_points, config.masking.flow);
+    flow.emplace(config.masking.flow_points, masks.options().flow);  // its KLT window resolved
   }
   FrameReader reader(inputs.sequence, inputs.frame_indices, request.threads > 1, std::move(flow));
   const LoopStages stages{reader, masks, mapper, progress};

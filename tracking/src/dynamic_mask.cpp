@@ -204,7 +204,9 @@ void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray, con
                     DynamicMaskResult* result) {
   const cv::Size size = gray.size();
   for (Detection& detection : *detections) {
-    if (detection.level == MotionLevel::kLow) continue;
+    if (detection.level == MotionLevel::kLow || (detection.tentative && detection.hits < 2)) {
+      continue;
+    }
     const cv::Rect box = Clip(cv::Rect(detection.box), size);
     if (box.area() == 0) continue;
     cv::Mat outline;
@@ -331,7 +333,8 @@ void DynamicMaskOptions::Validate() const {
         "flow_ransac_threshold_px must be in (0, 100]");
   check(flow.max_forward_backward_px > 0.0, "flow_max_forward_backward_px must be > 0");
   // OpenCV's KLT: a window of at least 3 px; its cost grows with the window's area.
-  check(flow.klt_window >= 3 && flow.klt_window <= 101, "flow_klt_window must be 3..101");
+  check(flow.klt_window == 0 || (flow.klt_window >= 3 && flow.klt_window <= 101),
+        "flow_klt_window must be 0 (by the detector) or 3..101");
   check(flow.klt_levels >= 0 && flow.klt_levels <= 8, "flow_klt_levels must be 0..8");
   check(flow_points >= 8 && flow_points <= 20000, "flow_points must be 8..20000");
   check(reference_keyframes >= 1 && reference_keyframes <= 50, "reference_keyframes must be 1..50");

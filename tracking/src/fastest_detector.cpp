@@ -96,6 +96,7 @@ class FastestDetector : public Detector {
                    0.5f * std::min(found.box.area(), extra.box.area());
       };
       if (std::none_of(detections.begin(), detections.begin() + first_pass, covers)) {
+        extra.tentative = true;
         detections.push_back(std::move(extra));
       }
     }

@@ -50,13 +50,22 @@ std::vector<int> Dbscan(const std::vector<cv::Point2f>& points, double epsilon, 
   return label;
 }
 
+namespace {
+
+// The KLT window's size (0, not resolved by MaskStage: kKltWindowGeometryOnly).
+cv::Size KltWindow(const FlowCheckOptions& options) {
+  const int edge = options.klt_window > 0 ? options.klt_window : kKltWindowGeometryOnly;
+  return {edge, edge};
+}
+
+}  // namespace
+
 FlowPyramid BuildFlowPyramid(const cv::Mat& gray, const FlowCheckOptions& options) {
   FlowPyramid pyramid;
   pyramid.size = gray.size();
   // A copy of the image, not a view of it: callers reuse their image buffers.
-  cv::buildOpticalFlowPyramid(gray, pyramid.levels,
-                              cv::Size(options.klt_window, options.klt_window), options.klt_levels,
-                              true, cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
+  cv::buildOpticalFlowPyramid(gray, pyramid.levels, KltWindow(options), options.klt_levels, true,
+                              cv::BORDER_REFLECT_101, cv::BORDER_CONSTANT, false);
   return pyramid;
 }
 
@@ -106,7 +115,7 @@ FlowCheckResult CheckFlow(const FlowPyramid& previous, const FlowPyramid& curren
   if (n < 8) return result;
 
   // 1-2: KLT flow, with a forward-backward check to drop bad tracks.
-  const cv::Size window(options.klt_window, options.klt_window);
+  const cv::Size window = KltWindow(options);
   std::vector<cv::Point2f> forward, backward;
   std::vector<std::uint8_t> status_forward, status_backward;
   std::vector<float> errors;

@@ -47,6 +47,9 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
         std::move(detector), options_.detector_interval, detector_in_background, detector_thread);
     statistics_.detector_in_background = detector_in_background && detector_thread;
   }
+  if (options_.flow.klt_window == 0) {
+    options_.flow.klt_window = detections_ ? kKltWindowWithDetector : kKltWindowGeometryOnly;
+  }
   masker_ = std::make_unique<DynamicMasker>(camera, options_);
 }
 

@@ -11,6 +11,14 @@
 
 namespace stillmap {
 
+// The KLT window when none is set. 15 px halves the flow check's time (BM_FlowCheck) and took
+// bonn_crowd_a's CPU from 0.757x to 0.702x of c96d8ab's with Yolo-Fastest, masks held
+// (docs/figures.md); without a detector the flow carries more of the masks, and at 15 px
+// walking_xyz's grid (150 frames) has 9 cells free where the static scene is occupied against 2
+// at 21 px (BuildTest's bar: 5).
+constexpr int kKltWindowWithDetector = 15;
+constexpr int kKltWindowGeometryOnly = 21;
+
 struct FlowCheckOptions {
   // DBSCAN in the (d_v, d_l) plane [px]. Paper 004 gives no values; these were chosen on the
   // synthetic walking sequences, frames 3 apart (flow_check_test.cpp: recall 0.80 on people,
@@ -27,11 +35,9 @@ struct FlowCheckOptions {
   double min_epipolar_distance_px = 2.0;
   double ransac_threshold_px = 1.0;      // fundamental matrix inliers
   double max_forward_backward_px = 0.5;  // KLT tracks failing the round trip are dropped
-  // KLT window edge [px]. 15 px halves the flow check's time (stillmap_masking_benchmark) and,
-  // with Yolo-Fastest, took bonn_crowd_a's CPU from 0.757x to 0.702x of c96d8ab's with masks
-  // held (docs/figures.md); but without a detector, walking_xyz's grid (150 frames) then has 9
-  // cells free where the static scene is occupied against 2 at 21 px (BuildTest's bar: 5).
-  int klt_window = 21;
+  // KLT window edge [px]; 0: kKltWindowWithDetector when a detector runs (MaskStage resolves
+  // it), else kKltWindowGeometryOnly.
+  int klt_window = 0;
   int klt_levels = 3;
 
   // Every field under its configuration key (io/option_fields.h).
@@ -45,7 +51,8 @@ struct FlowCheckOptions {
     visit("ransac_threshold_px", self.ransac_threshold_px, "fundamental matrix inliers [px]");
     visit("max_forward_backward_px", self.max_forward_backward_px,
           "KLT tracks failing the round trip by more are dropped [px]");
-    visit("klt_window", self.klt_window, "KLT window edge [px]");
+    visit("klt_window", self.klt_window,
+          "KLT window edge [px] (0: 15 with a detector, 21 without)");
     visit("klt_levels", self.klt_levels, "KLT pyramid levels above the image");
   }
 };
