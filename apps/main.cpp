@@ -101,8 +101,8 @@ struct BuildCommand {
         ->check(CLI::IsMember({"groundtruth", "tracking"}));
     command
         ->add_option("--detector", request.detector,
-                     "semantic prior for dynamic rejection: auto (the default: yolox when its "
-                     "model is found, else yolo-fastest when its model is, else none), none "
+                     "semantic prior for dynamic rejection: auto (the default: yolo-fastest when "
+                     "its model is found, else yolox when its model is, else none), none "
                      "(geometry only), yolo-fastest (boxes, the fastest), yolox (boxes), deeplab "
                      "(per-pixel), both (yolox and deeplab)")
         ->check(CLI::IsMember({"auto", "none", "yolo-fastest", "yolox", "deeplab", "both"}));

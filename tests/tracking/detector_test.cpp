@@ -181,22 +181,21 @@ TEST(FastestDetectorTest, CoarsePassFindsPeopleNearTheLens) {
   EXPECT_GE(covered_both, covered_fine + frames / 4);
 }
 
-// auto: YOLOX-Nano when its two files are there, else Yolo-Fastest, else none.
-TEST(DetectorChoiceTest, AutoPrefersYoloxThenYoloFastest) {
+// auto: Yolo-Fastest when its three files are there, else YOLOX-Nano, else none.
+TEST(DetectorChoiceTest, AutoPrefersYoloFastestThenYolox) {
   testing::TempDir dir;
   EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "none");
+  std::filesystem::create_directories(dir / "yolox_nano");
+  testing::WriteText(dir / "yolox_nano/yolox_nano.onnx", "x");
+  testing::WriteText(dir / "yolox_nano/coco.names", "person\n");
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolox");
   std::filesystem::create_directories(dir / "yolo_fastest_1.1");
   testing::WriteText(dir / "yolo_fastest_1.1/yolo-fastest-1.1.cfg", "x");
   testing::WriteText(dir / "yolo_fastest_1.1/coco.names", "person\n");
-  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "none");  // no weights yet
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolox");  // no weights yet
   testing::WriteText(dir / "yolo_fastest_1.1/yolo-fastest-1.1.weights", "x");
   EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolo-fastest");
-  std::filesystem::create_directories(dir / "yolox_nano");
-  testing::WriteText(dir / "yolox_nano/yolox_nano.onnx", "x");
-  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolo-fastest");  // no names yet
-  testing::WriteText(dir / "yolox_nano/coco.names", "person\n");
-  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolox");
-  EXPECT_EQ(ResolveDetectorName("yolo-fastest", dir.path()), "yolo-fastest");
+  EXPECT_EQ(ResolveDetectorName("yolox", dir.path()), "yolox");
 }
 
 // The rewritten YOLOX-Nano (yolox_net.h, onnx_graph.h) on the shared model: both rewrites taken

@@ -302,8 +302,8 @@ bool HoldsYolox(const std::string& models_dir) {
 std::string ResolveDetectorName(const std::string& name, const std::string& models_dir) {
   if (name != "auto") return name;
   if (models_dir.empty()) return "none";
-  if (HoldsYolox(models_dir)) return "yolox";
-  return HoldsFastest(models_dir) ? "yolo-fastest" : "none";
+  if (HoldsFastest(models_dir)) return "yolo-fastest";
+  return HoldsYolox(models_dir) ? "yolox" : "none";
 }
 
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,

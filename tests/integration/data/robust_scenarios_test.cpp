@@ -1,4 +1,4 @@
-// Issue 17's synthetic scenarios, tracked with the default detector (YOLOX-Nano, from
+// Issue 17's synthetic scenarios, tracked with the default detector (Yolo-Fastest, from
 // $STILLMAP_MODELS or ../shared/models; skipped when absent) and the bundle adjustment inline, so
 // the figures repeat: people in view from the first frame, a person crossing just before the
 // lens, a person who stands still for 4 s. Exact truth: the rendering poses, the static surface
@@ -46,13 +46,15 @@ ScenarioRun TrackScenario(const testing::TempDir& dir, const std::string& scenar
 class RobustScenariosTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const std::optional<std::string> models = testing::SharedModels("yolox_nano");
-    if (!models) GTEST_SKIP() << "yolox_nano not found (set STILLMAP_MODELS or ../shared/models)";
+    const std::optional<std::string> models = testing::SharedModels("yolo_fastest_1.1");
+    if (!models) {
+      GTEST_SKIP() << "yolo_fastest_1.1 not found (set STILLMAP_MODELS or ../shared/models)";
+    }
     models_ = *models;
   }
   // Issue 17's targets for every scenario: ATE within 1 cm, ghosts at most 0.5 %.
   static void ExpectTargets(const BuildResult& result) {
-    EXPECT_EQ(result.masking.detector, "yolox");
+    EXPECT_EQ(result.masking.detector, "yolo-fastest");
     ASSERT_TRUE(result.evaluation.ate.has_value());
     ASSERT_TRUE(result.evaluation.map_quality.has_value());
     EXPECT_LE(result.evaluation.ate->translation.rmse, 0.01);

@@ -149,10 +149,8 @@ std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
 bool HoldsFastest(const std::string& models_dir);
 bool HoldsYolox(const std::string& models_dir);
 
-// "auto" (the default) is "yolox" when MODELS_DIR holds YOLOX-Nano, else "yolo-fastest" when it
-// holds Yolo-Fastest, else "none"; other names are returned as they are. YOLOX first: with
-// Yolo-Fastest, a teddy bear taken for a person by its coarse pass costs the teddy sessions'
-// merge (docs/figures.md).
+// "auto" (the default) is "yolo-fastest" when MODELS_DIR holds it, else "yolox" when it holds
+// YOLOX-Nano, else "none"; other names are returned as they are.
 std::string ResolveDetectorName(const std::string& name, const std::string& models_dir);
 
 // Every detector's options.
