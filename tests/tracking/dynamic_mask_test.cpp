@@ -189,6 +189,36 @@ TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
   EXPECT_EQ(cv::countNonZero(result.mask(chair)), 0);
 }
 
+// A person only Yolo-Fastest's coarse pass found (tentative) is masked once a second run finds it
+// too; until then it is not, nor counted. A person the first pass found is masked at once.
+TEST(DynamicMaskerTest, TentativePersonIsMaskedFromItsSecondRun) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  DynamicMaskOptions options;
+  options.margin_px = 0;
+  DynamicMasker masker(camera, options);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  const cv::Rect person(50, 20, 20, 80);
+  depth(person).setTo(1.5f);
+  const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
+  Detection coarse;
+  coarse.box = cv::Rect2f(40, 10, 40, 100);
+  coarse.level = MotionLevel::kHigh;
+  coarse.tentative = true;
+  const std::vector<Detection> detections = {coarse};
+  const DynamicMaskResult first = masker.Compute(gray, depth, std::nullopt, &detections);
+  EXPECT_EQ(first.high_regions, 0);
+  EXPECT_EQ(cv::countNonZero(first.mask), 0);
+  const DynamicMaskResult second = masker.Compute(gray, depth, std::nullopt, &detections);
+  EXPECT_EQ(second.high_regions, 1);
+  EXPECT_EQ(cv::countNonZero(second.mask(person)), person.area());
+
+  DynamicMasker fresh(camera, options);
+  Detection fine = coarse;
+  fine.tentative = false;
+  const std::vector<Detection> found = {fine};
+  EXPECT_EQ(fresh.Compute(gray, depth, std::nullopt, &found).high_regions, 1);
+}
+
 // A still object the detector takes for a person (a teddy bear): once the depth check confirms
 // its outline static, it is left unmasked. A person geometry saw move keeps being masked at rest
 // (carried from run to run by the detections' overlap), whatever the references confirm.
