@@ -160,16 +160,27 @@ TEST(DynamicMaskerTest, FindsRenderedWalkingPeople) {
 
 // Semantics: a person detection is masked even when geometry has nothing to say (no pose), cut
 // to the depth foreground inside its box; a medium-level object at rest is not masked.
+// A small camera's view of a wall at 3 m with a person at 1.5 m, and a masker without margin.
+struct PersonScene {
+  Camera camera = testing::SmallCamera(160, 120);
+  cv::Rect person{50, 20, 20, 80};
+  cv::Mat depth{camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f)};
+  cv::Mat gray{camera.height, camera.width, CV_8UC1, cv::Scalar(128)};
+  PersonScene() { depth(person).setTo(1.5f); }
+  DynamicMasker Masker() const {
+    DynamicMaskOptions options;
+    options.margin_px = 0;
+    return DynamicMasker(camera, options);
+  }
+};
+
 TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
-  const Camera camera = testing::SmallCamera(160, 120);
-  DynamicMaskOptions options;
-  options.margin_px = 0;
-  DynamicMasker masker(camera, options);
-  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
-  const cv::Rect person(50, 20, 20, 80), chair(100, 60, 30, 30);
-  depth(person).setTo(1.5f);
+  PersonScene scene;
+  DynamicMasker masker = scene.Masker();
+  cv::Mat& depth = scene.depth;
+  const cv::Mat& gray = scene.gray;
+  const cv::Rect person = scene.person, chair(100, 60, 30, 30);
   depth(chair).setTo(2.0f);
-  const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
   Detection high;
   high.box = cv::Rect2f(40, 10, 40, 100);  // loose box around the person
   high.level = MotionLevel::kHigh;
@@ -192,14 +203,10 @@ TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
 // A person only Yolo-Fastest's coarse pass found (tentative) is masked once a second run finds it
 // too; until then it is not, nor counted. A person the first pass found is masked at once.
 TEST(DynamicMaskerTest, TentativePersonIsMaskedFromItsSecondRun) {
-  const Camera camera = testing::SmallCamera(160, 120);
-  DynamicMaskOptions options;
-  options.margin_px = 0;
-  DynamicMasker masker(camera, options);
-  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
-  const cv::Rect person(50, 20, 20, 80);
-  depth(person).setTo(1.5f);
-  const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
+  const PersonScene scene;
+  DynamicMasker masker = scene.Masker();
+  const cv::Mat &depth = scene.depth, &gray = scene.gray;
+  const cv::Rect person = scene.person;
   Detection coarse;
   coarse.box = cv::Rect2f(40, 10, 40, 100);
   coarse.level = MotionLevel::kHigh;
@@ -212,7 +219,7 @@ TEST(DynamicMaskerTest, TentativePersonIsMaskedFromItsSecondRun) {
   EXPECT_EQ(second.high_regions, 1);
   EXPECT_EQ(cv::countNonZero(second.mask(person)), person.area());
 
-  DynamicMasker fresh(camera, options);
+  DynamicMasker fresh = scene.Masker();
   Detection fine = coarse;
   fine.tentative = false;
   const std::vector<Detection> found = {fine};
