@@ -8,6 +8,9 @@
 #include <chrono>
 #include <thread>
 
+#include "stillmap/tracking/mask_stage.h"
+#include "test_util.h"
+
 namespace stillmap {
 namespace {
 
@@ -97,6 +100,25 @@ TEST(DetectionScheduleTest, WithoutFlowBackgroundDetectionsAreUsedUncarried) {
   const std::vector<float> expected = {0, -1, -1, -1, 2};
   EXPECT_EQ(box_x, expected);
   EXPECT_EQ(calls.load(), 3);  // frames 0, 2 and 4
+}
+
+// masking.flow_klt_window 0 (the default) is resolved by the mask stage: 15 px with a detector,
+// 21 px without; a window set by the user is kept either way.
+TEST(MaskStageTest, KltWindowFollowsTheDetector) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  std::atomic<int> calls{0};
+  const DynamicMaskOptions defaults;
+  const MaskStage with(camera, defaults, true, std::make_unique<FrameNumberDetector>(&calls), false,
+                       "");
+  EXPECT_EQ(with.options().flow.klt_window, kKltWindowWithDetector);
+  const MaskStage without(camera, defaults, true, nullptr, false, "");
+  EXPECT_EQ(without.options().flow.klt_window, kKltWindowGeometryOnly);
+  DynamicMaskOptions set;
+  set.flow.klt_window = 9;
+  const MaskStage kept(camera, set, true, std::make_unique<FrameNumberDetector>(&calls), false, "");
+  EXPECT_EQ(kept.options().flow.klt_window, 9);
+  EXPECT_EQ(kKltWindowWithDetector, 15);
+  EXPECT_EQ(kKltWindowGeometryOnly, 21);
 }
 
 }  // namespace

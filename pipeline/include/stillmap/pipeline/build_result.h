@@ -71,6 +71,7 @@ struct MaskingFigures {
   bool semantics = false;       // a detector ran
   std::string models_dir;       // where its weights came from
   std::string models_found_by;  // "--models", "$STILLMAP_MODELS", ... (model_search.h)
+  int klt_window_px = 0;        // masking.flow_klt_window as the mask stage resolved it
   MaskingStatistics statistics;
 };
 
