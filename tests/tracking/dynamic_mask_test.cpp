@@ -158,8 +158,6 @@ TEST(DynamicMaskerTest, FindsRenderedWalkingPeople) {
   EXPECT_GT(score.Recall(), 0.8);
 }
 
-// Semantics: a person detection is masked even when geometry has nothing to say (no pose), cut
-// to the depth foreground inside its box; a medium-level object at rest is not masked.
 // A small camera's view of a wall at 3 m with a person at 1.5 m, and a masker without margin.
 struct PersonScene {
   Camera camera = testing::SmallCamera(160, 120);
@@ -174,6 +172,8 @@ struct PersonScene {
   }
 };
 
+// Semantics: a person detection is masked even when geometry has nothing to say (no pose), cut
+// to the depth foreground inside its box; a medium-level object at rest is not masked.
 TEST(DynamicMaskerTest, HighLevelDetectionsAreMaskedMediumOnesOnlyWhenMoving) {
   PersonScene scene;
   DynamicMasker masker = scene.Masker();

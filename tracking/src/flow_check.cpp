@@ -52,9 +52,8 @@ std::vector<int> Dbscan(const std::vector<cv::Point2f>& points, double epsilon, 
 
 namespace {
 
-// The KLT window's size (0, not resolved by MaskStage: kKltWindowGeometryOnly).
 cv::Size KltWindow(const FlowCheckOptions& options) {
-  const int edge = options.klt_window > 0 ? options.klt_window : kKltWindowGeometryOnly;
+  const int edge = ResolvedKltWindow(options.klt_window, false);
   return {edge, edge};
 }
 

@@ -47,9 +47,7 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
         std::move(detector), options_.detector_interval, detector_in_background, detector_thread);
     statistics_.detector_in_background = detector_in_background && detector_thread;
   }
-  if (options_.flow.klt_window == 0) {
-    options_.flow.klt_window = detections_ ? kKltWindowWithDetector : kKltWindowGeometryOnly;
-  }
+  options_.flow.klt_window = ResolvedKltWindow(options_.flow.klt_window, detections_ != nullptr);
   masker_ = std::make_unique<DynamicMasker>(camera, options_);
 }
 

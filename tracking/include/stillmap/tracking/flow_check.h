@@ -19,6 +19,13 @@ namespace stillmap {
 constexpr int kKltWindowWithDetector = 15;
 constexpr int kKltWindowGeometryOnly = 21;
 
+// The KLT window edge [px] that `klt_window` (FlowCheckOptions) stands for: itself when set, else
+// by whether a detector runs.
+inline int ResolvedKltWindow(int klt_window, bool with_detector) {
+  if (klt_window > 0) return klt_window;
+  return with_detector ? kKltWindowWithDetector : kKltWindowGeometryOnly;
+}
+
 struct FlowCheckOptions {
   // DBSCAN in the (d_v, d_l) plane [px]. Paper 004 gives no values; these were chosen on the
   // synthetic walking sequences, frames 3 apart (flow_check_test.cpp: recall 0.80 on people,
@@ -35,8 +42,8 @@ struct FlowCheckOptions {
   double min_epipolar_distance_px = 2.0;
   double ransac_threshold_px = 1.0;      // fundamental matrix inliers
   double max_forward_backward_px = 0.5;  // KLT tracks failing the round trip are dropped
-  // KLT window edge [px]; 0: kKltWindowWithDetector when a detector runs (MaskStage resolves
-  // it), else kKltWindowGeometryOnly.
+  // KLT window edge [px]; 0: by the detector (ResolvedKltWindow; MaskStage resolves it, and the
+  // checks called directly take the geometry-only window).
   int klt_window = 0;
   int klt_levels = 3;
 
