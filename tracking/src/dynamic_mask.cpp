@@ -79,13 +79,19 @@ cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excl
   const cv::Rect seeded = whole ? cv::Rect(0, 0, box.width, box.height) : centre;
   const cv::Mat confirmed = whole ? cv::Mat(confirmed_static(box)) : cv::Mat();
   for (int v = seeded.y; v < seeded.y + seeded.height; ++v) {
+    // Row pointers: stores through a byte pointer would reload the Mats' fields per pixel.
+    const float* depth_row = depth.ptr<float>(v);
+    const std::uint8_t* confirmed_row = whole ? confirmed.ptr<std::uint8_t>(v) : nullptr;
+    std::uint8_t* region_row = region.ptr<std::uint8_t>(v);
+    const bool centre_row = v >= centre.y && v < centre.y + centre.height;
     for (int u = seeded.x; u < seeded.x + seeded.width; ++u) {
-      const float z = depth.at<float>(v, u);
-      if (whole && !centre.contains(cv::Point(u, v)) && confirmed.at<std::uint8_t>(v, u) != 0) {
+      const float z = depth_row[u];
+      if (whole && confirmed_row[u] != 0 &&
+          !(centre_row && u >= centre.x && u < centre.x + centre.width)) {
         continue;
       }
       if (z > 0.0f && std::abs(z - foreground) < band) {
-        region.at<std::uint8_t>(v, u) = 255;
+        region_row[u] = 255;
         queue.push_back(v * box.width + u);
       }
     }

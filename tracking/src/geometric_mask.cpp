@@ -94,13 +94,23 @@ class Judge {
       sin_limit_squared_;
 };
 
-// The verdicts of `judge` on the blocks of rows `rows` (AddVerdicts). Everything by value: the
-// verdicts are stored through a byte pointer, which may alias anything, so values read through
-// references would be reloaded after every store (perf: this loop was 7 % of a bonn_crowd_a
-// build).
-void AddVerdictRows(const Judge judge,  // NOLINT(performance-unnecessary-value-param): see above
-                    const float* z, int width, int height, int stride, float block_continuity,
-                    const cv::Range& rows, std::uint8_t* s) {
+// The strongest verdict of `judges` on current pixel i, whose reading is `depth` [m].
+std::uint8_t Strongest(const std::vector<Judge>& judges, int i, float depth) {
+  std::uint8_t strongest = kNoVerdict;
+  for (const Judge& judge : judges) {
+    strongest = std::max(strongest, judge(i, depth));
+    if (strongest == kSeed) break;
+  }
+  return strongest;
+}
+
+// The verdicts of all `judges` on the blocks of rows `rows`, written into `s` (AddVerdicts). The
+// readings continuous with a block's centre depend on no reference, so every reference is judged
+// block by block and each pixel is visited once, not once per reference (perf: the pass per
+// reference was 7 % of a bonn_crowd_a build). The loop's values are locals: the verdicts are
+// stored through a byte pointer, which may alias anything.
+void AddVerdictRows(const std::vector<Judge>& judges, const float* z, int width, int height,
+                    int stride, float block_continuity, const cv::Range& rows, std::uint8_t* s) {
   for (int bv = rows.start * stride; bv < std::min(rows.end * stride, height); bv += stride) {
     const int v_end = std::min(bv + stride, height);
     const int centre_row = std::min(bv + stride / 2, v_end - 1);
@@ -110,37 +120,34 @@ void AddVerdictRows(const Judge judge,  // NOLINT(performance-unnecessary-value-
       const float centre_depth = z[centre_index];
       const bool centre_valid = centre_depth > 0.0f;
       const std::uint8_t centre_verdict =
-          centre_valid ? judge(centre_index, centre_depth) : std::uint8_t{kNoVerdict};
+          centre_valid ? Strongest(judges, centre_index, centre_depth) : std::uint8_t{kNoVerdict};
       // mask_growth::Continuous with the centre, its tolerance computed once per block.
       const float tolerance = 0.01f + block_continuity * centre_depth;
       for (int v = bv; v < v_end; ++v) {
         for (int i = v * width + bu, end = v * width + u_end; i < end; ++i) {
           const float depth = z[i];
-          if (!(depth > 0.0f) || s[i] == kSeed) continue;
-          const std::uint8_t verdict =
-              centre_valid && (i == centre_index || std::abs(centre_depth - depth) <= tolerance)
-                  ? centre_verdict
-                  : judge(i, depth);
-          s[i] = std::max(s[i], verdict);
+          if (!(depth > 0.0f)) continue;
+          s[i] = centre_valid && std::abs(centre_depth - depth) <= tolerance
+                     ? centre_verdict
+                     : Strongest(judges, i, depth);
         }
       }
     }
   }
 }
 
-// One reference's verdicts on the current readings, raised into `s` (the strongest wins). One
-// verdict per stride x stride block, from its centre, for the readings continuous with the
-// centre's; the others (object edges) are judged on their own. Rows of blocks are independent and
-// run in parallel (the growth stays sequential; timings: stillmap_masking_benchmark).
-void AddVerdicts(const VerdictContext& c, const float* near,
-                 const Eigen::Isometry3f& reference_from_current, std::uint8_t* s) {
-  const Judge judge(c, near, reference_from_current);
-  const float* z = c.z;
+// Every reference's verdicts on the current readings, written into `s` (the strongest wins; `s`
+// holds kNoVerdict before). One verdict per stride x stride block, from its centre, for the
+// readings continuous with the centre's; the others (object edges) are judged on their own. Rows
+// of blocks are independent and run in parallel (the growth stays sequential; timings:
+// stillmap_masking_benchmark).
+void AddVerdicts(const VerdictContext& c, const std::vector<Judge>& judges, std::uint8_t* s) {
+  if (judges.empty()) return;
   const int width = c.width, height = c.height, stride = c.options.depth_check_stride;
   const auto block_continuity = static_cast<float>(c.options.block_continuity);
   const int block_rows = (height + stride - 1) / stride;
   cv::parallel_for_(cv::Range(0, block_rows), [&](const cv::Range& rows) {
-    AddVerdictRows(judge, z, width, height, stride, block_continuity, rows, s);
+    AddVerdictRows(judges, c.z, width, height, stride, block_continuity, rows, s);
   });
 }
 
@@ -174,9 +181,14 @@ void DropSpecks(int min_region_px, cv::Mat* region) {
   for (int k = 1; k < count; ++k) {
     keep[static_cast<size_t>(k)] = stats.at<int>(k, cv::CC_STAT_AREA) >= min_region_px;
   }
+  if (std::find(keep.begin() + 1, keep.end(), 0) == keep.end()) return;
+  // Locals for the loop: a store through the byte pointer could alias the Mat's fields (perf:
+  // reloading them and calling total() per pixel was 2 % of a bonn_crowd_a build).
   const int* label = labels.ptr<int>();
-  for (size_t i = 0; i < region->total(); ++i) {
-    if (region->data[i] != 0 && keep[static_cast<size_t>(label[i])] == 0) region->data[i] = 0;
+  std::uint8_t* out = region->data;
+  const size_t total = region->total();
+  for (size_t i = 0; i < total; ++i) {
+    if (out[i] != 0 && keep[static_cast<size_t>(label[i])] == 0) out[i] = 0;
   }
 }
 
@@ -208,15 +220,18 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
   cv::Mat state(height, width, CV_8UC1, cv::Scalar(kNoVerdict));
   std::uint8_t* s = state.data;
   const float* z = context.z;
+  std::vector<cv::Mat> nearest;  // kept alive for the judges
+  std::vector<Judge> judges;
   for (const MaskReference* reference : references) {
     if (reference->depth_m.size() != depth_m.size()) continue;
     // The reference depth is the minimum over a 5x5 neighbourhood (one-pixel pose or edge errors
     // at thin objects are no evidence), cached in the reference when it was made.
-    const cv::Mat nearest = reference->nearest_depth_m.empty() ? NearestStaticDepth(*reference)
-                                                               : reference->nearest_depth_m;
-    AddVerdicts(context, nearest.ptr<float>(),
-                (reference->world_from_camera.inverse() * world_from_camera).cast<float>(), s);
+    nearest.push_back(reference->nearest_depth_m.empty() ? NearestStaticDepth(*reference)
+                                                         : reference->nearest_depth_m);
+    judges.emplace_back(context, nearest.back().ptr<float>(),
+                        (reference->world_from_camera.inverse() * world_from_camera).cast<float>());
   }
+  AddVerdicts(context, judges, s);
 
   cv::Mat region(height, width, CV_8UC1, cv::Scalar(0));
   std::vector<int> queue;
