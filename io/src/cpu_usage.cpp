@@ -1,5 +1,6 @@
 #include "stillmap/io/cpu_usage.h"
 
+#include <dlfcn.h>
 #include <sys/resource.h>
 
 #include <ctime>
@@ -19,6 +20,11 @@ double PeakMemoryMib() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+const char* MemoryAllocator() {
+  // The proxy library exports this name; nothing else does.
+  return dlsym(RTLD_DEFAULT, "__TBB_malloc_proxy") != nullptr ? "tbbmalloc" : "glibc";
 }
 
 double ProcessCpuSeconds() {

@@ -4,6 +4,8 @@
 #include <thread>
 #include <vector>
 
+#include "stillmap/io/cpu_usage.h"
+
 namespace stillmap {
 namespace {
 
@@ -114,6 +116,7 @@ json CpuJson(const BuildResult& result) {
           {"cores_busy_mean", t.process_cpu_ms / wall_ms},
           {"share_of_cores", t.process_cpu_ms / (wall_ms * cores)},
           {"machine_core_busy", t.core_busy},
+          {"allocator", MemoryAllocator()},
           {"by_thread_s", stages}};
 }
 

@@ -349,6 +349,8 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
   for (const char* stage : {"extract", "match", "pose", "local_bundle_adjustment"}) {
     EXPECT_TRUE(report["timing"]["stages_ms"]["tracking_ms"].contains(stage)) << stage;
   }
+  // The allocator the binary was linked with is the one that ran (CMakeLists.txt).
+  EXPECT_EQ(report["timing"]["cpu"]["allocator"].get<std::string>(), STILLMAP_ALLOCATOR);
   // The report's ATE agrees with one recomputed here from the written trajectory.
   const Trajectory truth = Trajectory::ReadTum(dir / "seq/groundtruth.txt");
   const AteResult ate = ComputeAte(truth, trajectory);

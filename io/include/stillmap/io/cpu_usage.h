@@ -12,6 +12,9 @@ double ThreadCpuMs();
 double ProcessCpuSeconds();
 // The process's peak resident memory so far [MiB].
 double PeakMemoryMib();
+// The process's malloc: "tbbmalloc" when TBB's proxy replaced it (the stillmap binary, see
+// CMakeLists.txt), else "glibc".
+const char* MemoryAllocator();
 
 // Each core's busy and total time since boot, from /proc/stat (empty where it cannot be read).
 struct CoreTimes {
