@@ -76,6 +76,73 @@ TEST(PoseRefinementTest, ConvergesFromAPerturbedPoseAndFlagsOutliers) {
   for (int i : result.inliers) EXPECT_NE(i % 10, 9);
 }
 
+// The robust cost RefinePose minimizes, recomputed here from its definition: 1/2 sum of Huber's
+// rho(|r|^2) with scale sqrt(chi2) over `used`.
+double RobustCost(const Eigen::Isometry3d& camera_from_world,
+                  const std::vector<Eigen::Vector3d>& points,
+                  const std::vector<RgbdObservation>& observations, const std::vector<int>& used) {
+  const RefinementOptions options;
+  double cost = 0.0;
+  for (int i : used) {
+    const RgbdObservation& observation = observations[static_cast<size_t>(i)];
+    const Eigen::Vector3d q = camera_from_world * points[static_cast<size_t>(i)];
+    Eigen::Vector3d r((q.x() / q.z() - observation.normalized.x()) / observation.sigma_normalized,
+                      (q.y() / q.z() - observation.normalized.y()) / observation.sigma_normalized,
+                      0.0);
+    double chi2 = options.chi2_without_depth;
+    if (observation.depth_m > 0.0) {
+      r.z() = (1.0 / q.z() - 1.0 / observation.depth_m) / observation.sigma_inverse_depth;
+      chi2 = options.chi2_with_depth;
+    }
+    const double s = r.squaredNorm();
+    cost += 0.5 * (s <= chi2 ? s : 2.0 * std::sqrt(chi2 * s) - chi2);
+  }
+  return cost;
+}
+
+// With noisy observations the refined pose is no longer the true one: it must be a minimum of
+// the robust cost over its inliers. Every small move of the pose (central differences along the
+// six axes) raises the cost recomputed here.
+TEST(PoseRefinementTest, EndsAtAMinimumOfTheRobustCost) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0);
+  std::normal_distribution<double> pixel_noise(0.0, 1.0 / 525), depth_noise(0.0, 0.01);
+  const Eigen::Isometry3d camera_from_world = TruePose();
+  std::vector<Eigen::Vector3d> points;
+  std::vector<RgbdObservation> observations;
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d in_camera(lateral(rng), lateral(rng), depth(rng));
+    points.push_back(camera_from_world.inverse() * in_camera);
+    RgbdObservation observation;
+    observation.normalized =
+        in_camera.head<2>() / in_camera.z() + Eigen::Vector2d(pixel_noise(rng), pixel_noise(rng));
+    observation.depth_m = i % 3 == 0 ? 0.0 : in_camera.z() + depth_noise(rng);
+    observation.sigma_inverse_depth = 0.003;
+    observations.push_back(observation);
+  }
+  Eigen::Isometry3d start = camera_from_world;
+  start.translation() += Eigen::Vector3d(-0.03, 0.02, 0.01);
+  const PoseResult result = RefinePose(start, points, observations);
+  ASSERT_TRUE(result.ok());
+  ExpectSamePose(result.camera_from_world, camera_from_world, 0.01);
+  const double at_result =
+      RobustCost(result.camera_from_world, points, observations, result.inliers);
+  for (int axis = 0; axis < 6; ++axis) {
+    for (double sign : {-1.0, 1.0}) {
+      Eigen::Isometry3d moved = result.camera_from_world;
+      const double step = sign * 1e-4;
+      if (axis < 3) {
+        moved.linear() = Eigen::AngleAxisd(step, Eigen::Vector3d::Unit(axis)).toRotationMatrix() *
+                         moved.linear();
+      } else {
+        moved.translation()(axis - 3) += step;
+      }
+      EXPECT_GT(RobustCost(moved, points, observations, result.inliers), at_result)
+          << "axis " << axis << " step " << step;
+    }
+  }
+}
+
 TEST(PoseEstimationTest, TooFewPointsIsAStatusNotAPose) {
   const PoseResult result = EstimatePosePnp({{0, 0, 1}, {1, 0, 1}}, {{0, 0}, {1, 0}});
   EXPECT_FALSE(result.ok());

@@ -1,4 +1,5 @@
-// Motion-only refinement of a camera pose from RGB-D observations of known 3-D points (Ceres).
+// Motion-only refinement of a camera pose from RGB-D observations of known 3-D points
+// (Levenberg-Marquardt on the 6 pose unknowns, Eigen).
 #pragma once
 
 #include <Eigen/Geometry>
