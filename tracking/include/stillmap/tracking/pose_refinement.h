@@ -1,5 +1,4 @@
-// Motion-only refinement of a camera pose from RGB-D observations of known 3-D points
-// (Levenberg-Marquardt on the 6 pose unknowns, Eigen).
+// Motion-only refinement of a camera pose from RGB-D observations of known 3-D points (Ceres).
 #pragma once
 
 #include <Eigen/Geometry>
