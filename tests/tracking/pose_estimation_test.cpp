@@ -50,21 +50,37 @@ TEST(PoseEstimationTest, PnpWithInjectedOutliersReturnsTheTruePose) {
   EXPECT_EQ(wrong_inliers, 0);
 }
 
+// `count` points in front of TruePose()'s camera, drawn from `rng`, with their observations:
+// the exact projection, which `observe` (point index, camera-frame point, observation) may change,
+// drawing any noise from the same `rng`.
+template <typename Observe>
+void RandomScene(std::mt19937* rng, int count, const Observe& observe,
+                 std::vector<Eigen::Vector3d>* points, std::vector<RgbdObservation>* observations) {
+  std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0);
+  const Eigen::Isometry3d camera_from_world = TruePose();
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d in_camera(lateral(*rng), lateral(*rng), depth(*rng));
+    points->push_back(camera_from_world.inverse() * in_camera);
+    RgbdObservation observation;
+    observation.normalized = in_camera.head<2>() / in_camera.z();
+    observe(i, in_camera, &observation);
+    observations->push_back(observation);
+  }
+}
+
 TEST(PoseRefinementTest, ConvergesFromAPerturbedPoseAndFlagsOutliers) {
   std::mt19937 rng(8);
-  std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0), wrong(-0.5, 0.5);
+  std::uniform_real_distribution<double> wrong(-0.5, 0.5);
   const Eigen::Isometry3d camera_from_world = TruePose();
   std::vector<Eigen::Vector3d> points;
   std::vector<RgbdObservation> observations;
-  for (int i = 0; i < 200; ++i) {
-    const Eigen::Vector3d in_camera(lateral(rng), lateral(rng), depth(rng));
-    points.push_back(camera_from_world.inverse() * in_camera);
-    RgbdObservation observation;
-    observation.normalized = in_camera.head<2>() / in_camera.z();
-    observation.depth_m = i % 4 == 0 ? 0.0 : in_camera.z();  // a quarter without depth
-    if (i % 10 == 9) observation.normalized += Eigen::Vector2d(wrong(rng), wrong(rng));  // outlier
-    observations.push_back(observation);
-  }
+  RandomScene(
+      &rng, 200,
+      [&](int i, const Eigen::Vector3d& in_camera, RgbdObservation* observation) {
+        observation->depth_m = i % 4 == 0 ? 0.0 : in_camera.z();  // a quarter without depth
+        if (i % 10 == 9) observation->normalized += Eigen::Vector2d(wrong(rng), wrong(rng));
+      },
+      &points, &observations);
   Eigen::Isometry3d start = camera_from_world;
   start.translation() += Eigen::Vector3d(0.02, -0.01, 0.015);
   start.linear() =
@@ -105,21 +121,18 @@ double RobustCost(const Eigen::Isometry3d& camera_from_world,
 // six axes) raises the cost recomputed here.
 TEST(PoseRefinementTest, EndsAtAMinimumOfTheRobustCost) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> lateral(-1.5, 1.5), depth(1.0, 4.0);
   std::normal_distribution<double> pixel_noise(0.0, 1.0 / 525), depth_noise(0.0, 0.01);
   const Eigen::Isometry3d camera_from_world = TruePose();
   std::vector<Eigen::Vector3d> points;
   std::vector<RgbdObservation> observations;
-  for (int i = 0; i < 300; ++i) {
-    const Eigen::Vector3d in_camera(lateral(rng), lateral(rng), depth(rng));
-    points.push_back(camera_from_world.inverse() * in_camera);
-    RgbdObservation observation;
-    observation.normalized =
-        in_camera.head<2>() / in_camera.z() + Eigen::Vector2d(pixel_noise(rng), pixel_noise(rng));
-    observation.depth_m = i % 3 == 0 ? 0.0 : in_camera.z() + depth_noise(rng);
-    observation.sigma_inverse_depth = 0.003;
-    observations.push_back(observation);
-  }
+  RandomScene(
+      &rng, 300,
+      [&](int i, const Eigen::Vector3d& in_camera, RgbdObservation* observation) {
+        observation->normalized += Eigen::Vector2d(pixel_noise(rng), pixel_noise(rng));
+        observation->depth_m = i % 3 == 0 ? 0.0 : in_camera.z() + depth_noise(rng);
+        observation->sigma_inverse_depth = 0.003;
+      },
+      &points, &observations);
   Eigen::Isometry3d start = camera_from_world;
   start.translation() += Eigen::Vector3d(-0.03, 0.02, 0.01);
   const PoseResult result = RefinePose(start, points, observations);
