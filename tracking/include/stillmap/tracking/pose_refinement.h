@@ -1,4 +1,4 @@
-// Motion-only refinement of a camera pose from RGB-D observations of known 3-D points (Ceres).
+// Motion-only refinement of a camera pose from RGB-D observations of known 3-D points.
 #pragma once
 
 #include <Eigen/Geometry>
