@@ -14,14 +14,30 @@ FrameReader::FrameReader(const Sequence& sequence, std::vector<size_t> indices, 
       indices_(std::move(indices)),
       read_ahead_(read_ahead),
       flow_(std::move(flow)) {
-  if (read_ahead_ && !indices_.empty()) Schedule(0);
+  if (read_ahead_ && !indices_.empty()) thread_ = std::thread([this] { ReadAhead(); });
+}
+
+FrameReader::~FrameReader() {
+  if (!thread_.joinable()) return;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+  }
+  changed_.notify_all();
+  thread_.join();
 }
 
 PreparedFrame FrameReader::Get(size_t k) {
   const auto start = std::chrono::steady_clock::now();
-  PreparedFrame frame = read_ahead_ ? next_.get() : Prepare(indices_[k]);
+  PreparedFrame frame;
+  if (read_ahead_) {
+    Slot slot = Take();
+    if (slot.error) std::rethrow_exception(slot.error);
+    frame = std::move(slot.prepared);
+  } else {
+    frame = Prepare(indices_[k]);
+  }
   wait_ms_ += MillisecondsSince(start);
-  if (read_ahead_ && k + 1 < indices_.size()) Schedule(k + 1);
   if (frame.flow) flow_ms_.push_back(frame.flow->ms);
   if (read_ahead_) ahead_cpu_ms_ += frame.cpu_ms;
   return frame;
@@ -38,8 +54,37 @@ PreparedFrame FrameReader::Prepare(size_t index) {
   return prepared;
 }
 
-void FrameReader::Schedule(size_t k) {
-  next_ = std::async(std::launch::async, [this, index = indices_[k]] { return Prepare(index); });
+void FrameReader::ReadAhead() {
+  for (const size_t index : indices_) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      changed_.wait(lock, [this] { return stopping_ || queue_.size() < kFramesAhead; });
+      if (stopping_) return;
+    }
+    Slot slot;
+    try {
+      slot.prepared = Prepare(index);
+    } catch (...) {
+      slot.error = std::current_exception();
+    }
+    const bool failed = slot.error != nullptr;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      queue_.push_back(std::move(slot));
+    }
+    changed_.notify_all();
+    if (failed) return;  // the caller stops at the error
+  }
+}
+
+FrameReader::Slot FrameReader::Take() {
+  std::unique_lock<std::mutex> lock(mutex_);
+  changed_.wait(lock, [this] { return !queue_.empty(); });
+  Slot slot = std::move(queue_.front());
+  queue_.pop_front();
+  lock.unlock();
+  changed_.notify_all();
+  return slot;
 }
 
 }  // namespace stillmap
