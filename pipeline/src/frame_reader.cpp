@@ -1,5 +1,6 @@
 #include "frame_reader.h"
 
+#include <algorithm>
 #include <chrono>
 #include <opencv2/imgproc.hpp>
 
@@ -14,26 +15,19 @@ FrameReader::FrameReader(const Sequence& sequence, std::vector<size_t> indices, 
       indices_(std::move(indices)),
       read_ahead_(read_ahead),
       flow_(std::move(flow)) {
-  if (read_ahead_ && !indices_.empty()) thread_ = std::thread([this] { ReadAhead(); });
-}
-
-FrameReader::~FrameReader() {
-  if (!thread_.joinable()) return;
-  {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    stopping_ = true;
-  }
-  changed_.notify_all();
-  thread_.join();
+  if (!read_ahead_) return;
+  worker_ = std::make_unique<SerialWorker>();
+  for (size_t k = 0; k < std::min(kFramesAhead, indices_.size()); ++k) Schedule(k);
 }
 
 PreparedFrame FrameReader::Get(size_t k) {
   const auto start = std::chrono::steady_clock::now();
   PreparedFrame frame;
   if (read_ahead_) {
-    Slot slot = Take();
-    if (slot.error) std::rethrow_exception(slot.error);
-    frame = std::move(slot.prepared);
+    std::future<PreparedFrame> next = std::move(ahead_.front());
+    ahead_.pop_front();
+    frame = next.get();  // rethrows the frame's error
+    if (k + kFramesAhead < indices_.size()) Schedule(k + kFramesAhead);
   } else {
     frame = Prepare(indices_[k]);
   }
@@ -54,37 +48,8 @@ PreparedFrame FrameReader::Prepare(size_t index) {
   return prepared;
 }
 
-void FrameReader::ReadAhead() {
-  for (const size_t index : indices_) {
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      changed_.wait(lock, [this] { return stopping_ || queue_.size() < kFramesAhead; });
-      if (stopping_) return;
-    }
-    Slot slot;
-    try {
-      slot.prepared = Prepare(index);
-    } catch (...) {
-      slot.error = std::current_exception();
-    }
-    const bool failed = slot.error != nullptr;
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      queue_.push_back(std::move(slot));
-    }
-    changed_.notify_all();
-    if (failed) return;  // the caller stops at the error
-  }
-}
-
-FrameReader::Slot FrameReader::Take() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  changed_.wait(lock, [this] { return !queue_.empty(); });
-  Slot slot = std::move(queue_.front());
-  queue_.pop_front();
-  lock.unlock();
-  changed_.notify_all();
-  return slot;
+void FrameReader::Schedule(size_t k) {
+  ahead_.push_back(worker_->Submit([this, index = indices_[k]] { return Prepare(index); }));
 }
 
 }  // namespace stillmap

@@ -1,16 +1,15 @@
 // Frames decoded and prepared in order, up to a few ahead on another thread.
 #pragma once
 
-#include <condition_variable>
 #include <cstddef>
 #include <deque>
-#include <exception>
-#include <mutex>
+#include <future>
+#include <memory>
 #include <optional>
-#include <thread>
 #include <vector>
 
 #include "stillmap/io/sequence.h"
+#include "stillmap/io/serial_worker.h"
 #include "stillmap/tracking/flow_check.h"
 #include "stream_checks.h"
 
@@ -39,11 +38,10 @@ class FrameReader {
               std::optional<FlowTracker> flow);
   FrameReader(const FrameReader&) = delete;
   FrameReader& operator=(const FrameReader&) = delete;
-  ~FrameReader();  // stops the reading thread after the frame it is on
 
   size_t size() const { return indices_.size(); }
   // The k-th frame (k counts up from 0 by one on each call). Throws InputError for a bad image
-  // (frames after a bad one are not read).
+  // (when frame k's own image is bad: frames read ahead of it do not matter).
   PreparedFrame Get(size_t k);
   double wait_ms() const { return wait_ms_; }  // waiting for frames in total
   // CPU time of decoding and preparing the frames on the reading thread (read_ahead) [ms].
@@ -53,29 +51,20 @@ class FrameReader {
   const StreamChecks& checks() const { return checks_; }
 
  private:
-  // A prepared frame, or the error preparing it.
-  struct Slot {
-    PreparedFrame prepared;
-    std::exception_ptr error;
-  };
-
   PreparedFrame Prepare(size_t index);
-  void ReadAhead();  // the reading thread
-  Slot Take();       // the next slot from the reading thread, waiting for it
+  void Schedule(size_t k);  // queues frame k on the reading thread
 
   const Sequence& sequence_;
   std::vector<size_t> indices_;
   bool read_ahead_;
-  std::optional<FlowTracker> flow_;  // used by one Prepare at a time, frames in order
-  std::mutex mutex_;
-  std::condition_variable changed_;  // a slot queued or taken, or stopping
-  std::deque<Slot> queue_;           // prepared, not yet taken (at most kFramesAhead)
-  bool stopping_ = false;
-  std::thread thread_;  // last: started when everything it uses exists
+  std::optional<FlowTracker> flow_;               // used by one Prepare at a time, frames in order
+  std::deque<std::future<PreparedFrame>> ahead_;  // queued in order, at most kFramesAhead
   double wait_ms_ = 0.0;
   double ahead_cpu_ms_ = 0.0;
   std::vector<double> flow_ms_;
   StreamChecks checks_;  // updated by Prepare, frames in order
+  // The reading thread (last: it ends first, after the frames queued, before what they use).
+  std::unique_ptr<SerialWorker> worker_;
 };
 
 }  // namespace stillmap

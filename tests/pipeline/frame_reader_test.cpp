@@ -79,7 +79,7 @@ TEST(FrameReaderTest, StopsReadingWhenTheCallerStopsEarly) {
   {
     FrameReader reader(sequence, AllFrames(), true, Flow());
     EXPECT_EQ(reader.Get(0).frame.index, 0u);
-  }  // the destructor stops the reading thread (a hang here fails by ctest's timeout)
+  }  // the destructor ends the reading thread after the frames queued (a hang fails by timeout)
   FrameReader reader(sequence, AllFrames(), true, std::nullopt);
   EXPECT_FALSE(reader.Get(0).flow.has_value());
 }

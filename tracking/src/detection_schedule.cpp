@@ -28,6 +28,7 @@ DetectionSchedule::DetectionSchedule(std::unique_ptr<Detector> detector, int int
       background_(background),
       own_thread_(own_thread) {
   CV_Assert(detector_ != nullptr && interval_ >= 1);
+  if (background_ && own_thread_) worker_ = std::make_unique<SerialWorker>();
 }
 
 DetectionSchedule::~DetectionSchedule() {
@@ -55,8 +56,8 @@ std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const Flo
   }
   if (detect_here) {
     // The image is copied: the caller's frame goes on to the mapper while the detector reads it.
-    run_ = std::async(own_thread_ ? std::launch::async : std::launch::deferred,
-                      [this, image = bgr.clone()] { return Run(*detector_, image); });
+    auto task = [this, image = bgr.clone()] { return Run(*detector_, image); };
+    run_ = worker_ ? worker_->Submit(std::move(task)) : std::async(std::launch::deferred, task);
     run_frame_ = frame;
   }
   return due;

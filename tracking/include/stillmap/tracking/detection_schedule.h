@@ -11,6 +11,7 @@
 #include <optional>
 #include <vector>
 
+#include "stillmap/io/serial_worker.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/flow_check.h"
 
@@ -50,6 +51,9 @@ class DetectionSchedule {
   int interval_;
   bool background_;
   bool own_thread_;
+  // The thread of the background runs, one for all of them (declared after the detector it
+  // uses: it ends first).
+  std::unique_ptr<SerialWorker> worker_;
   size_t frame_ = 0;              // frames seen
   std::future<DetectorRun> run_;  // the background run in flight, if any
   size_t run_frame_ = 0;          // the frame it runs on
