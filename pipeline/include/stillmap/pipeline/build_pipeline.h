@@ -17,10 +17,12 @@ struct BuildRequest {
   std::string output_dir;
   BuildConfig config;
   PoseSource poses = PoseSource::kTracking;
-  std::string detector = "auto";  // auto (yolox when models_dir has it), none, yolox, deeplab, both
-  std::string models_dir;         // holds yolox_nano/ and deeplabv3_mnv2_voc/
-  std::string models_found_by;    // how: "--models", "$STILLMAP_MODELS", ... (model_search.h)
-  int threads = 2;             // 1: decode and map in one thread; >= 2: decode the next frame ahead
+  // auto (yolo-fastest, else yolox, whichever models_dir holds), none, yolo-fastest, yolox,
+  // deeplab, both
+  std::string detector = "auto";
+  std::string models_dir;       // holds yolo_fastest_1.1/, yolox_nano/, deeplabv3_mnv2_voc/
+  std::string models_found_by;  // how: "--models", "$STILLMAP_MODELS", ... (model_search.h)
+  int threads = 2;  // 1: decode and map in one thread; >= 2: decode frames ahead (FrameReader)
   bool show_progress = false;  // a progress line on stderr
   std::string command_line;    // as typed, for the report (empty: a library call)
 };
