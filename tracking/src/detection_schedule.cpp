@@ -31,10 +31,6 @@ DetectionSchedule::DetectionSchedule(std::unique_ptr<Detector> detector, int int
   if (background_ && own_thread_) worker_ = std::make_unique<SerialWorker>();
 }
 
-DetectionSchedule::~DetectionSchedule() {
-  if (run_.valid() && own_thread_) run_.wait();  // a deferred run is dropped unrun
-}
-
 std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const FlowStep* flow) {
   const size_t frame = frame_++;
   const bool detect_here = frame % static_cast<size_t>(interval_) == 0;

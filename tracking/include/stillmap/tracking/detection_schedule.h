@@ -34,7 +34,8 @@ class DetectionSchedule {
                     bool own_thread = true);
   DetectionSchedule(const DetectionSchedule&) = delete;
   DetectionSchedule& operator=(const DetectionSchedule&) = delete;
-  ~DetectionSchedule();  // waits for a run in flight
+  // The worker ends after the run in flight (a deferred run is dropped unrun).
+  ~DetectionSchedule() = default;
 
   // Frames in order, one call each: the colour image (CV_8UC3) and the flow step from the previous
   // frame (null when flow is not tracked: background detections are then used uncarried). Returns
