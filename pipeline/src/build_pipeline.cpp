@@ -113,6 +113,7 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
   result->masking.detector = masks->detector_name();
   result->masking.semantics = masks->semantics();
   result->masking.klt_window_px = masks->options().flow.klt_window;
+  result->masking.flow_points = masks->options().flow_points;
   if (masks->semantics()) {
     result->masking.models_dir = request.models_dir;
     result->masking.models_found_by = request.models_found_by;
@@ -126,7 +127,8 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
   ProgressLine progress("stillmap build", inputs.frame_indices.size(), request.show_progress);
   std::optional<FlowTracker> flow;
   if (config.masking_enabled && config.masking.TracksFlow()) {
-    flow.emplace(config.masking.flow_points, masks.options().flow);  // its KLT window resolved
+    // The mask stage resolved the corner count and the KLT window.
+    flow.emplace(masks.options().flow_points, masks.options().flow);
   }
   FrameReader reader(inputs.sequence, inputs.frame_indices, request.threads > 1, std::move(flow));
   const LoopStages stages{reader, masks, mapper, progress};

@@ -74,7 +74,10 @@ json MaskingJson(const MaskingFigures& masking, const DynamicMaskOptions& option
   }
   out["depth_check"] = options.depth_check;
   out["flow_check"] = options.flow_check;
-  if (options.TracksFlow()) out["flow_klt_window_px"] = masking.klt_window_px;
+  if (options.TracksFlow()) {
+    out["flow_klt_window_px"] = masking.klt_window_px;
+    out["flow_points"] = masking.flow_points;
+  }
   out["outline"] = OutlineModeName(options.outline);
   out["detector_interval"] = options.detector_interval;
   out["detector_in_background"] = s.detector_in_background;

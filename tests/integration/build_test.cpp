@@ -242,9 +242,11 @@ TEST(BuildTest, GridOfAWalkingSequenceAgreesWithTheStaticScene) {
             << without.at("agreement") << ", " << without.at("occupied_without_static_truth")
             << ")\n";
   EXPECT_EQ(masked.at("grid").at("floor").at("source"), "fitted");
-  // The KLT window the masks used: 15 px with a detector (models found), 21 px without.
-  EXPECT_EQ(masked.at("masking").at("flow_klt_window_px").get<int>(),
-            masked.at("masking").at("semantics").get<bool>() ? 15 : 21);
+  // The KLT window and corners the masks used: 15 px and 300 with a detector (models found),
+  // 21 px and 400 without.
+  const bool semantics = masked.at("masking").at("semantics").get<bool>();
+  EXPECT_EQ(masked.at("masking").at("flow_klt_window_px").get<int>(), semantics ? 15 : 21);
+  EXPECT_EQ(masked.at("masking").at("flow_points").get<int>(), semantics ? 300 : 400);
   EXPECT_LT(masked.at("grid").at("floor").at("tilt_to_cameras_up_deg").get<double>(), 15.0);
   EXPECT_GE(quality.at("agreement").get<double>(), 0.95);
   EXPECT_GT(quality.at("observed_cells").get<size_t>(), 2000u);

@@ -103,22 +103,31 @@ TEST(DetectionScheduleTest, WithoutFlowBackgroundDetectionsAreUsedUncarried) {
 }
 
 // masking.flow_klt_window 0 (the default) is resolved by the mask stage: 15 px with a detector,
-// 21 px without; a window set by the user is kept either way.
-TEST(MaskStageTest, KltWindowFollowsTheDetector) {
+// 21 px without; a window set by the user is kept either way. So is masking.flow_points: 300
+// corners with a detector, 400 without.
+TEST(MaskStageTest, KltWindowAndFlowPointsFollowTheDetector) {
   const Camera camera = testing::SmallCamera(160, 120);
   std::atomic<int> calls{0};
   const DynamicMaskOptions defaults;
   const MaskStage with(camera, defaults, true, std::make_unique<FrameNumberDetector>(&calls), false,
                        "");
   EXPECT_EQ(with.options().flow.klt_window, kKltWindowWithDetector);
+  EXPECT_EQ(with.options().flow_points, kFlowPointsWithDetector);
   const MaskStage without(camera, defaults, true, nullptr, false, "");
   EXPECT_EQ(without.options().flow.klt_window, kKltWindowGeometryOnly);
+  EXPECT_EQ(without.options().flow_points, kFlowPointsGeometryOnly);
   DynamicMaskOptions set;
   set.flow.klt_window = 9;
+  set.flow_points = 120;
   const MaskStage kept(camera, set, true, std::make_unique<FrameNumberDetector>(&calls), false, "");
   EXPECT_EQ(kept.options().flow.klt_window, 9);
+  EXPECT_EQ(kept.options().flow_points, 120);
+  const MaskStage kept_without(camera, set, true, nullptr, false, "");
+  EXPECT_EQ(kept_without.options().flow_points, 120);
   EXPECT_EQ(kKltWindowWithDetector, 15);
   EXPECT_EQ(kKltWindowGeometryOnly, 21);
+  EXPECT_EQ(kFlowPointsWithDetector, 300);
+  EXPECT_EQ(kFlowPointsGeometryOnly, 400);
 }
 
 }  // namespace

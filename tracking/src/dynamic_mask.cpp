@@ -342,7 +342,8 @@ void DynamicMaskOptions::Validate() const {
   check(flow.klt_window == 0 || (flow.klt_window >= 3 && flow.klt_window <= 101),
         "flow_klt_window must be 0 (by the detector) or 3..101");
   check(flow.klt_levels >= 0 && flow.klt_levels <= 8, "flow_klt_levels must be 0..8");
-  check(flow_points >= 8 && flow_points <= 20000, "flow_points must be 8..20000");
+  check(flow_points == 0 || (flow_points >= 8 && flow_points <= 20000),
+        "flow_points must be 0 (by the detector) or 8..20000");
   check(reference_keyframes >= 1 && reference_keyframes <= 50, "reference_keyframes must be 1..50");
   check(reference_spacing_s >= 0.0, "reference_spacing_s must be >= 0");
   check(depth_check_stride >= 1 && depth_check_stride <= 16, "depth_check_stride must be 1..16");
@@ -370,7 +371,7 @@ DynamicMasker::DynamicMasker(const Camera& camera, const DynamicMaskOptions& opt
     : camera_(camera),
       options_(options),
       geometry_(camera, options),
-      flow_tracker_(options.flow_points, options.flow) {
+      flow_tracker_(ResolvedFlowPoints(options.flow_points, false), options.flow) {
   options.Validate();
 }
 

@@ -48,6 +48,7 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
     statistics_.detector_in_background = detector_in_background && detector_thread;
   }
   options_.flow.klt_window = ResolvedKltWindow(options_.flow.klt_window, detections_ != nullptr);
+  options_.flow_points = ResolvedFlowPoints(options_.flow_points, detections_ != nullptr);
   masker_ = std::make_unique<DynamicMasker>(camera, options_);
 }
 

@@ -72,6 +72,7 @@ struct MaskingFigures {
   std::string models_dir;       // where its weights came from
   std::string models_found_by;  // "--models", "$STILLMAP_MODELS", ... (model_search.h)
   int klt_window_px = 0;        // masking.flow_klt_window as the mask stage resolved it
+  int flow_points = 0;          // masking.flow_points as the mask stage resolved it
   MaskingStatistics statistics;
 };
 

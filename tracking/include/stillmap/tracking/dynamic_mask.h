@@ -40,17 +40,32 @@ enum class OutlineMode { kBox, kDepth, kEdges };
 OutlineMode ParseOutlineMode(const std::string& name);
 const char* OutlineModeName(OutlineMode mode);
 
+// The flow check's corners when none are set. With a detector, 400 -> 300 measured on every figure
+// (docs/figures.md, ninth session): bonn_crowd_a 18.1 -> 17.8 mm, teddy 4.3 both, synthetic
+// precision within -0.002..+0.09, recall unchanged; robustness clips median 14.0 -> 13.9 mm, worst
+// 21.6 -> 21.2; lens_pass recall 0.768 -> 0.758; CPU -0.5 %. Without a detector the flow carries
+// more of the masks, and at 300 walking_xyz's grid (150 frames) has 5 cells occupied on the
+// people's paths against 0 at 400 (BuildTest's bar: 0).
+constexpr int kFlowPointsWithDetector = 300;
+constexpr int kFlowPointsGeometryOnly = 400;
+
+// The corner count that `flow_points` (DynamicMaskOptions) stands for: itself when set, else by
+// whether a detector runs.
+inline int ResolvedFlowPoints(int flow_points, bool with_detector) {
+  if (flow_points > 0) return flow_points;
+  return with_detector ? kFlowPointsWithDetector : kFlowPointsGeometryOnly;
+}
+
 struct DynamicMaskOptions {
   bool semantics = true;    // use the detector's detections (when one runs)
   bool depth_check = true;  // paper 002's multi-view depth check
   bool flow_check = true;   // paper 004's flow / epipolar clustering
   DepthCheckOptions depth;  // tau_d = 0.4 m and 30 degrees of parallax (paper 002): seeds
   FlowCheckOptions flow;
-  // Corners tracked from the previous frame for the flow check. 400 -> 300, measured on every
-  // figure (docs/figures.md, ninth session): bonn_crowd_a 18.1 -> 17.8 mm, teddy 4.3 both,
-  // synthetic precision within -0.002..+0.09, recall unchanged; robustness clips median
-  // 14.0 -> 13.9 mm, worst 21.6 -> 21.2; lens_pass recall 0.768 -> 0.758; CPU -0.5 %.
-  int flow_points = 300;
+  // Corners tracked from the previous frame for the flow check; 0: by the detector
+  // (ResolvedFlowPoints; MaskStage resolves it, and a masker built directly takes the
+  // geometry-only count).
+  int flow_points = 0;
 
   int reference_keyframes = 3;       // the last keyframe and older ones, spread in time
   double reference_spacing_s = 0.7;  // older references at least this far apart
@@ -130,7 +145,8 @@ struct DynamicMaskOptions {
     visit("flow_check", self.flow_check, "KLT flow / epipolar distance DBSCAN check (paper 004)");
     visit.Nested("", self.depth);
     visit.Nested("flow_", self.flow);
-    visit("flow_points", self.flow_points, "corners tracked for the flow check");
+    visit("flow_points", self.flow_points,
+          "corners tracked for the flow check (0: 300 with a detector, 400 without)");
     visit("reference_keyframes", self.reference_keyframes,
           "keyframes the depth check compares with");
     visit("reference_spacing_s", self.reference_spacing_s,
