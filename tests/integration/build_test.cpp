@@ -386,12 +386,10 @@ TEST(BuildTest, EveryOutputStandsOnTheFloorInBothPoseModes) {
   const Trajectory truth = Trajectory::ReadTum(dir / "seq/groundtruth.txt");
   for (const std::string poses : {"tracking", "groundtruth"}) {
     const std::string out = dir / ("out_" + poses);
+    std::string command = "build " + dir / "seq" + " -o " + out;
+    command += " --poses " + poses + " --detector none --quiet";
     std::string output;
-    ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + out + " --poses " + poses +
-                                       " --detector none --quiet",
-                                   &output),
-              0)
-        << output;
+    ASSERT_EQ(testing::RunStillmap(command, &output), 0) << output;
     const testing::FloorCheck floor = testing::CheckFloor(ReadCloud(out + "/map.ply"));
     std::cout << poses << ": floor tilt " << floor.tilt_deg << " deg, height at the origin "
               << floor.height_at_origin * 1e3 << " mm, " << 100 * floor.share_near
@@ -449,11 +447,9 @@ TEST(BuildTest, TheOtherMapFramesAreTheFirstCameraAndTheGroundTruth) {
   std::string output;
   for (const std::string frame : {"camera", "groundtruth"}) {
     const std::string out = dir / ("out_" + frame);
-    ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " + out +
-                                       " --detector none --quiet --set map.frame=" + frame,
-                                   &output),
-              0)
-        << output;
+    std::string command = "build " + dir / "seq" + " -o " + out;
+    command += " --detector none --quiet --set map.frame=" + frame;
+    ASSERT_EQ(testing::RunStillmap(command, &output), 0) << output;
     const Trajectory written = Trajectory::ReadTum(out + "/trajectory.txt");
     const StampedPose& first = written.poses().front();
     const Eigen::Isometry3d expected =
