@@ -112,8 +112,7 @@ std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Came
   result->masking.enabled = masks->enabled();
   result->masking.detector = masks->detector_name();
   result->masking.semantics = masks->semantics();
-  result->masking.klt_window_px = masks->options().flow.klt_window;
-  result->masking.flow_points = masks->options().flow_points;
+  result->masking.options = masks->options();
   if (masks->semantics()) {
     result->masking.models_dir = request.models_dir;
     result->masking.models_found_by = request.models_found_by;

@@ -63,10 +63,11 @@ json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
                                          : "none: with known poses every frame is fused"}};
 }
 
-json MaskingJson(const MaskingFigures& masking, const DynamicMaskOptions& options) {
+json MaskingJson(const MaskingFigures& masking) {
   json out = {{"enabled", masking.enabled}};
   if (!masking.enabled) return out;
   const MaskingStatistics& s = masking.statistics;
+  const DynamicMaskOptions& options = masking.options;
   out["detector"] = masking.detector;
   out["semantics"] = masking.semantics;
   if (masking.semantics) {
@@ -75,8 +76,8 @@ json MaskingJson(const MaskingFigures& masking, const DynamicMaskOptions& option
   out["depth_check"] = options.depth_check;
   out["flow_check"] = options.flow_check;
   if (options.TracksFlow()) {
-    out["flow_klt_window_px"] = masking.klt_window_px;
-    out["flow_points"] = masking.flow_points;
+    out["flow_klt_window_px"] = options.flow.klt_window;
+    out["flow_points"] = options.flow_points;
   }
   out["outline"] = OutlineModeName(options.outline);
   out["detector_interval"] = options.detector_interval;
@@ -339,7 +340,7 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   report["frames"] = FramesJson(result.frames);
   report["keyframes"] = KeyframesJson(result, config);
   report["dynamic_share"] = result.masking.statistics.MeanShare();
-  report["masking"] = MaskingJson(result.masking, config.masking);
+  report["masking"] = MaskingJson(result.masking);
   if (result.masking.statistics.score) {
     report["mask_quality"] = MaskQualityJson(*result.masking.statistics.score);
     if (result.masking.statistics.score_while_still) {

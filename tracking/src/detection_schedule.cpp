@@ -23,12 +23,9 @@ DetectorRun Run(Detector& detector, const cv::Mat& bgr) {
 
 DetectionSchedule::DetectionSchedule(std::unique_ptr<Detector> detector, int interval,
                                      bool background, bool own_thread)
-    : detector_(std::move(detector)),
-      interval_(interval),
-      background_(background),
-      own_thread_(own_thread) {
+    : detector_(std::move(detector)), interval_(interval), background_(background) {
   CV_Assert(detector_ != nullptr && interval_ >= 1);
-  if (background_ && own_thread_) worker_ = std::make_unique<SerialWorker>();
+  if (background_ && own_thread) worker_ = std::make_unique<SerialWorker>();
 }
 
 std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const FlowStep* flow) {

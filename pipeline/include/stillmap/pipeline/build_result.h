@@ -71,8 +71,9 @@ struct MaskingFigures {
   bool semantics = false;       // a detector ran
   std::string models_dir;       // where its weights came from
   std::string models_found_by;  // "--models", "$STILLMAP_MODELS", ... (model_search.h)
-  int klt_window_px = 0;        // masking.flow_klt_window as the mask stage resolved it
-  int flow_points = 0;          // masking.flow_points as the mask stage resolved it
+  // masking.* as the mask stage used them: the KLT window and the flow corners resolved by
+  // whether a detector runs (MaskStage).
+  DynamicMaskOptions options;
   MaskingStatistics statistics;
 };
 

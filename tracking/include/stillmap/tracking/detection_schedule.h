@@ -51,7 +51,6 @@ class DetectionSchedule {
   std::unique_ptr<Detector> detector_;
   int interval_;
   bool background_;
-  bool own_thread_;
   // The thread of the background runs, one for all of them (declared after the detector it
   // uses: it ends first).
   std::unique_ptr<SerialWorker> worker_;
