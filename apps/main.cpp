@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <set>
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/output_files.h"
@@ -129,6 +130,7 @@ struct BuildCommand {
 
   // --topic KIND=NAME as the sequence.*_topic keys.
   void ApplyTopics() {
+    std::set<std::string> kinds;
     for (const std::string& topic : topics) {
       const size_t equals = topic.find('=');
       const std::string kind = topic.substr(0, equals);
@@ -136,6 +138,15 @@ struct BuildCommand {
           (kind != "color" && kind != "depth" && kind != "camera_info")) {
         throw stillmap::InputError("--topic " + stillmap::Quoted(topic) +
                                    ": expected color=NAME, depth=NAME or camera_info=NAME");
+      }
+      if (equals + 1 == topic.size()) {
+        throw stillmap::InputError("--topic " + stillmap::Quoted(topic) +
+                                   ": no topic name after '='; give " + kind + "=NAME");
+      }
+      if (!kinds.insert(kind).second) {
+        throw stillmap::InputError("--topic " + kind +
+                                   "= given twice; give each of color, depth and camera_info "
+                                   "once");
       }
       stillmap::ApplySetArgument(&request.config,
                                  "sequence." + kind + "_topic=" + topic.substr(equals + 1));

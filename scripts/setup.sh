@@ -13,8 +13,8 @@ packages=(
   libceres-dev libflann-dev libassimp-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libspdlog-dev libfmt-dev libgoogle-glog-dev libtbb-dev libjpeg-dev libpng-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  # recorded bags: their block compressions, and ROS 2's sqlite3 storage
-  libbz2-dev liblz4-dev libzstd-dev zlib1g-dev libsqlite3-dev
+  # recorded bags: their block compressions (and lz4's xxHash checksums), ROS 2's sqlite3 storage
+  libbz2-dev liblz4-dev libxxhash-dev libzstd-dev zlib1g-dev libsqlite3-dev
   # tests: scripts/revisit_replay.py makes the revisit replays
   python3
   # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)

@@ -403,6 +403,16 @@ std::vector<OutputSet::SetAside> OutputSet::PlanSetAside(
   return plan;
 }
 
+std::vector<std::string> OutputSet::SetAsideWarnings(
+    const std::vector<std::string>& also_staged) const {
+  std::vector<std::string> warnings;
+  for (const SetAside& entry : PlanSetAside(also_staged)) {
+    warnings.push_back(FinalPath(entry.name) + " was not written by stillmap; it is kept as " +
+                       FinalPath(entry.kept_as));
+  }
+  return warnings;
+}
+
 void OutputSet::Commit() {
   const fs::path folder(dir_);
   Journal journal;

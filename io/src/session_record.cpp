@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -11,6 +12,7 @@
 #include <type_traits>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 namespace {
@@ -263,6 +265,13 @@ SessionRecord ParseRecord(const json& header, std::uint64_t offset, std::uint64_
       read.Fail("a feature block runs past the end of the file");
     const std::uint64_t feature_bytes = count * kFeatureBytes;
     keyframe.features = ParseFeatures(read_block(offset, feature_bytes));
+    for (const SessionFeature& f : keyframe.features) {
+      if (!std::isfinite(f.u) || !std::isfinite(f.v) || !std::isfinite(f.x) ||
+          !std::isfinite(f.y) || !std::isfinite(f.depth_m)) {
+        read.Fail(fmt::format("keyframe {} holds a feature whose position or depth is not finite",
+                              keyframe.id));
+      }
+    }
     offset += feature_bytes;
     block(entry, "depth_png_bytes", &keyframe.depth_offset, &keyframe.depth_size);
     block(entry, "color_jpeg_bytes", &keyframe.color_offset, &keyframe.color_size);
@@ -297,12 +306,11 @@ void WriteSessionRecord(const std::string& path, const SessionRecord& record,
   if (!out.flush()) throw std::runtime_error(path + ": could not write the session record");
 }
 
-SessionRecordReader::SessionRecordReader(const std::string& path)
-    : path_(path), file_(path, std::ios::binary) {
+SessionRecordReader::SessionRecordReader(const std::string& path) : path_(path) {
+  CheckInputFile(path, "session record");  // a FIFO would block the read, a folder fail it
+  file_.open(path, std::ios::binary);
   if (!file_) {
-    throw InputError(path +
-                     ": no session record there (a build writes session.bin into its "
-                     "output folder; build the session with this stillmap)");
+    throw InputError(path + ": cannot open the session record (" + std::strerror(errno) + ")");
   }
   file_.seekg(0, std::ios::end);
   file_size_ = static_cast<std::uint64_t>(file_.tellg());

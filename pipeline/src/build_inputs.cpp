@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 namespace {
@@ -58,11 +59,14 @@ BuildInputs OpenSequence(const BuildRequest& request, BuildResult* result) {
     const Camera camera = sequence.camera();
     return {camera, std::move(sequence), {}, {}};
   }
-  std::error_code folder_error;
-  if (!std::filesystem::is_directory(request.sequence_dir, folder_error)) {
-    throw InputError(request.sequence_dir +
-                     ": sequence folder not found (expected a TUM-layout folder with rgb.txt and "
-                     "depth.txt, a ROS 1 .bag, an .mcap or .db3 file, or a ROS 2 bag folder)");
+  CheckSequenceFolder(request.sequence_dir);
+  for (const std::string* topic : {&config.sequence.color_topic, &config.sequence.depth_topic,
+                                   &config.sequence.camera_info_topic}) {
+    if (!topic->empty()) {
+      throw InputError(request.sequence_dir + ": a TUM-layout folder has no topics, but " +
+                       Quoted(*topic) +
+                       " is named (--topic or sequence.*_topic); name topics only for a bag");
+    }
   }
   const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
   return {camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};

@@ -154,16 +154,6 @@ void WriteText(const std::string& path, const std::string& text, const char* nam
   if (!out.flush()) throw std::runtime_error(std::string("could not write ") + name);
 }
 
-// Names each file in the output folder that a run of ours did not write and that this run's
-// output of the same name will replace: Commit() keeps it beside, renamed.
-void WarnOfSetAside(const OutputSet& outputs, BuildResult* result) {
-  for (const OutputSet::SetAside& entry : outputs.PlanSetAside({"report.json", "report.html"})) {
-    result->warnings.push_back(outputs.FinalPath(entry.name) +
-                               " was not written by stillmap; it is kept as " +
-                               outputs.FinalPath(entry.kept_as));
-  }
-}
-
 }  // namespace
 
 // Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
@@ -225,7 +215,9 @@ BuildResult RunBuild(const BuildRequest& request) {
 
   EvaluateBuild(inputs, request, posed, cloud, &result);  // not counted in the speed above
   WriteRenders(std::move(cloud), posed, request, outputs, &result);
-  WarnOfSetAside(outputs, &result);
+  for (std::string& warning : outputs.SetAsideWarnings({"report.json", "report.html"})) {
+    result.warnings.push_back(std::move(warning));
+  }
   const nlohmann::json report = ReportJson(result, request.config);
   WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n", "report.json");
   WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report), "report.html");

@@ -114,13 +114,8 @@ std::string RunEval(const EvalRequest& request) {
 std::string DescribeSequence(const std::string& sequence_dir, const std::string& camera_preset) {
   CameraOverrides overrides;
   overrides.preset = camera_preset;
-  std::error_code error;
   const bool bag = IsBag(sequence_dir);
-  if (!bag && !fs::is_directory(sequence_dir, error)) {
-    throw InputError(sequence_dir +
-                     ": sequence folder not found (nor a ROS 1 .bag, an .mcap or .db3 file, or a "
-                     "ROS 2 bag folder)");
-  }
+  if (!bag) CheckSequenceFolder(sequence_dir);
   if (!bag && camera_preset.empty() &&
       !PathExists((fs::path(sequence_dir) / "camera.yaml").string())) {
     // ResolveCamera's advice names build's --set, which info does not take.

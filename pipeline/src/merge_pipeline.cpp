@@ -399,6 +399,9 @@ MergeResult RunMerge(const MergeRequest& request) {
   EvaluateSessions(sessions, trajectories, request.config, &result);
   EvaluateMergedMap(sessions, cloud, &result);
   WriteMergeRenders(std::move(cloud), sessions, joined, request, outputs, &result);
+  for (std::string& warning : outputs.SetAsideWarnings({"report.json", "report.html"})) {
+    result.warnings.push_back(std::move(warning));
+  }
   const nlohmann::json report = MergeReportJson(result, request);
   WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n");
   WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report));

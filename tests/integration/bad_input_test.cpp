@@ -68,14 +68,14 @@ TEST_F(BadInputTest, MergeRefusesFoldersItCannotJoin) {
     EXPECT_FALSE(fs::exists(merged)) << "outputs left behind";
   };
   expect_refused(a + " " + b + " -o " + merged, a + "/session.bin: missing");
-  expect_refused(a + " " + (dir_ / "nowhere") + " -o " + merged, "nowhere: not a folder");
+  expect_refused(a + " " + (dir_ / "nowhere") + " -o " + merged, "nowhere: no such folder");
   expect_refused(a + " -o " + merged, "at least two session folders");
   WriteText(a + "/session.bin", "stillmap-sessionxxxx");
   WriteText(b + "/session.bin", "not a record");
   expect_refused(a + " " + b + " -o " + merged, a + "/session.bin: damaged session record");
   expect_refused(b + " " + a + " -o " + merged, b + "/session.bin: not a stillmap session record");
   expect_refused(a + " " + b + " -o " + a, "the output folder is the session");
-  expect_refused(a + " " + a + " -o " + merged, "a second session named 'a'");
+  expect_refused(a + " " + a + " -o " + merged, "the same folder as");
 }
 
 TEST_F(BadInputTest, MissingSequenceFolder) {
@@ -85,7 +85,7 @@ TEST_F(BadInputTest, MissingSequenceFolder) {
 
 TEST_F(BadInputTest, MissingRgbList) {
   fs::remove(sequence_ + "/rgb.txt");
-  ExpectRefused("rgb.txt: cannot open");
+  ExpectRefused("no rgb.txt in the folder");
 }
 
 TEST_F(BadInputTest, EmptyDepthList) {

@@ -51,6 +51,7 @@ inline Scanned ScanAll(BagReader& bag) {
 class Cdr {
  public:
   Cdr() : bytes_{0x00, 0x01, 0x00, 0x00} {}
+  void U8(std::uint8_t value) { Put(&value, 1); }
   void U32(std::uint32_t value) { Put(&value, 4); }
   void F64(double value) { Put(&value, 8); }
   void String(const std::string& text) {

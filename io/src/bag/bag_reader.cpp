@@ -44,7 +44,7 @@ void BagReader::WarnTruncated(const std::string& where, double last_time) {
 
 size_t JoinTopic(std::vector<BagTopic>* topics, const BagTopic& topic) {
   for (size_t t = 0; t < topics->size(); ++t) {
-    if ((*topics)[t].name == topic.name) return t;
+    if ((*topics)[t].name == topic.name && (*topics)[t].type == topic.type) return t;
   }
   topics->push_back(topic);
   return topics->size() - 1;

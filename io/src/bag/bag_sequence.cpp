@@ -1,6 +1,9 @@
 // Sequence::OpenBag: a recorded bag as a sequence (issue 28).
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <limits>
 
 #include "bag/bag_frames.h"
 #include "stillmap/io/error.h"
@@ -111,7 +114,8 @@ std::string DescribeBagTopics(const std::string& path, const SequenceOptions& op
   for (const std::string& warning : contents.warnings) text += "warning: " + warning + "\n";
   try {
     const BagChoice choice = ChooseBagStreams(
-        contents, {options.color_topic, options.depth_topic, options.camera_info_topic}, path);
+        contents, {options.color_topic, options.depth_topic, options.camera_info_topic}, false,
+        path);
     text += "would use: colour " + contents.streams[choice.color].name + ", depth " +
             contents.streams[choice.depth].name + ", camera " +
             contents.streams[choice.camera_info].name + "\n";
@@ -122,6 +126,60 @@ std::string DescribeBagTopics(const std::string& path, const SequenceOptions& op
   return text;
 }
 
+namespace {
+
+// The smallest time between a colour and a depth header stamp [s] (both lists in any order).
+double NearestGap(std::vector<double> color, std::vector<double> depth) {
+  std::sort(color.begin(), color.end());
+  std::sort(depth.begin(), depth.end());
+  double gap = std::numeric_limits<double>::infinity();
+  size_t d = 0;
+  for (const double c : color) {
+    while (d + 1 < depth.size() && depth[d + 1] <= c) ++d;
+    for (size_t k = d; k < std::min(d + 2, depth.size()); ++k) {
+      gap = std::min(gap, std::abs(depth[k] - c));
+    }
+  }
+  return gap;
+}
+
+// The InputError `error` with what the bag's reading met (damage skipped, messages left out)
+// after it: that is often why a stream is missing.
+InputError WithWarnings(const InputError& error, const std::vector<std::string>& warnings) {
+  std::string text = error.what();
+  if (warnings.empty()) return InputError(text);
+  text += "\nReading the bag met:";
+  for (const std::string& warning : warnings) text += "\n  " + warning;
+  return InputError(text);
+}
+
+bool CameraGiven(const CameraOverrides& overrides) {
+  return !overrides.preset.empty() ||
+         (overrides.fx && overrides.fy && overrides.cx && overrides.cy);
+}
+
+// The camera: the CameraInfo's (info may be null when the camera is given), else the preset's,
+// then the keys given; a 16-bit depth image is in millimetres (REP 118) unless
+// camera.depth_factor says otherwise.
+Camera CameraOfBag(const BagStream* info, const CameraOverrides& overrides, const std::string& path,
+                   std::vector<std::string>* notes) {
+  Camera camera;
+  if (!overrides.preset.empty()) {
+    camera = CameraPreset(overrides.preset);
+    camera.depth_factor = 1000.0;
+    notes->push_back(
+        "camera.preset=" + overrides.preset + " given: used " +
+        (info == nullptr ? "(the bag has no CameraInfo)" : "instead of the bag's CameraInfo"));
+  } else if (info != nullptr) {
+    camera = CameraFromInfo(info->info, path + ": " + info->name);
+  } else {
+    camera.depth_factor = 1000.0;
+  }
+  return WithOverrides(camera, overrides, notes);
+}
+
+}  // namespace
+
 Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overrides,
                            const SequenceOptions& options) {
   if (!(options.max_pair_time_difference > 0.0)) {
@@ -129,42 +187,66 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
   }
   std::unique_ptr<BagReader> reader = stillmap::OpenBag(path);
   const BagContents contents = ScanBagContents(*reader);
-  const BagChoice choice = ChooseBagStreams(
-      contents, {options.color_topic, options.depth_topic, options.camera_info_topic}, path);
+  BagChoice choice;
+  try {
+    choice = ChooseBagStreams(contents,
+                              {options.color_topic, options.depth_topic, options.camera_info_topic},
+                              CameraGiven(overrides), path);
+  } catch (const InputError& error) {
+    throw WithWarnings(error, contents.warnings);
+  }
   const BagStream& color = contents.streams[choice.color];
   const BagStream& depth = contents.streams[choice.depth];
-  const BagStream& info = contents.streams[choice.camera_info];
+  for (const BagStream* stream : {&color, &depth}) {
+    if (stream->count == 1 && stream->repeated > 0) {
+      throw WithWarnings(InputError(path + ": every message on " + stream->name +
+                                    " has the same header stamp; colour and depth are paired "
+                                    "and the trajectory timed by the stamps (record with the "
+                                    "driver's stamps set)"),
+                         contents.warnings);
+    }
+  }
+  const BagStream* info =
+      choice.camera_info == BagChoice::kNone ? nullptr : &contents.streams[choice.camera_info];
   std::vector<std::string> notes;
   std::unique_ptr<DepthRegistration> registration =
-      RegistrationOf(contents, depth, info, path, &notes);
+      info == nullptr ? nullptr : RegistrationOf(contents, depth, *info, path, &notes);
   Sequence sequence;
   sequence.dir_ = path;
   sequence.options_ = options;
   sequence.warnings_ = contents.warnings;
   sequence.notes_ = notes;
   sequence.notes_.push_back("topics: colour " + color.name + ", depth " + depth.name + ", camera " +
-                            info.name);
-  Camera camera = overrides.preset.empty() ? CameraFromInfo(info.info, path + ": " + info.name)
-                                           : CameraPreset(overrides.preset);
-  if (!overrides.preset.empty()) {
-    sequence.notes_.push_back("camera.preset=" + overrides.preset +
-                              " given: used instead of the bag's CameraInfo");
+                            (info == nullptr ? "given, no CameraInfo" : info->name));
+  Camera camera = CameraOfBag(info, overrides, path, &sequence.notes_);
+  if (info == nullptr && overrides.preset.empty() && !overrides.width && color.width > 0) {
+    camera.width = color.width, camera.height = color.height;  // a raw colour topic's own size
   }
-  camera = WithOverrides(camera, overrides, &sequence.notes_);
-  camera.Validate(path + ": " + info.name);
-  sequence.camera_ = camera;
   auto frames =
       std::make_shared<BagFrames>(std::move(reader), color, depth, 1.0 / camera.depth_factor);
   if (registration != nullptr) frames->RegisterDepth(std::move(registration));
   frames->Pair(color, depth, options.max_pair_time_difference, &sequence.frames_);
+  if (sequence.frames_.empty()) {
+    char gap[64];
+    std::snprintf(gap, sizeof(gap), "%.3f s", NearestGap(color.stamps, depth.stamps));
+    throw WithWarnings(
+        InputError(path + ": no colour message on " + color.name + " has a depth message on " +
+                   depth.name + " within " + std::to_string(options.max_pair_time_difference) +
+                   " s of its header stamp; the nearest are " + gap +
+                   " apart (stamps on different clocks? widen the window with --set "
+                   "sequence.max_pair_time_difference=SECONDS)"),
+        contents.warnings);
+  }
+  if (info == nullptr && overrides.preset.empty() && !overrides.width && color.width == 0) {
+    cv::Mat first_color, first_depth;  // a compressed colour topic: its size is its first image's
+    frames->Load(0, sequence.frames_[0].time, &first_color, &first_depth);
+    camera.width = first_color.cols, camera.height = first_color.rows;
+  }
+  camera.Validate(path + ": " + (info == nullptr ? std::string("the camera given") : info->name));
+  sequence.camera_ = camera;
   sequence.color_count_ = color.count;
   sequence.depth_count_ = depth.count;
   sequence.bag_ = std::move(frames);
-  if (sequence.frames_.empty()) {
-    throw InputError(path + ": no colour message on " + color.name + " has a depth message on " +
-                     depth.name + " within " + std::to_string(options.max_pair_time_difference) +
-                     " s of its header stamp");
-  }
   if (!options.groundtruth.empty()) sequence.ReadGroundtruth(options.groundtruth);
   return sequence;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "stillmap/io/error.h"
 
@@ -98,22 +99,141 @@ size_t PickOne(const BagContents& contents, const std::vector<size_t>& found, co
 
 }  // namespace
 
+namespace {
+
+bool SameIntrinsics(const RosCameraInfo& a, const RosCameraInfo& b) {
+  return a.width == b.width && a.height == b.height && a.k == b.k && a.d == b.d &&
+         a.distortion_model == b.distortion_model;
+}
+
+// What one image message is, for judging its topic by its messages: "ENCODING WIDTHxHEIGHT" for
+// a raw image, the format for a compressed one; empty when it holds no image or no readable
+// header (*stamp is then left alone).
+std::string ImageKey(const BagStream& stream, const BagMessage& message,
+                     BagSerialization serialization, double* stamp) {
+  std::string error;
+  if (stream.kind == BagStreamKind::kImage) {
+    RosImage image;
+    if (!DecodeRosImage(message.data, message.size, serialization, &image, &error) ||
+        image.width == 0 || image.height == 0 || image.step == 0 ||
+        static_cast<std::uint64_t>(image.step) * image.height > image.size) {
+      return {};
+    }
+    *stamp = image.header.stamp;
+    return image.encoding + " " + std::to_string(image.width) + "x" + std::to_string(image.height);
+  }
+  RosCompressedImage image;
+  if (!DecodeRosCompressedImage(message.data, message.size, serialization, &image, &error) ||
+      image.size == 0) {
+    return {};
+  }
+  *stamp = image.header.stamp;
+  return image.format;
+}
+
+// The messages of one image topic as the scan found them, before the topic is judged.
+struct ImageMessages {
+  std::vector<std::string> keys;  // distinct keys, in the order first met
+  std::vector<size_t> key_of;     // per message: index into keys, or kNoImage
+  std::vector<double> stamps;
+  std::vector<BagPosition> positions;
+  static constexpr size_t kNoImage = static_cast<size_t>(-1);
+
+  void Add(const std::string& key, double stamp, const BagPosition& position) {
+    size_t index = kNoImage;
+    if (!key.empty()) {
+      index = static_cast<size_t>(std::find(keys.begin(), keys.end(), key) - keys.begin());
+      if (index == keys.size()) keys.push_back(key);
+    }
+    key_of.push_back(index);
+    stamps.push_back(stamp);
+    positions.push_back(position);
+  }
+};
+
+// Keeps the messages of the key most of them have (the first met on a tie); a warning counts
+// the others.
+void JudgeImages(const ImageMessages& messages, const std::string& path, BagStream* stream,
+                 std::vector<std::string>* warnings) {
+  std::vector<size_t> votes(messages.keys.size(), 0);
+  for (const size_t key : messages.key_of) {
+    if (key != ImageMessages::kNoImage) ++votes[key];
+  }
+  const size_t best =
+      votes.empty()
+          ? ImageMessages::kNoImage
+          : static_cast<size_t>(std::max_element(votes.begin(), votes.end()) - votes.begin());
+  std::set<double> stamps_kept;
+  for (size_t i = 0; i < messages.key_of.size(); ++i) {
+    if (messages.key_of[i] != best || best == ImageMessages::kNoImage) {
+      ++stream->skipped;
+      continue;
+    }
+    const double stamp = messages.stamps[i];
+    if (!stamps_kept.insert(stamp).second) {  // a message recorded twice, or stamps not set
+      ++stream->repeated;
+      continue;
+    }
+    if (stream->count == 0 || stamp < stream->first_stamp) stream->first_stamp = stamp;
+    stream->last_stamp = stream->count == 0 ? stamp : std::max(stream->last_stamp, stamp);
+    stream->stamps.push_back(stamp);
+    stream->positions.push_back(messages.positions[i]);
+    ++stream->count;
+  }
+  if (best != ImageMessages::kNoImage) {
+    const std::string& key = messages.keys[best];
+    const size_t space = key.rfind(' ');
+    if (stream->kind == BagStreamKind::kImage && space != std::string::npos) {
+      stream->detail = key.substr(0, space);
+      std::sscanf(key.c_str() + space + 1, "%dx%d", &stream->width, &stream->height);
+    } else {
+      stream->detail = key;
+    }
+  }
+  if (stream->repeated > 0) {
+    char stamp[32];
+    std::snprintf(stamp, sizeof(stamp), "%.6f", stream->first_stamp);
+    warnings->push_back(path + ": " + std::to_string(stream->repeated) + " of " +
+                        std::to_string(messages.key_of.size()) + " messages on " + stream->name +
+                        " repeat the header stamp of an earlier one and are left out" +
+                        (stream->count == 1
+                             ? std::string(" (every message has the stamp ") + stamp + " s)"
+                             : std::string()));
+  }
+  if (stream->skipped > 0) {
+    warnings->push_back(
+        path + ": " + std::to_string(stream->skipped) + " of " +
+        std::to_string(messages.key_of.size()) + " messages on " + stream->name +
+        " are left out: they hold no readable image" +
+        (best == ImageMessages::kNoImage
+             ? std::string()
+             : ", or another encoding or size than the topic's own (" + messages.keys[best] + ")"));
+  }
+}
+
+}  // namespace
+
 BagContents ScanBagContents(BagReader& bag) {
   BagContents contents;
-  size_t undecoded = 0, undecoded_transforms = 0;
+  std::map<size_t, ImageMessages> images;  // by stream
+  std::map<size_t, double> info_changed;   // camera-info streams: when the intrinsics change
+  size_t undecoded_transforms = 0;
   bag.Scan([&](const BagMessage& message) {
-    if (contents.streams.size() < bag.topics().size()) {
-      for (size_t t = contents.streams.size(); t < bag.topics().size(); ++t) {
-        BagStream stream;
-        stream.name = bag.topics()[t].name;
-        stream.type = bag.topics()[t].type;
-        stream.kind = KindOf(stream.type);
-        contents.streams.push_back(std::move(stream));
-      }
+    for (size_t t = contents.streams.size(); t < bag.topics().size(); ++t) {
+      BagStream stream;
+      stream.name = bag.topics()[t].name;
+      stream.type = bag.topics()[t].type;
+      stream.kind = KindOf(stream.type);
+      contents.streams.push_back(std::move(stream));
     }
     BagStream& stream = contents.streams[message.topic];
     std::string error;
-    double stamp = message.time;
+    if (stream.kind == BagStreamKind::kImage || stream.kind == BagStreamKind::kCompressedImage) {
+      double stamp = message.time;
+      const std::string key = ImageKey(stream, message, bag.serialization(), &stamp);
+      images[message.topic].Add(key, stamp, message.position);
+      return;
+    }
     if (stream.kind == BagStreamKind::kOther && stream.name == "/tf_static" &&
         stream.type.find("TFMessage") != std::string::npos &&
         !DecodeRosTfMessage(message.data, message.size, bag.serialization(),
@@ -123,38 +243,38 @@ BagContents ScanBagContents(BagReader& bag) {
     if (stream.kind == BagStreamKind::kCameraInfo && !stream.has_info) {
       stream.has_info = DecodeRosCameraInfo(message.data, message.size, bag.serialization(),
                                             &stream.info, &error);
-    } else if (stream.kind == BagStreamKind::kImage ||
-               stream.kind == BagStreamKind::kCompressedImage) {
-      if (stream.count == 0) {
-        RosImage image;
-        RosCompressedImage compressed;
-        if (stream.kind == BagStreamKind::kImage &&
-            DecodeRosImage(message.data, message.size, bag.serialization(), &image, &error)) {
-          stream.detail = image.encoding;
-        } else if (stream.kind == BagStreamKind::kCompressedImage &&
-                   DecodeRosCompressedImage(message.data, message.size, bag.serialization(),
-                                            &compressed, &error)) {
-          stream.detail = compressed.format;
-        }
+    } else if (stream.kind == BagStreamKind::kCameraInfo && !info_changed.count(message.topic)) {
+      RosCameraInfo later;
+      if (DecodeRosCameraInfo(message.data, message.size, bag.serialization(), &later, &error) &&
+          !SameIntrinsics(stream.info, later)) {
+        info_changed[message.topic] = message.time;
       }
-      RosHeader header;
-      if (!DecodeRosHeader(message.data, message.size, bag.serialization(), &header, &error)) {
-        ++undecoded;
-        return;
-      }
-      stamp = header.stamp;
-      stream.stamps.push_back(stamp);
-      stream.positions.push_back(message.position);
     }
-    if (stream.count == 0 || stamp < stream.first_stamp) stream.first_stamp = stamp;
-    stream.last_stamp = std::max(stream.last_stamp, stamp);
+    if (stream.count == 0 || message.time < stream.first_stamp) stream.first_stamp = message.time;
+    stream.last_stamp = std::max(stream.last_stamp, message.time);
     ++stream.count;
   });
   contents.truncated = bag.truncated();
   contents.warnings = bag.warnings();
-  if (undecoded > 0) {
-    contents.warnings.push_back(bag.path() + ": " + std::to_string(undecoded) +
-                                " image messages without a readable header are left out");
+  for (const auto& [index, messages] : images) {
+    JudgeImages(messages, bag.path(), &contents.streams[index], &contents.warnings);
+  }
+  for (const auto& [index, time] : info_changed) {
+    char when[32];
+    std::snprintf(when, sizeof(when), "%.3f", time);
+    contents.warnings.push_back(bag.path() + ": the CameraInfo on " + contents.streams[index].name +
+                                " changes at t = " + when +
+                                " s (size, K or distortion); its first message is used for every "
+                                "frame");
+  }
+  for (size_t i = 0; i < contents.streams.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (contents.streams[j].name != contents.streams[i].name) continue;
+      contents.warnings.push_back(bag.path() + ": topic " + contents.streams[i].name +
+                                  " carries two types (" + contents.streams[j].type + ", " +
+                                  contents.streams[i].type +
+                                  "); each is read as its own, and --topic takes the first");
+    }
   }
   if (undecoded_transforms > 0) {
     contents.warnings.push_back(bag.path() + ": " + std::to_string(undecoded_transforms) +
@@ -164,7 +284,7 @@ BagContents ScanBagContents(BagReader& bag) {
 }
 
 BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& names,
-                           const std::string& path) {
+                           bool camera_given, const std::string& path) {
   std::vector<size_t> colors, depths;
   for (size_t i = 0; i < contents.streams.size(); ++i) {
     const BagStream& stream = contents.streams[i];
@@ -188,17 +308,20 @@ BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& nam
     choice.camera_info = Named(contents, names.camera_info, "the camera info", path);
   } else {
     const std::string wanted = CameraInfoTopicOf(contents.streams[choice.color].name);
-    std::vector<size_t> found;
     for (size_t i = 0; i < contents.streams.size(); ++i) {
-      if (contents.streams[i].name == wanted && contents.streams[i].has_info) found.push_back(i);
+      if (contents.streams[i].name == wanted && contents.streams[i].has_info) {
+        choice.camera_info = i;
+        break;
+      }
     }
-    if (found.empty()) {
+    if (choice.camera_info == BagChoice::kNone && camera_given) return choice;
+    if (choice.camera_info == BagChoice::kNone) {
       throw InputError(path + ": no camera info beside the colour topic (" + wanted +
                        "); name one with --topic camera_info=NAME, or give the camera with "
-                       "--set camera.preset=... or camera.fx, fy, cx, cy; the bag holds:\n" +
+                       "--set camera.preset=NAME or with camera.fx, camera.fy, camera.cx and "
+                       "camera.cy (the image size is then the colour images'); the bag holds:\n" +
                        DescribeBagStreams(contents));
     }
-    choice.camera_info = found[0];
   }
   if (!contents.streams[choice.camera_info].has_info) {
     throw InputError(path + ": topic " + contents.streams[choice.camera_info].name +

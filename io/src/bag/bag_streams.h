@@ -17,8 +17,11 @@ enum class BagStreamKind { kOther, kImage, kCompressedImage, kCameraInfo };
 struct BagStream {
   std::string name, type;
   BagStreamKind kind = BagStreamKind::kOther;
-  std::string detail;  // an image's encoding or a compressed image's format (its first message)
-  size_t count = 0;
+  std::string detail;         // images: the encoding or compressed format most of its messages have
+  int width = 0, height = 0;  // raw images: the size most of its messages have [px]
+  size_t count = 0;           // images: the messages kept (those of `detail` and that size)
+  size_t skipped = 0;         // images: messages left out (no image, or another encoding or size)
+  size_t repeated = 0;        // images: messages left out for repeating an earlier header stamp
   double first_stamp = 0.0, last_stamp = 0.0;  // header stamps [s] (record times for others)
   std::vector<double> stamps;                  // images: header stamp per message
   std::vector<BagPosition> positions;          // images: where each message lies
@@ -33,7 +36,9 @@ struct BagContents {
   std::vector<std::string> warnings;
 };
 
-// Scans the whole bag once. Messages whose header does not decode are counted in a warning.
+// Scans the whole bag once. An image topic is judged by its messages: those of the encoding (or
+// format) and size most of them have are kept; the others (no image, no readable header, another
+// encoding or size) are left out and counted in a warning.
 BagContents ScanBagContents(BagReader& bag);
 
 // The topics a build uses; empty names are chosen automatically.
@@ -42,13 +47,17 @@ struct BagTopicNames {
 };
 
 struct BagChoice {
-  size_t color = 0, depth = 0, camera_info = 0;  // indices into BagContents::streams
+  static constexpr size_t kNone = static_cast<size_t>(-1);
+  size_t color = 0, depth = 0;  // indices into BagContents::streams
+  size_t camera_info = kNone;   // kNone: no CameraInfo used (the camera was given)
 };
 
-// Chooses the streams (the named ones when given). Throws InputError naming the bag, saying which
-// stream is missing or ambiguous and listing the topics with their type and count.
+// Chooses the streams (the named ones when given). Without a CameraInfo beside the colour topic,
+// `camera_given` (a preset or the intrinsics set by the user) lets the build go on without one.
+// Throws InputError naming the bag, saying which stream is missing or ambiguous and listing the
+// topics with their type and count.
 BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& names,
-                           const std::string& path);
+                           bool camera_given, const std::string& path);
 
 // The camera-info topic that drivers publish beside an image topic: /x/camera_info for
 // /x/image_raw and its transports (/x/image_raw/compressed).

@@ -2,6 +2,7 @@
 
 #include <bzlib.h>
 #include <lz4frame.h>
+#include <xxhash.h>
 #include <zstd.h>
 
 #include <cstdint>
@@ -72,7 +73,11 @@ bool Lz4Sequences(const std::uint8_t* in, size_t size, size_t history_start,
   return false;
 }
 
-bool Lz4FrameByHand(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* out) {
+// The frame's checksums (xxHash32, seed 0) are checked as liblz4 checks them: a block's over its
+// stored bytes, the content's over the frame's whole output. Without them, data that liblz4
+// refused as damaged would pass here.
+bool Lz4FrameByHand(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* out,
+                    std::string* error) {
   size_t at = 0, written = 0;
   while (at <= size && size - at >= 7 && Le32(data + at) == 0x184D2204U) {
     const std::uint8_t flags = data[at + 4];
@@ -85,7 +90,11 @@ bool Lz4FrameByHand(const std::uint8_t* data, size_t size, std::vector<std::uint
       at += 4;
       if (word == 0) break;
       const size_t block = word & 0x7FFFFFFFU;
-      if (block > size - at) return false;
+      if (block > size - at || (block_checksum && size - at - block < 4)) return false;
+      if (block_checksum && XXH32(data + at, block, 0) != Le32(data + at + block)) {
+        *error = "lz4 data damaged (a block's checksum does not match)";
+        return false;
+      }
       if ((word & 0x80000000U) != 0) {
         if (block > out->size() - written) return false;
         std::memcpy(out->data() + written, data + at, block);
@@ -96,7 +105,14 @@ bool Lz4FrameByHand(const std::uint8_t* data, size_t size, std::vector<std::uint
       }
       at += block + (block_checksum ? 4 : 0);
     }
-    at += (flags & 0x04U) != 0 ? 4 : 0;
+    if ((flags & 0x04U) != 0) {
+      if (size - at < 4) return false;
+      if (XXH32(out->data() + frame_start, written - frame_start, 0) != Le32(data + at)) {
+        *error = "lz4 data damaged (the content checksum does not match)";
+        return false;
+      }
+      at += 4;
+    }
   }
   return at == size && written == out->size();
 }
@@ -129,8 +145,11 @@ bool Lz4Frame(const std::uint8_t* data, size_t size, std::vector<std::uint8_t>* 
     }
   }
   LZ4F_freeDecompressionContext(context);
-  if (!ok && Lz4FrameByHand(data, size, out)) return true;
-  if (ok && written != out->size()) {
+  if (!ok && Lz4FrameByHand(data, size, out, error)) return true;
+  if (ok && read != size) {  // a frame that ends before its block: the block's length is damaged
+    *error = "lz4 data: the frame ends " + std::to_string(size - read) + " bytes before the block";
+    ok = false;
+  } else if (ok && written != out->size()) {
     *error = "lz4 data gave " + std::to_string(written) + " bytes, the header says " +
              std::to_string(out->size());
     ok = false;

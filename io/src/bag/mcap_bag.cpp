@@ -17,7 +17,9 @@ constexpr std::uint8_t kOpSchema = 0x03;
 constexpr std::uint8_t kOpChannel = 0x04;
 constexpr std::uint8_t kOpMessage = 0x05;
 constexpr std::uint8_t kOpChunk = 0x06;
+constexpr std::uint8_t kOpChunkIndex = 0x08;
 constexpr std::uint8_t kOpDataEnd = 0x0F;
+constexpr std::uint8_t kOpFirstPrivate = 0x80;  // 0x80-0xFF: private records, skipped
 constexpr std::uint64_t kMaxChunkBytes = 1ULL << 30U;
 // A message outside any chunk: BagPosition::block is its record's file offset.
 constexpr std::uint32_t kUnchunked = 0xFFFFFFFFU;
@@ -66,6 +68,33 @@ class Fields {
   size_t at_ = 0;
 };
 
+// True when `p` (`available` bytes, at file offset `offset` of `file_size`) starts a chunk record
+// whose header is self-consistent: a known compression and a records length that fills the
+// record exactly.
+bool IsChunkHeader(const std::uint8_t* p, size_t available, std::uint64_t offset,
+                   std::uint64_t file_size) {
+  if (available < 9 || p[0] != kOpChunk) return false;
+  const std::uint64_t length = Le64(p + 1);
+  if (length > file_size - offset - 9) return false;
+  Fields fields(p + 9, std::min<std::uint64_t>(available - 9, length));
+  std::uint64_t start = 0, end = 0, uncompressed = 0, records = 0;
+  std::uint32_t crc = 0;
+  std::string compression;
+  if (!fields.U64(&start) || !fields.U64(&end) || !fields.U64(&uncompressed) || !fields.U32(&crc) ||
+      !fields.String(&compression)) {
+    return false;
+  }
+  if (!fields.U64(&records)) return false;
+  return end >= start && uncompressed <= kMaxChunkBytes &&
+         (compression.empty() || compression == "lz4" || compression == "zstd") &&
+         records == length - fields.at();
+}
+
+// A record op of MCAP's specification (0x01-0x0F) or a private one; anything else is damage.
+bool IsKnownOp(std::uint8_t op) {
+  return (op >= 0x01 && op <= kOpDataEnd) || op >= kOpFirstPrivate;
+}
+
 }  // namespace
 
 McapBag::McapBag(const std::string& path) : BagReader(path), read_file_(path, std::ios::binary) {
@@ -93,10 +122,10 @@ void McapBag::Record(std::uint8_t op, const std::uint8_t* content, size_t size,
         !fields.U64(&publish_time)) {
       return;
     }
-    const auto topic = topic_of_channel_.find(channel);
-    if (topic == topic_of_channel_.end()) return;
+    size_t topic = 0;
+    if (!TopicOfChannel(channel, &topic)) return;
     BagMessage message;
-    message.topic = topic->second;
+    message.topic = topic;
     message.time = 1e-9 * static_cast<double>(log_time);
     message.position = position;
     message.data = content + fields.at();
@@ -143,12 +172,107 @@ bool McapBag::LoadChunk(std::ifstream& file, std::uint64_t offset, std::uint64_t
   return true;
 }
 
+void McapBag::ReadSummary(std::ifstream& file) {
+  summary_channels_.clear();
+  summary_chunks_.clear();
+  // The footer record (op, length 20, summary_start, summary_offset_start, summary_crc), then
+  // the closing magic.
+  constexpr std::uint64_t kFooterRecord = 9 + 20;
+  if (file_size_ < kMagicSize * 2 + kFooterRecord) return;
+  const std::uint64_t footer = file_size_ - kMagicSize - kFooterRecord;
+  std::uint8_t tail[kFooterRecord + kMagicSize] = {};
+  file.clear();
+  file.seekg(static_cast<std::streamoff>(footer));
+  file.read(reinterpret_cast<char*>(tail), sizeof(tail));
+  if (!file || tail[0] != kOpFooter || Le64(tail + 1) != 20 ||
+      std::memcmp(tail + kFooterRecord, kMagic, kMagicSize) != 0) {
+    return;
+  }
+  const std::uint64_t summary_start = Le64(tail + 9);
+  if (summary_start < kMagicSize || summary_start >= footer) return;
+  std::vector<std::uint8_t> summary(footer - summary_start);
+  file.seekg(static_cast<std::streamoff>(summary_start));
+  file.read(reinterpret_cast<char*>(summary.data()), static_cast<std::streamsize>(summary.size()));
+  if (!file) return;
+  std::map<std::uint16_t, std::string> schemas;
+  for (size_t at = 0; summary.size() - at >= 9;) {
+    const std::uint64_t length = Le64(summary.data() + at + 1);
+    if (length > summary.size() - at - 9) break;
+    Fields fields(summary.data() + at + 9, length);
+    std::uint16_t id = 0, schema = 0;
+    std::uint64_t start = 0, end = 0, chunk = 0;
+    std::string name;
+    const std::uint8_t op = summary[at];
+    if (op == kOpSchema && fields.U16(&id) && fields.String(&name)) {
+      schemas[id] = name;
+    } else if (op == kOpChannel && fields.U16(&id) && fields.U16(&schema) && fields.String(&name)) {
+      summary_channels_[id] = {name, schemas[schema]};
+    } else if (op == kOpChunkIndex && fields.U64(&start) && fields.U64(&end) &&
+               fields.U64(&chunk) && chunk >= kMagicSize && chunk < summary_start) {
+      summary_chunks_.push_back(chunk);
+    }
+    at += 9 + length;
+  }
+  std::sort(summary_chunks_.begin(), summary_chunks_.end());
+}
+
+bool McapBag::TopicOfChannel(std::uint16_t id, size_t* topic) {
+  auto known = topic_of_channel_.find(id);
+  if (known == topic_of_channel_.end()) {
+    const auto summarized = summary_channels_.find(id);
+    if (summarized == summary_channels_.end()) return false;
+    known = topic_of_channel_.emplace(id, JoinTopic(&topics_, summarized->second)).first;
+  }
+  *topic = known->second;
+  return true;
+}
+
+std::uint64_t McapBag::NextChunkAfter(std::ifstream& file, std::uint64_t from) const {
+  constexpr size_t kHeaderBytes = 9 + 8 * 3 + 4 + 4 + 8 + 8;  // a chunk header, compression <= 8
+  std::uint8_t head[kHeaderBytes] = {};
+  auto is_chunk = [&](std::uint64_t offset) {
+    const auto available =
+        static_cast<size_t>(std::min<std::uint64_t>(kHeaderBytes, file_size_ - offset));
+    file.clear();
+    file.seekg(static_cast<std::streamoff>(offset));
+    file.read(reinterpret_cast<char*>(head), static_cast<std::streamsize>(available));
+    return file && IsChunkHeader(head, available, offset, file_size_);
+  };
+  // The summary's next chunk bounds the search; the bytes before it are searched too.
+  std::uint64_t limit = file_size_;
+  for (auto it = std::upper_bound(summary_chunks_.begin(), summary_chunks_.end(), from);
+       it != summary_chunks_.end(); ++it) {
+    if (is_chunk(*it)) {
+      limit = *it;
+      break;
+    }
+  }
+  constexpr std::uint64_t kWindow = 1U << 20U;
+  std::vector<std::uint8_t> window;
+  for (std::uint64_t start = from + 1; start < limit; start += kWindow) {
+    window.resize(
+        static_cast<size_t>(std::min<std::uint64_t>(kWindow + kHeaderBytes, file_size_ - start)));
+    file.clear();
+    file.seekg(static_cast<std::streamoff>(start));
+    file.read(reinterpret_cast<char*>(window.data()), static_cast<std::streamsize>(window.size()));
+    if (!file) break;
+    for (size_t i = 0; i < window.size() && i < kWindow && start + i < limit; ++i) {
+      if (window[i] == kOpChunk &&
+          IsChunkHeader(window.data() + i, window.size() - i, start + i, file_size_)) {
+        return start + i;
+      }
+    }
+  }
+  return limit;
+}
+
 void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
   warnings_.clear();
   truncated_ = false;
   last_time_ = 0.0;
   std::ifstream file(path_, std::ios::binary);
   if (!file) throw InputError(path_ + ": cannot open the bag");
+  ReadSummary(file);
   std::uint64_t offset = kMagicSize;
   std::vector<std::uint8_t> content, chunk;
   while (true) {
@@ -157,9 +281,19 @@ void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
     file.seekg(static_cast<std::streamoff>(offset));
     file.read(reinterpret_cast<char*>(head), sizeof(head));
     const std::uint64_t length = Le64(head + 1);
-    if (!file || length > file_size_ - offset - sizeof(head)) {
-      WarnTruncated(offset, file_size_, last_time_);
-      return;
+    if (!file || length > file_size_ - offset - sizeof(head) || !IsKnownOp(head[0])) {
+      // Damage, or the end of a recording cut short: read on from the next chunk, if any.
+      const std::uint64_t next = NextChunkAfter(file, offset);
+      if (next >= file_size_) {
+        WarnTruncated(offset, file_size_, last_time_);
+        return;
+      }
+      warnings_.push_back(path_ + ": bytes " + std::to_string(offset) + " to " +
+                          std::to_string(next) + " (" + std::to_string(next - offset) +
+                          " bytes) are damaged and skipped; the bag is read on from byte " +
+                          std::to_string(next));
+      offset = next;
+      continue;
     }
     const std::uint8_t op = head[0];
     const std::uint64_t content_offset = offset + sizeof(head);
@@ -167,8 +301,16 @@ void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
     if (op == kOpChunk) {
       std::string error;
       if (!LoadChunk(file, content_offset, length, &chunk, &error)) {
+        // The chunk's length may be the damage: the next chunk is looked for, not assumed.
+        const std::uint64_t next = NextChunkAfter(file, offset);
         warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
-                            " is skipped: " + error);
+                            " is skipped (" + error + "); " +
+                            (next < file_size_
+                                 ? "the bag is read on from byte " + std::to_string(next)
+                                 : std::string("nothing after it could be read")));
+        if (next >= file_size_) return;
+        offset = next;
+        continue;
       } else {
         size_t at = 0;
         while (chunk.size() - at >= 9) {

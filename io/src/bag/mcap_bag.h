@@ -36,11 +36,22 @@ class McapBag : public BagReader {
   bool LoadChunk(std::ifstream& file, std::uint64_t offset, std::uint64_t size,
                  std::vector<std::uint8_t>* out, std::string* error) const;
   const std::vector<std::uint8_t>& CachedChunkAt(std::uint64_t block) const;
+  // The summary section's channels and chunk offsets, as far as its records parse (a recording
+  // cut short has none): what a damaged data section is recovered from.
+  void ReadSummary(std::ifstream& file);
+  // The topic of channel `id`: the one its data-section record gave, else the summary's
+  // (registered then); false when neither knows it.
+  bool TopicOfChannel(std::uint16_t id, size_t* topic);
+  // The first chunk record after `from` (the summary's next chunk bounds a byte-by-byte search),
+  // or file_size_ when there is none.
+  std::uint64_t NextChunkAfter(std::ifstream& file, std::uint64_t from) const;
 
   std::uint64_t file_size_ = 0;
   std::vector<BagTopic> topics_;
   std::map<std::uint16_t, std::string> schema_name_;
   std::map<std::uint16_t, size_t> topic_of_channel_;
+  std::map<std::uint16_t, BagTopic> summary_channels_;
+  std::vector<std::uint64_t> summary_chunks_;  // chunk offsets of the summary, ascending
   double last_time_ = 0.0;
 
   mutable std::mutex read_mutex_;  // guards the members below (Read)

@@ -12,8 +12,12 @@ namespace {
 
 constexpr std::uint8_t kOpMessage = 0x02;
 constexpr std::uint8_t kOpBagHeader = 0x03;
+constexpr std::uint8_t kOpIndexData = 0x04;
 constexpr std::uint8_t kOpChunk = 0x05;
+constexpr std::uint8_t kOpChunkInfo = 0x06;
 constexpr std::uint8_t kOpConnection = 0x07;
+// A resynchronisation's candidate record headers are this short (rosbag's are under 200 bytes).
+constexpr std::uint32_t kMaxOuterHeaderBytes = 4096;
 // Larger record headers or chunks than these are damage, not data (rosbag's own chunks are
 // 768 KiB by default; a header holds a few short fields).
 constexpr std::uint32_t kMaxHeaderBytes = 1U << 20U;
@@ -51,6 +55,26 @@ bool FieldU32(const Fields& fields, const char* name, std::uint32_t* value) {
   if (it == fields.end() || it->second.size() != 4) return false;
   *value = Le32(reinterpret_cast<const std::uint8_t*>(it->second.data()));
   return true;
+}
+
+bool FieldU64(const Fields& fields, const char* name, std::uint64_t* value) {
+  const auto it = fields.find(name);
+  if (it == fields.end() || it->second.size() != 8) return false;
+  *value = Le64(reinterpret_cast<const std::uint8_t*>(it->second.data()));
+  return true;
+}
+
+// A record that may stand in the data or index section (messages stand only inside chunks).
+bool IsOuterOp(std::uint8_t op) {
+  return op == kOpChunk || op == kOpIndexData || op == kOpChunkInfo || op == kOpConnection;
+}
+
+// The warning for bytes [from, to) skipped after damage.
+std::string SkippedBytes(std::uint64_t from, std::uint64_t to, const std::string& damage) {
+  return "bytes " + std::to_string(from) + " to " + std::to_string(to) + " (" +
+         std::to_string(to - from) + " bytes) are damaged" +
+         (damage.empty() ? std::string() : " (" + damage + ")") +
+         " and skipped; the bag is read on from byte " + std::to_string(to);
 }
 
 // A ROS 1 time field: seconds and nanoseconds, 32 bits each.
@@ -98,6 +122,10 @@ Ros1Bag::Ros1Bag(const std::string& path) : BagReader(path), read_file_(path, st
                      (damage.empty() ? std::string() : " (" + damage + ")"));
   }
   data_start_ = header.end;
+  if (!FieldU64(header.fields, "index_pos", &index_pos_) || index_pos_ < data_start_ ||
+      index_pos_ >= file_size_) {
+    index_pos_ = 0;  // not indexed (a recording cut short), or a damaged header field
+  }
 }
 
 bool Ros1Bag::ReadRecord(std::ifstream& file, std::uint64_t offset, Record* record,
@@ -174,10 +202,10 @@ bool Ros1Bag::ScanChunk(std::uint64_t chunk_offset, const std::vector<std::uint8
     if (op == kOpConnection) AddConnection(fields, chunk.data() + data_offset, data_size);
     std::uint32_t connection = 0;
     if (op == kOpMessage && FieldU32(fields, "conn", &connection)) {
-      const auto topic = topic_of_connection_.find(connection);
+      size_t topic = 0;
       BagMessage message;
-      if (topic != topic_of_connection_.end() && FieldTime(fields, "time", &message.time)) {
-        message.topic = topic->second;
+      if (TopicOfConnection(connection, &topic) && FieldTime(fields, "time", &message.time)) {
+        message.topic = topic;
         message.position = {chunk_offset, static_cast<std::uint32_t>(offset)};
         message.data = chunk.data() + data_offset;
         message.size = data_size;
@@ -190,11 +218,104 @@ bool Ros1Bag::ScanChunk(std::uint64_t chunk_offset, const std::vector<std::uint8
   return true;
 }
 
+void Ros1Bag::ReadIndex(std::ifstream& file) {
+  index_connections_.clear();
+  index_chunks_.clear();
+  if (index_pos_ == 0) return;
+  for (std::uint64_t offset = index_pos_; offset < file_size_;) {
+    Record record;
+    std::string damage;
+    std::uint8_t op = 0;
+    if (!ReadRecord(file, offset, &record, &damage) || !FieldU8(record.fields, "op", &op)) break;
+    std::uint32_t id = 0;
+    std::uint64_t chunk = 0;
+    const auto topic = record.fields.find("topic");
+    if (op == kOpConnection && FieldU32(record.fields, "conn", &id) &&
+        topic != record.fields.end() && record.data_size <= kMaxOuterHeaderBytes * 16) {
+      std::vector<std::uint8_t> data(record.data_size);
+      file.read(reinterpret_cast<char*>(data.data()), static_cast<std::streamsize>(data.size()));
+      Fields connection;
+      if (file && ParseFields(data.data(), data.size(), &connection)) {
+        index_connections_[id] = {topic->second, connection["type"]};
+      }
+    } else if (op == kOpChunkInfo && FieldU64(record.fields, "chunk_pos", &chunk) &&
+               chunk >= data_start_ && chunk < index_pos_) {
+      index_chunks_.push_back(chunk);
+    }
+    offset = record.end;
+  }
+  std::sort(index_chunks_.begin(), index_chunks_.end());
+}
+
+bool Ros1Bag::TopicOfConnection(std::uint32_t id, size_t* topic) {
+  auto known = topic_of_connection_.find(id);
+  if (known == topic_of_connection_.end()) {
+    const auto indexed = index_connections_.find(id);
+    if (indexed == index_connections_.end()) return false;
+    known = topic_of_connection_.emplace(id, JoinTopic(&topics_, indexed->second)).first;
+  }
+  *topic = known->second;
+  return true;
+}
+
+bool Ros1Bag::IsRecordStart(std::ifstream& file, std::uint64_t offset) const {
+  Record record;
+  std::string damage;
+  std::uint8_t op = 0;
+  if (!ReadRecord(file, offset, &record, &damage) || !FieldU8(record.fields, "op", &op) ||
+      !IsOuterOp(op)) {
+    return false;
+  }
+  std::uint32_t size = 0;
+  if (op == kOpChunk &&
+      (record.fields.count("compression") == 0 || !FieldU32(record.fields, "size", &size))) {
+    return false;
+  }
+  if (record.end == file_size_) return true;
+  Record next;
+  return ReadRecord(file, record.end, &next, &damage) && FieldU8(next.fields, "op", &op) &&
+         IsOuterOp(op);
+}
+
+std::uint64_t Ros1Bag::NextRecordAfter(std::ifstream& file, std::uint64_t from) const {
+  // The index's next chunk bounds the search; the bytes before it are searched too, in case the
+  // index misses a chunk.
+  std::uint64_t limit = file_size_;
+  for (auto it = std::upper_bound(index_chunks_.begin(), index_chunks_.end(), from);
+       it != index_chunks_.end(); ++it) {
+    if (IsRecordStart(file, *it)) {
+      limit = *it;
+      break;
+    }
+  }
+  // Byte by byte: a plausible header length and first field length, then the records themselves.
+  constexpr std::uint64_t kWindow = 1U << 20U;
+  std::vector<std::uint8_t> window;
+  for (std::uint64_t start = from + 1; start < limit && file_size_ - start >= 8; start += kWindow) {
+    window.resize(static_cast<size_t>(std::min<std::uint64_t>(kWindow + 8, file_size_ - start)));
+    file.clear();
+    file.seekg(static_cast<std::streamoff>(start));
+    file.read(reinterpret_cast<char*>(window.data()), static_cast<std::streamsize>(window.size()));
+    if (!file) break;
+    for (size_t i = 0; i + 8 <= window.size() && i < kWindow && start + i < limit; ++i) {
+      const std::uint32_t header_size = Le32(window.data() + i);
+      const std::uint32_t first_field = Le32(window.data() + i + 4);
+      if (header_size < 8 || header_size > kMaxOuterHeaderBytes || first_field < 4 ||
+          first_field > header_size - 4) {
+        continue;
+      }
+      if (IsRecordStart(file, start + i)) return start + i;
+    }
+  }
+  return limit;
+}
+
 void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
   warnings_.clear();
   truncated_ = false;
   std::ifstream file(path_, std::ios::binary);
   if (!file) throw InputError(path_ + ": cannot open the bag");
+  ReadIndex(file);
   std::uint64_t offset = data_start_;
   double last_time = 0.0;
   std::vector<std::uint8_t> chunk;
@@ -203,15 +324,31 @@ void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
     std::string damage;
     std::uint8_t op = 0;
     if (!ReadRecord(file, offset, &record, &damage) || !FieldU8(record.fields, "op", &op)) {
-      WarnTruncated(offset, file_size_, last_time, damage);
-      return;
+      // Damage, or the end of a bag cut short: read on from the next record, if there is one.
+      const std::uint64_t next = NextRecordAfter(file, offset);
+      if (next >= file_size_) {
+        WarnTruncated(offset, file_size_, last_time, damage);
+        return;
+      }
+      warnings_.push_back(path_ + ": " + SkippedBytes(offset, next, damage));
+      offset = next;
+      continue;
     }
     if (op == kOpChunk) {
       std::string error;
       if (!LoadChunk(file, record, &chunk, &error)) {
+        // The chunk's length may be the damage: the next chunk is looked for, not assumed.
+        const std::uint64_t next = NextRecordAfter(file, offset);
         warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
-                            " is skipped: " + error);
-      } else if (!ScanChunk(offset, chunk, visit, &last_time)) {
+                            " is skipped (" + error + "); " +
+                            (next < file_size_
+                                 ? "the bag is read on from byte " + std::to_string(next)
+                                 : std::string("nothing after it could be read")));
+        if (next >= file_size_) return;
+        offset = next;
+        continue;
+      }
+      if (!ScanChunk(offset, chunk, visit, &last_time)) {
         warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
                             " holds a damaged record; its later messages are skipped");
       }

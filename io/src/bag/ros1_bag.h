@@ -51,11 +51,26 @@ class Ros1Bag : public BagReader {
   // Visits the messages of one decompressed chunk; false when a record in it is damaged.
   bool ScanChunk(std::uint64_t chunk_offset, const std::vector<std::uint8_t>& chunk,
                  const std::function<void(const BagMessage&)>& visit, double* last_time);
+  // The index section's connections and chunk positions, as far as its records parse (a bag cut
+  // short has none): what a damaged data section is recovered from.
+  void ReadIndex(std::ifstream& file);
+  // The topic of connection `id`: the one its data-section record gave, else the index's
+  // (registered then); false when neither knows it.
+  bool TopicOfConnection(std::uint32_t id, size_t* topic);
+  // True when a record of the data or index section starts at `offset` and the record after it
+  // (or the file's end) follows: what a resynchronisation may resume at.
+  bool IsRecordStart(std::ifstream& file, std::uint64_t offset) const;
+  // The first record start after `from` (the index's next chunk, else found byte by byte), or
+  // file_size_ when there is none.
+  std::uint64_t NextRecordAfter(std::ifstream& file, std::uint64_t from) const;
 
   std::uint64_t file_size_ = 0;
   std::uint64_t data_start_ = 0;  // the first record after the bag header
+  std::uint64_t index_pos_ = 0;   // the bag header's index_pos: where the index section starts
   std::vector<BagTopic> topics_;
   std::map<std::uint32_t, size_t> topic_of_connection_;
+  std::map<std::uint32_t, BagTopic> index_connections_;
+  std::vector<std::uint64_t> index_chunks_;  // chunk positions of the index, ascending
 
   // The chunk at `block`, decompressed (from the cache when there).
   const std::vector<std::uint8_t>& CachedChunkAt(std::uint64_t block) const;

@@ -67,8 +67,9 @@ class BagReader {
   bool truncated_ = false;
 };
 
-// The index of the topic named `topic.name` in *topics, appended first when it is new: topics
-// are one per name, however many connections or channels or files carry them.
+// The index of the topic named `topic.name` of type `topic.type` in *topics, appended first when
+// it is new: topics are one per name and type, however many connections or channels or files
+// carry them (a name with two types is two topics, so that neither is decoded as the other).
 size_t JoinTopic(std::vector<BagTopic>* topics, const BagTopic& topic);
 
 // True when `path` is a file that starts like a bag stillmap reads (by its bytes, not its name:

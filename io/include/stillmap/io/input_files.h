@@ -12,6 +12,11 @@ namespace stillmap {
 // symbolic link loop.
 void CheckInputFile(const std::string& path, const std::string& what);
 
+// For a sequence path that is not a bag: throws InputError saying what is there instead of a
+// TUM-layout folder (nothing, an empty or unreadable file, a file that is not a bag, a FIFO or
+// device, an empty folder, a folder without rgb.txt); returns for a folder holding rgb.txt.
+void CheckSequenceFolder(const std::string& path);
+
 // Whether anything is at `path`, a broken or looping symbolic link included (so that the reader
 // then names what is wrong with it). Never throws.
 bool PathExists(const std::string& path);

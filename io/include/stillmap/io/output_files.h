@@ -59,6 +59,9 @@ class OutputSet {
   // The files Commit() will rename aside: those staged so far plus `also_staged` (names still to
   // be written) that exist in the folder but are not in the last run's record.
   std::vector<SetAside> PlanSetAside(const std::vector<std::string>& also_staged = {}) const;
+  // One warning per file PlanSetAside(also_staged) names: it was not written by stillmap and is
+  // kept beside, renamed.
+  std::vector<std::string> SetAsideWarnings(const std::vector<std::string>& also_staged) const;
   // Swaps the staged set in. Throws std::runtime_error when the journal cannot be written (the
   // earlier outputs are then unchanged) or a rename fails (the next run completes the swap).
   void Commit();
