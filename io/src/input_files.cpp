@@ -13,6 +13,13 @@ namespace stillmap {
 
 namespace fs = std::filesystem;
 
+std::string StatProblem(const std::error_code& error) {
+  if (!error) return "unknown file type";
+  if (error.value() == ELOOP) return "a loop of symbolic links: the link leads back to itself";
+  if (error.value() == EACCES) return "permission denied on a folder on its path";
+  return error.message();
+}
+
 void CheckInputFile(const std::string& path, const std::string& what) {
   std::error_code error;
   const fs::file_status status = fs::status(path, error);
@@ -25,8 +32,7 @@ void CheckInputFile(const std::string& path, const std::string& what) {
       throw InputError(path + ": the " + what + " is a folder, not a file");
     case fs::file_type::none:  // stat failed for another reason (a symbolic link loop, ...)
     case fs::file_type::unknown:
-      throw InputError(path + ": cannot open the " + what + " (" +
-                       (error ? error.message() : std::string("unknown file type")) + ")");
+      throw InputError(path + ": cannot open the " + what + " (" + StatProblem(error) + ")");
     default:
       throw InputError(path + ": the " + what +
                        " is not a regular file (a FIFO, socket or device); give a file");
@@ -59,8 +65,7 @@ void CheckSequenceFolder(const std::string& path) {
     }
     case fs::file_type::none:
     case fs::file_type::unknown:
-      throw InputError(path + ": cannot open the sequence (" +
-                       (error ? error.message() : std::string("unknown file type")) + ")");
+      throw InputError(path + ": cannot open the sequence (" + StatProblem(error) + ")");
     default:
       throw InputError(path + ": a FIFO, socket or device, not a sequence" + expected);
   }

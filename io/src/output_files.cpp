@@ -15,6 +15,7 @@
 #include <system_error>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/input_files.h"
 
 namespace stillmap {
 
@@ -254,13 +255,13 @@ OutputSet::OutputSet(std::string dir, std::string kind, std::vector<std::string>
   std::error_code error;
   const bool existed = fs::exists(folder, error);
   if (error) {
-    throw InputError(dir_ + ": cannot use the output folder (" + error.message() +
+    throw InputError(dir_ + ": cannot use the output folder (" + StatProblem(error) +
                      "); choose another");
   }
   fs::create_directories(folder, error);
   if (error || !fs::is_directory(folder)) {
     throw InputError(dir_ + ": cannot create the output folder (" +
-                     (error ? error.message() : std::string("a file has that name")) +
+                     (error ? StatProblem(error) : std::string("a file has that name")) +
                      "); choose another");
   }
   created_dir_ = !existed;

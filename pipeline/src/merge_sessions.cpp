@@ -22,8 +22,7 @@ void CheckSessionFolder(const std::string& dir) {
                      "stillmap build");
   }
   if (status.type() == fs::file_type::none || status.type() == fs::file_type::unknown) {
-    throw InputError(dir + ": cannot open the session folder (" +
-                     (error ? error.message() : std::string("unknown file type")) + ")");
+    throw InputError(dir + ": cannot open the session folder (" + StatProblem(error) + ")");
   }
   throw InputError(dir +
                    ": not a folder; stillmap merge takes the output folders of "

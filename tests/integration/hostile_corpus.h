@@ -107,7 +107,11 @@ inline const std::vector<std::string> kInternalMarkers = {"basic_",
                                                           "runtime error:",
                                                           "out of OcTree bounds",
                                                           "libpng",
-                                                          "libjpeg: Unsupported"};
+                                                          "libjpeg: Unsupported",
+                                                          "database disk image is malformed",
+                                                          "file is not a database",
+                                                          "no such table",
+                                                          "Too many levels of symbolic links"};
 
 // Each run has a time limit (a hang fails, not blocks), and sanitizer reports end the run
 // with a signal instead of exit status 1.

@@ -182,5 +182,27 @@ TEST_F(BagStreamsTest, ARefusalKeepsWhatTheReadingMet) {
       << error;
 }
 
+// A .db3 cut short at any of these lengths is refused or read up to the cut in the bag's words
+// (the file cut short, the database damaged), never SQLite's own text.
+TEST_F(BagStreamsTest, ACutShortDatabaseIsSaidInTheBagsWords) {
+  const auto size = fs::file_size(bag_);
+  for (const double share : {0.002, 0.01, 0.1, 0.5, 0.9}) {
+    const std::string cut = dir_ / "cut.db3";
+    fs::copy_file(bag_, cut, fs::copy_options::overwrite_existing);
+    fs::resize_file(cut, static_cast<std::uintmax_t>(share * static_cast<double>(size)));
+    std::string said;
+    try {
+      const Sequence sequence = Sequence::OpenBag(cut, {}, {});
+      for (const std::string& warning : sequence.warnings()) said += warning + "\n";
+    } catch (const InputError& error) {
+      said = error.what();
+    }
+    EXPECT_NE(said.find("cut short"), std::string::npos) << share << ": " << said;
+    for (const char* library : {"malformed", "no such table", "not a database"}) {
+      EXPECT_EQ(said.find(library), std::string::npos) << share << ": " << said;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace stillmap

@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <fstream>
 #include <memory>
 
 #include "stillmap/io/error.h"
@@ -39,10 +40,18 @@ std::string Text(sqlite3_stmt* statement, int column) {
 }  // namespace
 
 SqliteBag::SqliteBag(const std::string& path) : BagReader(path) {
-  CheckMagic(kMagic, kMagicSize, "an SQLite database (no SQLite header)");
+  file_size_ = CheckMagic(kMagic, kMagicSize, "an SQLite database (no SQLite header)");
+  // The header's page size (bytes 16-17, big-endian, 1 for 65536) and page count (28-31).
+  std::uint8_t header[32] = {};
+  std::ifstream(path, std::ios::binary).read(reinterpret_cast<char*>(header), sizeof(header));
+  const std::uint32_t page =
+      header[16] == 0 && header[17] == 1 ? 65536U : (header[16] << 8U) | header[17];
+  stated_size_ =
+      static_cast<std::uint64_t>(page) * ((static_cast<std::uint32_t>(header[28]) << 24U) |
+                                          (header[29] << 16U) | (header[30] << 8U) | header[31]);
   if (sqlite3_open_v2(ImmutableUri(path).c_str(), &db_, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI,
                       nullptr) != SQLITE_OK) {
-    const std::string reason = db_ == nullptr ? "out of memory" : sqlite3_errmsg(db_);
+    const std::string reason = db_ == nullptr ? "out of memory" : Reason();
     sqlite3_close(db_);
     db_ = nullptr;
     throw InputError(path + ": cannot open the sqlite3 bag (" + reason + ")");
@@ -66,15 +75,36 @@ SqliteBag::~SqliteBag() {
   sqlite3_close(db_);
 }
 
+std::string SqliteBag::Reason() const {
+  if (stated_size_ > file_size_) {
+    return "the file is cut short: it holds " + std::to_string(file_size_) + " of the " +
+           std::to_string(stated_size_) + " bytes its header states";
+  }
+  switch (sqlite3_extended_errcode(db_) & 0xFF) {
+    case SQLITE_CORRUPT:
+      return "the database is damaged";
+    case SQLITE_NOTADB:
+      return "its header is not an SQLite database's";
+    case SQLITE_IOERR:
+      return "the file could not be read";
+    case SQLITE_NOMEM:
+      return "out of memory";
+    default:
+      return "SQLite error " + std::to_string(sqlite3_extended_errcode(db_));
+  }
+}
+
 sqlite3_stmt* SqliteBag::Prepare(const char* sql) const {
   sqlite3_stmt* statement = nullptr;
   if (sqlite3_prepare_v2(db_, sql, -1, &statement, nullptr) != SQLITE_OK) {
-    const std::string reason = sqlite3_errmsg(db_);
+    const bool foreign = std::string(sqlite3_errmsg(db_)).find("no such") == 0;
     sqlite3_finalize(statement);
-    const bool foreign = reason.find("no such") != std::string::npos;
-    throw InputError(path_ + (foreign ? ": an SQLite database but not a ROS 2 bag (" + reason +
-                                            "; rosbag2 writes tables topics and messages)"
-                                      : ": the sqlite3 bag cannot be read (" + reason + ")"));
+    if (foreign && stated_size_ <= file_size_) {
+      throw InputError(path_ +
+                       ": an SQLite database but not a ROS 2 bag (it lacks a table or column "
+                       "rosbag2 writes: tables topics and messages)");
+    }
+    throw InputError(path_ + ": the sqlite3 bag cannot be read (" + Reason() + ")");
   }
   return statement;
 }
@@ -94,8 +124,7 @@ void SqliteBag::ReadTopics() {
     topic_of_id_[id] = JoinTopic(&topics_, {name, type});
   }
   if (step != SQLITE_DONE) {
-    throw InputError(path_ + ": the sqlite3 bag's topics table cannot be read (" +
-                     sqlite3_errmsg(db_) + ")");
+    throw InputError(path_ + ": the sqlite3 bag's topics table cannot be read (" + Reason() + ")");
   }
   // A message table that cannot be prepared names the bag as not rosbag2's.
   Statement(Prepare("SELECT id, topic_id, timestamp, data FROM messages LIMIT 0"));
@@ -122,7 +151,7 @@ void SqliteBag::Scan(const std::function<void(const BagMessage&)>& visit) {
     visit(message);
   }
   if (step != SQLITE_DONE) {
-    WarnTruncated("after message row " + std::to_string(last_id) + " (" + sqlite3_errmsg(db_) + ")",
+    WarnTruncated("after message row " + std::to_string(last_id) + " (" + Reason() + ")",
                   last_time);
   }
 }
@@ -133,7 +162,7 @@ std::vector<std::uint8_t> SqliteBag::Read(const BagPosition& position) const {
   sqlite3_bind_int64(read_, 1, static_cast<sqlite3_int64>(position.block));
   if (sqlite3_step(read_) != SQLITE_ROW) {
     throw InputError(path_ + ": message row " + std::to_string(position.block) +
-                     " cannot be read again (" + sqlite3_errmsg(db_) + ")");
+                     " cannot be read again (" + Reason() + ")");
   }
   const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(read_, 0));
   const auto size = static_cast<size_t>(sqlite3_column_bytes(read_, 0));

@@ -41,9 +41,13 @@ class SqliteBag : public BagReader {
  private:
   // Prepares `sql`; throws InputError naming the bag with SQLite's reason.
   sqlite3_stmt* Prepare(const char* sql) const;
+  // SQLite's last error in the bag's words (a file cut short, damage, not a database), never
+  // SQLite's own text.
+  std::string Reason() const;
   void ReadTopics();
 
   sqlite3* db_ = nullptr;
+  std::uint64_t file_size_ = 0, stated_size_ = 0;  // [bytes]; stated: the header's page count
   std::vector<BagTopic> topics_;
   std::map<std::int64_t, size_t> topic_of_id_;
   std::vector<std::string> topic_warnings_;  // topics left out, said again by every scan

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <system_error>
 
 namespace stillmap {
 
@@ -16,6 +17,10 @@ void CheckInputFile(const std::string& path, const std::string& what);
 // TUM-layout folder (nothing, an empty or unreadable file, a file that is not a bag, a FIFO or
 // device, an empty folder, a folder without rgb.txt); returns for a folder holding rgb.txt.
 void CheckSequenceFolder(const std::string& path);
+
+// Why a stat of a path failed, in the user's words ("a symbolic link loop: ...", "permission
+// denied ..."), not the library's.
+std::string StatProblem(const std::error_code& error);
 
 // Whether anything is at `path`, a broken or looping symbolic link included (so that the reader
 // then names what is wrong with it). Never throws.
