@@ -168,8 +168,9 @@ TEST_F(SessionRecordTest, ForeignFileIsNotASessionRecord) {
   WriteBytes(path_, {'P', 'K', 3, 4, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
                      0,   0,   0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0});
   EXPECT_NE(ErrorOf(path_).find("not a stillmap session record"), std::string::npos);
-  EXPECT_NE(ErrorOf(dir_.path() + "/missing.bin").find("cannot open the session record: no such file"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf(dir_.path() + "/missing.bin").find("cannot open the session record: no such file"),
+      std::string::npos);
 }
 
 // Every cut of the file and many damaged copies: an InputError naming the file, never a crash or

@@ -7,6 +7,7 @@
 
 #include "bag/bytes.h"
 #include "bag/decompress.h"
+#include "bag/recovered_topics.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -217,14 +218,7 @@ void McapBag::ReadSummary(std::ifstream& file) {
 }
 
 bool McapBag::TopicOfChannel(std::uint16_t id, size_t* topic) {
-  auto known = topic_of_channel_.find(id);
-  if (known == topic_of_channel_.end()) {
-    const auto summarized = summary_channels_.find(id);
-    if (summarized == summary_channels_.end()) return false;
-    known = topic_of_channel_.emplace(id, JoinTopic(&topics_, summarized->second)).first;
-  }
-  *topic = known->second;
-  return true;
+  return TopicOfId(id, summary_channels_, &topic_of_channel_, &topics_, topic);
 }
 
 std::uint64_t McapBag::NextChunkAfter(std::ifstream& file, std::uint64_t from) const {

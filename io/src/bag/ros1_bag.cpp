@@ -5,6 +5,7 @@
 
 #include "bag/bytes.h"
 #include "bag/decompress.h"
+#include "bag/recovered_topics.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -248,14 +249,7 @@ void Ros1Bag::ReadIndex(std::ifstream& file) {
 }
 
 bool Ros1Bag::TopicOfConnection(std::uint32_t id, size_t* topic) {
-  auto known = topic_of_connection_.find(id);
-  if (known == topic_of_connection_.end()) {
-    const auto indexed = index_connections_.find(id);
-    if (indexed == index_connections_.end()) return false;
-    known = topic_of_connection_.emplace(id, JoinTopic(&topics_, indexed->second)).first;
-  }
-  *topic = known->second;
-  return true;
+  return TopicOfId(id, index_connections_, &topic_of_connection_, &topics_, topic);
 }
 
 bool Ros1Bag::IsRecordStart(std::ifstream& file, std::uint64_t offset) const {
