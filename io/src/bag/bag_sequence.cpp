@@ -38,7 +38,7 @@ Camera CameraFromInfo(const RosCameraInfo& info, const std::string& where) {
     throw InputError(where + ": distortion model " + Quoted(info.distortion_model) + " with " +
                      std::to_string(info.d.size()) +
                      " coefficients is not read (plumb_bob k1 k2 p1 p2 k3, rational_polynomial "
-                     "k1 k2 p1 p2 k3 k4 k5 k6); give the camera with --set camera.fx=... "
+                     "k1 k2 p1 p2 k3 k4 k5 k6, librealsense's Brown Conrady forms); give the camera with --set camera.fx=... "
                      "camera.fy=... camera.cx=... camera.cy=... camera.distortion=...");
   }
   for (size_t i = 0; i < std::min<size_t>(5, info.d.size()); ++i) camera.distortion[i] = info.d[i];
@@ -70,20 +70,53 @@ Camera WithOverrides(Camera camera, const CameraOverrides& overrides,
   return camera;
 }
 
+bool IsIdentity(const Eigen::Isometry3d& pose) {
+  return pose.isApprox(Eigen::Isometry3d::Identity(), 1e-9);
+}
+
+// A RealSense recorder bag's depth registered into colour with the recording's own extrinsics;
+// none is needed when depth shares colour's camera and place.
+std::unique_ptr<DepthRegistration> RealSenseRegistration(const BagContents& contents,
+                                                         const std::string& color,
+                                                         const std::string& depth,
+                                                         const BagStream& info,
+                                                         const BagStream* own,
+                                                         const std::string& path,
+                                                         std::vector<std::string>* notes) {
+  const std::optional<Eigen::Isometry3d> color_from_depth = RealSenseColorFromDepth(
+      contents.realsense, RealSenseStreamOf(color), RealSenseStreamOf(depth));
+  const bool same_camera = own == nullptr || SameCamera(own->info, info.info);
+  if (same_camera && (!color_from_depth || IsIdentity(*color_from_depth))) return nullptr;
+  if (own == nullptr || !color_from_depth) {
+    throw InputError(path + ": depth " + depth + " is not registered to colour " + color +
+                     (own == nullptr ? " and has no camera info (" + CameraInfoTopicOf(depth) + ")"
+                                     : " and the recording holds no extrinsic linking them (" +
+                                           RealSenseStreamOf(depth) + "/tf/<group>)") +
+                     "; record with the RealSense Viewer's \"Align depth to color\" or name a "
+                     "registered depth topic with --topic depth=NAME");
+  }
+  notes->push_back("depth " + depth + " registered into colour with the recording's extrinsics (" +
+                   RealSenseStreamOf(depth) + "/tf, " + RealSenseStreamOf(color) + "/tf)");
+  return std::make_unique<DepthRegistration>(own->info, info.info, *color_from_depth,
+                                             path + ": " + own->name);
+}
+
 // Depth with a camera of its own (its CameraInfo differs from colour's) is registered into colour
-// through /tf_static; none is needed when it shares colour's camera.
+// through /tf_static (a RealSense recorder bag: through its extrinsics); none is needed when it
+// shares colour's camera.
 std::unique_ptr<DepthRegistration> RegistrationOf(const BagContents& contents,
-                                                  const BagStream& depth, const BagStream& info,
-                                                  const std::string& path,
+                                                  const BagStream& color, const BagStream& depth,
+                                                  const BagStream& info, const std::string& path,
                                                   std::vector<std::string>* notes) {
   const std::string depth_info = CameraInfoTopicOf(depth.name);
   const BagStream* own = nullptr;
   for (const BagStream& stream : contents.streams) {
-    if (stream.name == depth_info && stream.has_info && !SameCamera(stream.info, info.info)) {
-      own = &stream;
-    }
+    if (stream.name == depth_info && stream.has_info) own = &stream;
   }
-  if (own == nullptr) return nullptr;
+  if (!RealSenseStreamOf(depth.name).empty() && !RealSenseStreamOf(color.name).empty()) {
+    return RealSenseRegistration(contents, color.name, depth.name, info, own, path, notes);
+  }
+  if (own == nullptr || SameCamera(own->info, info.info)) return nullptr;
   const std::string& depth_frame = own->info.header.frame_id;
   const std::string& color_frame = info.info.header.frame_id;
   const std::optional<Eigen::Isometry3d> color_from_depth =
@@ -103,6 +136,22 @@ std::unique_ptr<DepthRegistration> RegistrationOf(const BagContents& contents,
                                              path + ": " + depth_info);
 }
 
+// A RealSense recorder bag's depth scale: its depth sensor's Depth Units option [m per unit];
+// none for other bags.
+std::optional<double> RealSenseDepthUnits(const BagContents& contents, const BagStream& depth,
+                                          const std::string& path) {
+  const std::string sensor = RealSenseSensorOf(RealSenseStreamOf(depth.name));
+  const auto units = contents.realsense.depth_units.find(sensor);
+  if (sensor.empty() || units == contents.realsense.depth_units.end()) return std::nullopt;
+  if (!(units->second > 0.0 && units->second < 1.0)) {
+    throw InputError(path + ": " + sensor + "/option/Depth Units/value says " +
+                     std::to_string(units->second) +
+                     " m per depth unit, which no depth camera records; give the scale with "
+                     "--set camera.depth_factor=UNITS_PER_METRE");
+  }
+  return units->second;
+}
+
 }  // namespace
 
 bool IsBag(const std::string& path) { return LooksLikeBag(path); }
@@ -110,7 +159,10 @@ bool IsBag(const std::string& path) { return LooksLikeBag(path); }
 std::string DescribeBagTopics(const std::string& path, const SequenceOptions& options) {
   std::unique_ptr<BagReader> reader = stillmap::OpenBag(path);
   const BagContents contents = ScanBagContents(*reader);
-  std::string text = "topics:\n" + DescribeBagStreams(contents);
+  std::string text;
+  const std::string device = DescribeRealSenseDevice(contents.realsense);
+  if (!device.empty()) text += "device: " + device + " (RealSense recorder layout)\n";
+  text += "topics:\n" + DescribeBagStreams(contents);
   for (const std::string& warning : contents.warnings) text += "warning: " + warning + "\n";
   try {
     const BagChoice choice = ChooseBagStreams(
@@ -210,15 +262,23 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
       choice.camera_info == BagChoice::kNone ? nullptr : &contents.streams[choice.camera_info];
   std::vector<std::string> notes;
   std::unique_ptr<DepthRegistration> registration =
-      info == nullptr ? nullptr : RegistrationOf(contents, depth, *info, path, &notes);
+      info == nullptr ? nullptr : RegistrationOf(contents, color, depth, *info, path, &notes);
   Sequence sequence;
   sequence.dir_ = path;
   sequence.options_ = options;
   sequence.warnings_ = contents.warnings;
-  sequence.notes_ = notes;
+  sequence.notes_ = contents.notes;
+  sequence.notes_.insert(sequence.notes_.end(), notes.begin(), notes.end());
   sequence.notes_.push_back("topics: colour " + color.name + ", depth " + depth.name + ", camera " +
                             (info == nullptr ? "given, no CameraInfo" : info->name));
   Camera camera = CameraOfBag(info, overrides, path, &sequence.notes_);
+  const std::optional<double> units = RealSenseDepthUnits(contents, depth, path);
+  if (units && !overrides.depth_factor) {
+    camera.depth_factor = 1.0 / *units;
+    sequence.notes_.push_back("depth units " + std::to_string(*units) + " m from " +
+                              RealSenseSensorOf(RealSenseStreamOf(depth.name)) +
+                              "/option/Depth Units");
+  }
   if (info == nullptr && overrides.preset.empty() && !overrides.width && color.width > 0) {
     camera.width = color.width, camera.height = color.height;  // a raw colour topic's own size
   }

@@ -1,6 +1,7 @@
 #include "bag/bag_streams.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -14,8 +15,14 @@ bool EndsWith(const std::string& text, const std::string& end) {
   return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
 }
 
+std::string LowerCase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
+
+// `part` in `text`, in any letter case (the RealSense recorder's topics say Color_0, Depth_0).
 bool Contains(const std::string& text, const char* part) {
-  return text.find(part) != std::string::npos;
+  return LowerCase(text).find(LowerCase(part)) != std::string::npos;
 }
 
 BagStreamKind KindOf(const std::string& type) {
@@ -42,10 +49,11 @@ std::string Namespace(const std::string& topic) {
 
 bool IsColor(const BagStream& s) {
   if (s.kind == BagStreamKind::kImage) {
-    if (s.detail == "rgb8" || s.detail == "bgr8" || s.detail == "rgba8" || s.detail == "bgra8") {
-      return true;
+    const std::string encoding = LowerCase(s.detail);
+    for (const char* colour : {"rgb8", "bgr8", "rgba8", "bgra8", "yuyv", "yuv422", "uyvy"}) {
+      if (encoding.compare(0, std::string(colour).size(), colour) == 0) return true;
     }
-    return s.detail == "mono8" && (Contains(s.name, "rgb") || Contains(s.name, "color"));
+    return encoding == "mono8" && (Contains(s.name, "rgb") || Contains(s.name, "color"));
   }
   return s.kind == BagStreamKind::kCompressedImage && !Contains(s.detail, "compressedDepth") &&
          !Contains(s.detail, "rvl") && !Contains(s.name, "depth");
@@ -217,6 +225,8 @@ BagContents ScanBagContents(BagReader& bag) {
   BagContents contents;
   std::map<size_t, ImageMessages> images;  // by stream
   std::map<size_t, double> info_changed;   // camera-info streams: when the intrinsics change
+  std::map<size_t, double> restated;       // camera-info streams: a librealsense model restated
+  std::vector<RealSenseTopic> realsense;   // per stream
   size_t undecoded_transforms = 0;
   bag.Scan([&](const BagMessage& message) {
     for (size_t t = contents.streams.size(); t < bag.topics().size(); ++t) {
@@ -224,6 +234,7 @@ BagContents ScanBagContents(BagReader& bag) {
       stream.name = bag.topics()[t].name;
       stream.type = bag.topics()[t].type;
       stream.kind = KindOf(stream.type);
+      realsense.push_back(ClassifyRealSenseTopic(stream.name));
       contents.streams.push_back(std::move(stream));
     }
     BagStream& stream = contents.streams[message.topic];
@@ -240,14 +251,28 @@ BagContents ScanBagContents(BagReader& bag) {
                             &contents.static_transforms, &error)) {
       ++undecoded_transforms;
     }
-    if (stream.kind == BagStreamKind::kCameraInfo && !stream.has_info) {
-      stream.has_info = DecodeRosCameraInfo(message.data, message.size, bag.serialization(),
-                                            &stream.info, &error);
-    } else if (stream.kind == BagStreamKind::kCameraInfo && !info_changed.count(message.topic)) {
-      RosCameraInfo later;
-      if (DecodeRosCameraInfo(message.data, message.size, bag.serialization(), &later, &error) &&
-          !SameIntrinsics(stream.info, later)) {
-        info_changed[message.topic] = message.time;
+    if (stream.kind == BagStreamKind::kOther && realsense[message.topic] != RealSenseTopic::kNone) {
+      AddRealSenseDetail(realsense[message.topic], stream.name, message.data, message.size,
+                         bag.serialization(), &contents.realsense);
+    }
+    if (stream.kind == BagStreamKind::kCameraInfo) {
+      RosCameraInfo info;
+      double fit_px = 0.0;
+      if (DecodeRosCameraInfo(message.data, message.size, bag.serialization(), &info, &error)) {
+        const std::string model = info.distortion_model;
+        if (RestateRealSenseModel(&info, &fit_px) && !stream.has_info && fit_px > 0.0) {
+          restated[message.topic] = fit_px;
+          char worst[64];
+          std::snprintf(worst, sizeof(worst), " (largest difference %.3f px)", fit_px);
+          contents.notes.push_back(stream.name + ": distortion " + Quoted(model) +
+                                   " restated as the plumb_bob fitted to it" + worst);
+        }
+        if (!stream.has_info) {
+          stream.info = info;
+          stream.has_info = true;
+        } else if (!info_changed.count(message.topic) && !SameIntrinsics(stream.info, info)) {
+          info_changed[message.topic] = message.time;
+        }
       }
     }
     if (stream.count == 0 || message.time < stream.first_stamp) stream.first_stamp = message.time;
@@ -275,6 +300,20 @@ BagContents ScanBagContents(BagReader& bag) {
                                   contents.streams[i].type +
                                   "); each is read as its own, and --topic takes the first");
     }
+  }
+  for (const auto& [index, fit_px] : restated) {
+    char worst[32];
+    std::snprintf(worst, sizeof(worst), "%.3f", fit_px);
+    if (fit_px > 0.1) {
+      contents.warnings.push_back(bag.path() + ": " + contents.streams[index].name +
+                                  ": its distortion model is matched by plumb_bob only to " +
+                                  worst + " px; give camera.distortion if that is too coarse");
+    }
+  }
+  if (contents.realsense.undecoded > 0) {
+    contents.warnings.push_back(bag.path() + ": " + std::to_string(contents.realsense.undecoded) +
+                                " RealSense device, extrinsic or option messages that do not "
+                                "decode are left out");
   }
   if (undecoded_transforms > 0) {
     contents.warnings.push_back(bag.path() + ": " + std::to_string(undecoded_transforms) +
@@ -331,6 +370,8 @@ BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& nam
 }
 
 std::string CameraInfoTopicOf(const std::string& image_topic) {
+  const std::string stream = RealSenseStreamOf(image_topic);
+  if (!stream.empty()) return stream + "/info/camera_info";
   return Namespace(BaseTopic(image_topic)) + "/camera_info";
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "bag/realsense_layout.h"
 #include "bag/ros_messages.h"
 #include "stillmap/io/bag_reader.h"
 
@@ -32,8 +33,10 @@ struct BagStream {
 struct BagContents {
   std::vector<BagStream> streams;               // per topic of the reader
   std::vector<RosTransform> static_transforms;  // every /tf_static message's
+  RealSenseDetails realsense;                   // a RealSense recorder bag's description
   bool truncated = false;
   std::vector<std::string> warnings;
+  std::vector<std::string> notes;  // how the bag was read (a distortion model restated)
 };
 
 // Scans the whole bag once. An image topic is judged by its messages: those of the encoding (or
@@ -60,7 +63,8 @@ BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& nam
                            bool camera_given, const std::string& path);
 
 // The camera-info topic that drivers publish beside an image topic: /x/camera_info for
-// /x/image_raw and its transports (/x/image_raw/compressed).
+// /x/image_raw and its transports (/x/image_raw/compressed); the RealSense recorder's
+// /device_0/sensor_1/Color_0/info/camera_info for /device_0/sensor_1/Color_0/image/data.
 std::string CameraInfoTopicOf(const std::string& image_topic);
 
 // One line per topic: name, type, encoding or format, count and rate.

@@ -27,7 +27,9 @@ std::array<double, 8> Rational(const RosCameraInfo& info, const std::string& whe
   return d;
 }
 
-Eigen::Isometry3d ToIsometry(const RosTransform& transform) {
+}  // namespace
+
+Eigen::Isometry3d IsometryOf(const RosTransform& transform) {
   const auto& [x, y, z, w] = transform.rotation;
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix();
@@ -35,8 +37,6 @@ Eigen::Isometry3d ToIsometry(const RosTransform& transform) {
       Eigen::Vector3d(transform.translation[0], transform.translation[1], transform.translation[2]);
   return pose;
 }
-
-}  // namespace
 
 DepthRegistration::DepthRegistration(const RosCameraInfo& depth, const RosCameraInfo& color,
                                      const Eigen::Isometry3d& color_from_depth,
@@ -133,7 +133,7 @@ std::optional<Eigen::Isometry3d> FindStaticTransform(const std::vector<RosTransf
       if (!down && !up) continue;
       const std::string& next = down ? transform.child : transform.parent;
       if (pose_in_target.count(next) > 0) continue;
-      const Eigen::Isometry3d parent_from_child = ToIsometry(transform);
+      const Eigen::Isometry3d parent_from_child = IsometryOf(transform);
       pose_in_target[next] = frame_pose * (down ? parent_from_child : parent_from_child.inverse());
       frontier.push(next);
     }

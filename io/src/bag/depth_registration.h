@@ -38,6 +38,9 @@ class DepthRegistration {
   std::array<float, 8> distortion_{};  // colour camera's k1 k2 p1 p2 k3 k4 k5 k6
 };
 
+// The transform as an isometry: a point of `child` mapped into `parent`.
+Eigen::Isometry3d IsometryOf(const RosTransform& transform);
+
 // The pose of frame `source` in frame `target` from static transforms, chained through the
 // frames they share in either direction (tf's tree); none when they do not link the two.
 std::optional<Eigen::Isometry3d> FindStaticTransform(const std::vector<RosTransform>& transforms,

@@ -1,5 +1,6 @@
 #include "bag/ros_messages.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <opencv2/imgproc.hpp>
@@ -36,6 +37,12 @@ class Cursor {
   bool U32(std::uint32_t* value) {
     if (!Take(4, 4)) return false;
     *value = Le32(data_ + position_ - 4);
+    return true;
+  }
+  bool F32(float* value) {
+    if (!Take(4, 4)) return false;
+    const std::uint32_t bits = Le32(data_ + position_ - 4);
+    std::memcpy(value, &bits, sizeof(*value));
     return true;
   }
   bool F64(double* value) {
@@ -94,6 +101,11 @@ bool Header(Cursor& cursor, BagSerialization serialization, RosHeader* header) {
   // ROS 2's seconds are signed; a negative stamp is no recording's.
   header->stamp = static_cast<double>(seconds) + 1e-9 * static_cast<double>(nanoseconds);
   return cursor.String(&header->frame_id);
+}
+
+std::string LowerCase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
 }
 
 bool Fail(std::string* error, const char* what) {
@@ -177,6 +189,31 @@ bool DecodeRosTfMessage(const std::uint8_t* data, size_t size, BagSerialization 
   return true;
 }
 
+bool DecodeRosTransform(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                        RosTransform* transform, std::string* error) {
+  Cursor cursor(data, size, serialization);
+  for (double& value : transform->translation) {
+    if (!cursor.F64(&value)) return Fail(error, "not a geometry_msgs/Transform (no translation)");
+  }
+  for (double& value : transform->rotation) {
+    if (!cursor.F64(&value)) return Fail(error, "not a geometry_msgs/Transform (no rotation)");
+  }
+  return true;
+}
+
+bool DecodeRosFloat32(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                      float* value, std::string* error) {
+  Cursor cursor(data, size, serialization);
+  return cursor.F32(value) || Fail(error, "not a std_msgs/Float32");
+}
+
+bool DecodeRosKeyValue(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                       std::string* key, std::string* value, std::string* error) {
+  Cursor cursor(data, size, serialization);
+  return (cursor.String(key) && cursor.String(value)) ||
+         Fail(error, "not a diagnostic_msgs/KeyValue");
+}
+
 cv::Mat ColorFromRosImage(const RosImage& image, const std::string& where) {
   struct Layout {
     const char* encoding;
@@ -187,9 +224,16 @@ cv::Mat ColorFromRosImage(const RosImage& image, const std::string& where) {
                                     {"bgr8", CV_8UC3, -1},
                                     {"rgba8", CV_8UC4, cv::COLOR_RGBA2BGR},
                                     {"bgra8", CV_8UC4, cv::COLOR_BGRA2BGR},
-                                    {"mono8", CV_8UC1, cv::COLOR_GRAY2BGR}};
+                                    {"mono8", CV_8UC1, cv::COLOR_GRAY2BGR},
+                                    // 4:2:2, two bytes a pixel: ROS's yuv422 is UYVY; the
+                                    // RealSense recorder writes YUYV
+                                    {"yuyv", CV_8UC2, cv::COLOR_YUV2BGR_YUYV},
+                                    {"yuv422_yuy2", CV_8UC2, cv::COLOR_YUV2BGR_YUYV},
+                                    {"yuv422", CV_8UC2, cv::COLOR_YUV2BGR_UYVY},
+                                    {"uyvy", CV_8UC2, cv::COLOR_YUV2BGR_UYVY}};
+  const std::string encoding = LowerCase(image.encoding);
   for (const Layout& layout : kLayouts) {
-    if (image.encoding != layout.encoding) continue;
+    if (encoding != layout.encoding) continue;
     const size_t row = static_cast<size_t>(image.width) * CV_ELEM_SIZE(layout.type);
     if (image.step < row || image.size / image.step < image.height) {
       throw InputError(where + ": a " + image.encoding + " image whose data is shorter than " +
@@ -206,7 +250,7 @@ cv::Mat ColorFromRosImage(const RosImage& image, const std::string& where) {
     return bgr;
   }
   throw InputError(where + ": colour encoding " + Quoted(image.encoding) +
-                   " is not read (rgb8, bgr8, rgba8, bgra8 or mono8)");
+                   " is not read (rgb8, bgr8, rgba8, bgra8, mono8, yuyv or yuv422)");
 }
 
 cv::Mat DepthFromRosImage(const RosImage& image, double metres_per_unit, const std::string& where) {

@@ -64,8 +64,18 @@ bool DecodeRosCameraInfo(const std::uint8_t* data, size_t size, BagSerialization
 bool DecodeRosTfMessage(const std::uint8_t* data, size_t size, BagSerialization serialization,
                         std::vector<RosTransform>* transforms, std::string* error);
 
-// Colour as CV_8UC3 BGR from rgb8, bgr8, rgba8, bgra8 or mono8 (a copy). Throws InputError naming
-// `where` for another encoding or data shorter than its rows.
+// geometry_msgs/Transform, std_msgs/Float32 and diagnostic_msgs/KeyValue: what the RealSense
+// recorder writes beside its images (extrinsics, options, device info).
+bool DecodeRosTransform(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                        RosTransform* transform, std::string* error);
+bool DecodeRosFloat32(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                      float* value, std::string* error);
+bool DecodeRosKeyValue(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                       std::string* key, std::string* value, std::string* error);
+
+// Colour as CV_8UC3 BGR (a copy) from rgb8, bgr8, rgba8, bgra8, mono8 or 4:2:2 YUV (yuyv,
+// yuv422), in any letter case. Throws InputError naming `where` for another encoding or data
+// shorter than its rows.
 cv::Mat ColorFromRosImage(const RosImage& image, const std::string& where);
 // Depth in metres (CV_32FC1, 0 = no reading) from 16UC1 or mono16 (metres_per_unit each: 0.001
 // for ROS's millimetres) or 32FC1 (metres; NaN and inf = no reading).
