@@ -15,8 +15,10 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # recorded bags: their block compressions (and lz4's xxHash checksums), ROS 2's sqlite3 storage
   libbz2-dev liblz4-dev libxxhash-dev libzstd-dev zlib1g-dev libsqlite3-dev
-  # tests: scripts/revisit_replay.py makes the revisit replays
-  python3
+  # tests: scripts/revisit_replay.py makes the revisit replays; the RealSense recorder's bags
+  # are written with ROS's own Python writer
+  python3 python3-numpy python3-opencv python3-yaml python3-rosbag python3-roslz4
+  python3-sensor-msgs python3-geometry-msgs python3-std-msgs python3-diagnostic-msgs
   # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)
   xvfb xauth
   # tests: scripts/slurm/fleet.sh on a one-node Slurm cluster the test starts (no systemd)

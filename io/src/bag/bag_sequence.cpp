@@ -38,7 +38,8 @@ Camera CameraFromInfo(const RosCameraInfo& info, const std::string& where) {
     throw InputError(where + ": distortion model " + Quoted(info.distortion_model) + " with " +
                      std::to_string(info.d.size()) +
                      " coefficients is not read (plumb_bob k1 k2 p1 p2 k3, rational_polynomial "
-                     "k1 k2 p1 p2 k3 k4 k5 k6, librealsense's Brown Conrady forms); give the camera with --set camera.fx=... "
+                     "k1 k2 p1 p2 k3 k4 k5 k6, librealsense's Brown Conrady forms); give the "
+                     "camera with --set camera.fx=... "
                      "camera.fy=... camera.cx=... camera.cy=... camera.distortion=...");
   }
   for (size_t i = 0; i < std::min<size_t>(5, info.d.size()); ++i) camera.distortion[i] = info.d[i];
@@ -76,13 +77,10 @@ bool IsIdentity(const Eigen::Isometry3d& pose) {
 
 // A RealSense recorder bag's depth registered into colour with the recording's own extrinsics;
 // none is needed when depth shares colour's camera and place.
-std::unique_ptr<DepthRegistration> RealSenseRegistration(const BagContents& contents,
-                                                         const std::string& color,
-                                                         const std::string& depth,
-                                                         const BagStream& info,
-                                                         const BagStream* own,
-                                                         const std::string& path,
-                                                         std::vector<std::string>* notes) {
+std::unique_ptr<DepthRegistration> RealSenseRegistration(
+    const BagContents& contents, const std::string& color, const std::string& depth,
+    const BagStream& info, const BagStream* own, const std::string& path,
+    std::vector<std::string>* notes) {
   const std::optional<Eigen::Isometry3d> color_from_depth = RealSenseColorFromDepth(
       contents.realsense, RealSenseStreamOf(color), RealSenseStreamOf(depth));
   const bool same_camera = own == nullptr || SameCamera(own->info, info.info);
@@ -287,15 +285,15 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
   if (registration != nullptr) frames->RegisterDepth(std::move(registration));
   frames->Pair(color, depth, options.max_pair_time_difference, &sequence.frames_);
   if (sequence.frames_.empty()) {
-    char gap[64];
+    char gap[64], window[32];
     std::snprintf(gap, sizeof(gap), "%.3f s", NearestGap(color.stamps, depth.stamps));
-    throw WithWarnings(
-        InputError(path + ": no colour message on " + color.name + " has a depth message on " +
-                   depth.name + " within " + std::to_string(options.max_pair_time_difference) +
-                   " s of its header stamp; the nearest are " + gap +
-                   " apart (stamps on different clocks? widen the window with --set "
-                   "sequence.max_pair_time_difference=SECONDS)"),
-        contents.warnings);
+    std::snprintf(window, sizeof(window), "%g s", options.max_pair_time_difference);
+    throw WithWarnings(InputError(path + ": no colour message on " + color.name +
+                                  " has a depth message on " + depth.name + " within " + window +
+                                  " of its header stamp; the nearest are " + gap +
+                                  " apart (stamps on different clocks? widen the window with --set "
+                                  "sequence.max_pair_time_difference=SECONDS)"),
+                       contents.warnings);
   }
   if (info == nullptr && overrides.preset.empty() && !overrides.width && color.width == 0) {
     cv::Mat first_color, first_depth;  // a compressed colour topic: its size is its first image's

@@ -174,7 +174,8 @@ std::optional<Eigen::Isometry3d> RealSenseColorFromDepth(const RealSenseDetails&
                                                          const std::string& depth_stream) {
   const auto color = details.stream_from_reference.find(color_stream);
   const auto depth = details.stream_from_reference.find(depth_stream);
-  if (color == details.stream_from_reference.end() || depth == details.stream_from_reference.end()) {
+  if (color == details.stream_from_reference.end() ||
+      depth == details.stream_from_reference.end()) {
     return std::nullopt;
   }
   for (const auto& [group, color_from_reference] : color->second) {
@@ -186,8 +187,12 @@ std::optional<Eigen::Isometry3d> RealSenseColorFromDepth(const RealSenseDetails&
 }
 
 bool RestateRealSenseModel(RosCameraInfo* info, double* fit_error_px) {
-  static const char* const kNames[] = {"None",           "Brown Conrady", "Inverse Brown Conrady",
-                                       "Modified Brown Conrady", "Kannala Brandt4", "Ftheta"};
+  static const char* const kNames[] = {"None",
+                                       "Brown Conrady",
+                                       "Inverse Brown Conrady",
+                                       "Modified Brown Conrady",
+                                       "Kannala Brandt4",
+                                       "Ftheta"};
   const std::string& model = info->distortion_model;
   if (std::find(std::begin(kNames), std::end(kNames), model) == std::end(kNames)) return false;
   *fit_error_px = 0.0;

@@ -21,7 +21,7 @@ enum class RealSenseTopic { kNone, kDeviceInfo, kSensorInfo, kExtrinsic, kDepthU
 
 struct RealSenseDetails {
   std::vector<std::pair<std::string, std::string>> device;  // /device_<d>/info: key, value
-  std::map<std::string, std::string> sensor_names;  // by sensor ("/device_0/sensor_0")
+  std::map<std::string, std::string> sensor_names;          // by sensor ("/device_0/sensor_0")
   // By stream ("/device_0/sensor_0/Depth_0"), then extrinsic group: the transform that takes a
   // point of the group's reference stream into this stream (librealsense's rs2_extrinsics).
   std::map<std::string, std::map<std::string, RosTransform>> stream_from_reference;

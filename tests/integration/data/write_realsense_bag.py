@@ -11,7 +11,8 @@ there, the nearest surface kept. Needs Debian's python3-rosbag, python3-sensor-m
 python3-geometry-msgs, python3-std-msgs, python3-diagnostic-msgs, python3-numpy, python3-opencv.
 
 usage: write_realsense_bag.py FOLDER OUT.bag [--frames N] [--color-encoding rgb8|bgr8|yuyv]
-       [--depth-units METRES] [--compression none|lz4|bz2]
+       [--depth-units METRES] [--compression none|lz4|bz2] [--omit-extrinsics]
+       [--depth-clock-offset SECONDS]
 """
 import argparse
 import hashlib
@@ -121,12 +122,15 @@ def warp_depth(depth_m, rays, rotation, translation):
 
 
 def yuyv(bgr):
-    yuv = cv2.cvtColor(bgr, cv2.COLOR_BGR2YUV).astype(np.float32)
-    y, u, v = yuv[:, :, 0], yuv[:, :, 1], yuv[:, :, 2]
+    """YUYV 4:2:2 in BT.601 video range, as cameras write it."""
+    b, g, r = (bgr[:, :, i].astype(np.float64) for i in range(3))
+    y = 16 + 0.257 * r + 0.504 * g + 0.098 * b
+    u = 128 - 0.148 * r - 0.291 * g + 0.439 * b
+    v = 128 + 0.439 * r - 0.368 * g - 0.071 * b
     out = np.empty((bgr.shape[0], bgr.shape[1] * 2), np.uint8)
-    out[:, 0::2] = y.astype(np.uint8)
-    out[:, 1::4] = np.rint((u[:, 0::2] + u[:, 1::2]) / 2).astype(np.uint8)
-    out[:, 3::4] = np.rint((v[:, 0::2] + v[:, 1::2]) / 2).astype(np.uint8)
+    out[:, 0::2] = np.clip(np.rint(y), 0, 255)
+    out[:, 1::4] = np.clip(np.rint((u[:, 0::2] + u[:, 1::2]) / 2), 0, 255)
+    out[:, 3::4] = np.clip(np.rint((v[:, 0::2] + v[:, 1::2]) / 2), 0, 255)
     return out
 
 
@@ -151,6 +155,9 @@ def main():
     parser.add_argument("--color-encoding", default="rgb8", choices=["rgb8", "bgr8", "yuyv"])
     parser.add_argument("--depth-units", type=float, default=0.0002, help="metres per unit")
     parser.add_argument("--compression", default="none", choices=["none", "lz4", "bz2"])
+    parser.add_argument("--omit-extrinsics", action="store_true", help="write no .../tf/0")
+    parser.add_argument("--depth-clock-offset", type=float, default=0.0,
+                        help="added to the depth images' header stamps [s]")
     args = parser.parse_args()
 
     with open(os.path.join(args.folder, "camera.yaml")) as f:
@@ -187,9 +194,10 @@ def main():
             bag.write(prefix + "/info", (StreamInfo._type, StreamInfo.serialize(30, encoding),
                                          StreamInfo._md5sum, StreamInfo), t0, raw=True)
         # The reference of the extrinsic group is the depth stream (librealsense's pin stream).
-        bag.write(depth_prefix + "/tf/0", transform_msg(np.eye(3), np.zeros(3)), t0)
-        color_from_depth = rotation.T, -rotation.T @ translation
-        bag.write(color_prefix + "/tf/0", transform_msg(*color_from_depth), t0)
+        if not args.omit_extrinsics:
+            bag.write(depth_prefix + "/tf/0", transform_msg(np.eye(3), np.zeros(3)), t0)
+            color_from_depth = rotation.T, -rotation.T @ translation
+            bag.write(color_prefix + "/tf/0", transform_msg(*color_from_depth), t0)
         bag.write(depth_prefix + "/info/camera_info",
                   camera_info(t0, DEPTH_SIZE, DEPTH_K, "Brown Conrady", [0.0] * 5), t0)
         bag.write(color_prefix + "/info/camera_info",
@@ -212,6 +220,7 @@ def main():
                 depth_m = warp_depth(raw.astype(np.float64) / camera["depth_factor"], rays,
                                      rotation, translation)
                 units_array = np.clip(np.rint(depth_m / args.depth_units), 0, 65535).astype(np.uint16)
+                device_stamp = Time.from_sec(stamp + args.depth_clock_offset)
                 msg = image_msg(device_stamp, units_array, "mono16", number)
                 bag.write(depth_prefix + "/image/data", msg, record_time(stamp))
                 bag.write(depth_prefix + "/image/metadata",
