@@ -1,8 +1,8 @@
 // A bag's topics judged by their messages (issue 49), on copies of the shared Jazzy teddy bag
 // edited with SQLite: a bad message costs only itself (a 0x0 image ahead of the good ones, a
-// message recorded twice), a CameraInfo that changes is named, stamps that are all equal are
-// refused at the start, a bag without CameraInfo builds when the camera is given, and a refusal
-// keeps what the reading met.
+// message recorded twice, negative stamps, stamps that jump back), a CameraInfo that changes is
+// named, stamps that are all equal are refused at the start, a bag without CameraInfo builds when
+// the camera is given, and a refusal keeps what the reading met.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
@@ -118,6 +118,49 @@ TEST_F(BagStreamsTest, StampsAllEqualAreRefusedNamingTheTopic) {
                        "stamp"),
             std::string::npos)
       << error;
+}
+
+// The header stamp's seconds (after the CDR header) of the last `count` messages on `topic_id`,
+// as SQL that sets them to `seconds` (little-endian int32).
+std::string SetLastSeconds(int topic_id, int count, std::int32_t seconds) {
+  char hex[9];
+  const auto bits = static_cast<std::uint32_t>(seconds);
+  std::snprintf(hex, sizeof(hex), "%02x%02x%02x%02x", bits & 0xff, (bits >> 8) & 0xff,
+                (bits >> 16) & 0xff, bits >> 24);
+  const std::string topic = std::to_string(topic_id);
+  return "UPDATE messages SET data = substr(data, 1, 4) || x'" + std::string(hex) +
+         "' || substr(data, 9) WHERE id IN (SELECT id FROM messages WHERE topic_id = " + topic +
+         " ORDER BY timestamp DESC LIMIT " + std::to_string(count) + ")";
+}
+
+TEST_F(BagStreamsTest, NegativeStampsAreLeftOutAndCounted) {
+  Execute(SetLastSeconds(2, 3, -5));
+  const Sequence sequence = Sequence::OpenBag(bag_, {}, {});
+  EXPECT_EQ(sequence.frames().size(), intact_frames_ - 3);
+  ASSERT_EQ(sequence.warnings().size(), 1u);
+  EXPECT_NE(sequence.warnings()[0].find("3 of 20 messages on /camera/rgb/image_color/compressed "
+                                        "have a negative header stamp and are left out"),
+            std::string::npos)
+      << sequence.warnings()[0];
+}
+
+TEST_F(BagStreamsTest, StampsThatJumpBackAreLeftOutNamingTheJump) {
+  // The clock reset 870 s back for the last five colour and depth images.
+  const double last = Sequence::OpenBag(bag_, {}, {}).frames().back().time;
+  Execute(SetLastSeconds(2, 5, 1341841000));
+  Execute(SetLastSeconds(kDepth, 5, 1341841000));
+  const Sequence sequence = Sequence::OpenBag(bag_, {}, {});
+  EXPECT_EQ(sequence.frames().size(), intact_frames_ - 5);
+  for (const FrameEntry& frame : sequence.frames()) EXPECT_GT(frame.time, 1341841800.0);
+  EXPECT_LT(sequence.frames().back().time, last);
+  ASSERT_EQ(sequence.warnings().size(), 2u);
+  EXPECT_NE(sequence.warnings()[0].find("5 of 20 messages on /camera/rgb/image_color/compressed "
+                                        "are stamped back in time and left out (the header stamp "
+                                        "goes back from 13418418"),
+            std::string::npos)
+      << sequence.warnings()[0];
+  EXPECT_NE(sequence.warnings()[0].find(" to 13418410"), std::string::npos)
+      << sequence.warnings()[0];
 }
 
 TEST_F(BagStreamsTest, ACameraInfoThatChangesIsNamed) {

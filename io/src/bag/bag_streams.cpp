@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <set>
 
+#include "bag/image_judge.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -112,111 +113,6 @@ namespace {
 bool SameIntrinsics(const RosCameraInfo& a, const RosCameraInfo& b) {
   return a.width == b.width && a.height == b.height && a.k == b.k && a.d == b.d &&
          a.distortion_model == b.distortion_model;
-}
-
-// What one image message is, for judging its topic by its messages: "ENCODING WIDTHxHEIGHT" for
-// a raw image, the format for a compressed one; empty when it holds no image or no readable
-// header (*stamp is then left alone).
-std::string ImageKey(const BagStream& stream, const BagMessage& message,
-                     BagSerialization serialization, double* stamp) {
-  std::string error;
-  if (stream.kind == BagStreamKind::kImage) {
-    RosImage image;
-    if (!DecodeRosImage(message.data, message.size, serialization, &image, &error) ||
-        image.width == 0 || image.height == 0 || image.step == 0 ||
-        static_cast<std::uint64_t>(image.step) * image.height > image.size) {
-      return {};
-    }
-    *stamp = image.header.stamp;
-    return image.encoding + " " + std::to_string(image.width) + "x" + std::to_string(image.height);
-  }
-  RosCompressedImage image;
-  if (!DecodeRosCompressedImage(message.data, message.size, serialization, &image, &error) ||
-      image.size == 0) {
-    return {};
-  }
-  *stamp = image.header.stamp;
-  return image.format;
-}
-
-// The messages of one image topic as the scan found them, before the topic is judged.
-struct ImageMessages {
-  std::vector<std::string> keys;  // distinct keys, in the order first met
-  std::vector<size_t> key_of;     // per message: index into keys, or kNoImage
-  std::vector<double> stamps;
-  std::vector<BagPosition> positions;
-  static constexpr size_t kNoImage = static_cast<size_t>(-1);
-
-  void Add(const std::string& key, double stamp, const BagPosition& position) {
-    size_t index = kNoImage;
-    if (!key.empty()) {
-      index = static_cast<size_t>(std::find(keys.begin(), keys.end(), key) - keys.begin());
-      if (index == keys.size()) keys.push_back(key);
-    }
-    key_of.push_back(index);
-    stamps.push_back(stamp);
-    positions.push_back(position);
-  }
-};
-
-// Keeps the messages of the key most of them have (the first met on a tie); a warning counts
-// the others.
-void JudgeImages(const ImageMessages& messages, const std::string& path, BagStream* stream,
-                 std::vector<std::string>* warnings) {
-  std::vector<size_t> votes(messages.keys.size(), 0);
-  for (const size_t key : messages.key_of) {
-    if (key != ImageMessages::kNoImage) ++votes[key];
-  }
-  const size_t best =
-      votes.empty()
-          ? ImageMessages::kNoImage
-          : static_cast<size_t>(std::max_element(votes.begin(), votes.end()) - votes.begin());
-  std::set<double> stamps_kept;
-  for (size_t i = 0; i < messages.key_of.size(); ++i) {
-    if (messages.key_of[i] != best || best == ImageMessages::kNoImage) {
-      ++stream->skipped;
-      continue;
-    }
-    const double stamp = messages.stamps[i];
-    if (!stamps_kept.insert(stamp).second) {  // a message recorded twice, or stamps not set
-      ++stream->repeated;
-      continue;
-    }
-    if (stream->count == 0 || stamp < stream->first_stamp) stream->first_stamp = stamp;
-    stream->last_stamp = stream->count == 0 ? stamp : std::max(stream->last_stamp, stamp);
-    stream->stamps.push_back(stamp);
-    stream->positions.push_back(messages.positions[i]);
-    ++stream->count;
-  }
-  if (best != ImageMessages::kNoImage) {
-    const std::string& key = messages.keys[best];
-    const size_t space = key.rfind(' ');
-    if (stream->kind == BagStreamKind::kImage && space != std::string::npos) {
-      stream->detail = key.substr(0, space);
-      std::sscanf(key.c_str() + space + 1, "%dx%d", &stream->width, &stream->height);
-    } else {
-      stream->detail = key;
-    }
-  }
-  if (stream->repeated > 0) {
-    char stamp[32];
-    std::snprintf(stamp, sizeof(stamp), "%.6f", stream->first_stamp);
-    warnings->push_back(path + ": " + std::to_string(stream->repeated) + " of " +
-                        std::to_string(messages.key_of.size()) + " messages on " + stream->name +
-                        " repeat the header stamp of an earlier one and are left out" +
-                        (stream->count == 1
-                             ? std::string(" (every message has the stamp ") + stamp + " s)"
-                             : std::string()));
-  }
-  if (stream->skipped > 0) {
-    warnings->push_back(
-        path + ": " + std::to_string(stream->skipped) + " of " +
-        std::to_string(messages.key_of.size()) + " messages on " + stream->name +
-        " are left out: they hold no readable image" +
-        (best == ImageMessages::kNoImage
-             ? std::string()
-             : ", or another encoding or size than the topic's own (" + messages.keys[best] + ")"));
-  }
 }
 
 }  // namespace

@@ -98,8 +98,11 @@ bool Header(Cursor& cursor, BagSerialization serialization, RosHeader* header) {
   std::uint32_t seq = 0, seconds = 0, nanoseconds = 0;
   if (serialization == BagSerialization::kRos1 && !cursor.U32(&seq)) return false;
   if (!cursor.U32(&seconds) || !cursor.U32(&nanoseconds)) return false;
-  // ROS 2's seconds are signed; a negative stamp is no recording's.
-  header->stamp = static_cast<double>(seconds) + 1e-9 * static_cast<double>(nanoseconds);
+  // ROS 2's seconds are signed (builtin_interfaces/Time); ROS 1's are not.
+  const double whole = serialization == BagSerialization::kCdr
+                           ? static_cast<double>(static_cast<std::int32_t>(seconds))
+                           : static_cast<double>(seconds);
+  header->stamp = whole + 1e-9 * static_cast<double>(nanoseconds);
   return cursor.String(&header->frame_id);
 }
 
