@@ -298,7 +298,7 @@ void WriteCameraYaml(const std::string& path, const Camera& camera, const std::s
     out << "groundtruth_body_from_camera: [";
     for (int i = 0; i < 16; ++i) out << m(i / 4, i % 4) << (i < 15 ? ", " : "]\n");
   }
-  if (!out.flush()) throw std::runtime_error(path + ": could not write the camera file");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the camera file"));
 }
 
 }  // namespace stillmap

@@ -29,7 +29,7 @@ class CloudFileWriter {
     static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "records are copied as little-endian");
     if (!ply_path.empty()) {
       ply_.open(ply_path, std::ios::binary);
-      if (!ply_) throw std::runtime_error(ply_path + ": cannot write the PLY cloud");
+      if (!ply_) throw std::runtime_error(WriteFailure(ply_path, "the PLY cloud"));
       ply_ << "ply\nformat binary_little_endian 1.0\n";
       for (const std::string& line : comments) ply_ << "comment " << line << "\n";
       ply_ << "element vertex " << count
@@ -38,7 +38,7 @@ class CloudFileWriter {
     }
     if (!pcd_path.empty()) {
       pcd_.open(pcd_path, std::ios::binary);
-      if (!pcd_) throw std::runtime_error(pcd_path + ": cannot write the PCD cloud");
+      if (!pcd_) throw std::runtime_error(WriteFailure(pcd_path, "the PCD cloud"));
       pcd_ << "# .PCD v0.7 - Point Cloud Data file format\n";
       for (const std::string& line : comments) pcd_ << "# " << line << "\n";
       pcd_ << "VERSION 0.7\nFIELDS x y z rgb\n"
@@ -68,10 +68,10 @@ class CloudFileWriter {
   void Finish() {
     Flush();
     if (ply_.is_open() && !ply_.flush()) {
-      throw std::runtime_error(ply_path_ + ": could not write the PLY cloud");
+      throw std::runtime_error(WriteFailure(ply_path_, "the PLY cloud"));
     }
     if (pcd_.is_open() && !pcd_.flush()) {
-      throw std::runtime_error(pcd_path_ + ": could not write the PCD cloud");
+      throw std::runtime_error(WriteFailure(pcd_path_, "the PCD cloud"));
     }
   }
 

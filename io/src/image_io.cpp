@@ -140,9 +140,10 @@ void WriteImage(const std::string& path, const cv::Mat& image, const std::string
   if (!out.write(reinterpret_cast<const char*>(bytes.data()),
                  static_cast<std::streamsize>(bytes.size())) ||
       !out.flush()) {
+    const std::string failure = WriteFailure(path, "the image");
     out.close();
     std::remove(path.c_str());
-    throw std::runtime_error(path + ": could not write the image (is the folder writable?)");
+    throw std::runtime_error(failure);
   }
 }
 

@@ -6,6 +6,7 @@
 #include <csetjmp>
 #include <cstddef>
 #include <cstdio>
+#include <cstring>
 
 #include "stillmap/io/error.h"
 
@@ -32,6 +33,22 @@ void OnMessage(j_common_ptr info) {
 }
 
 enum class Outcome { kDecoded, kError, kTooLarge };
+
+bool Says(const char* message, const char* part) { return std::strstr(message, part) != nullptr; }
+
+// libjpeg's message in the user's words: what is wrong with the file.
+std::string JpegProblem(const char* message) {
+  if (Says(message, "Premature end")) return "the file ends early: cut short?";
+  if (Says(message, "Not a JPEG")) return "not a JPEG file: it does not start with a JPEG marker";
+  if (Says(message, "Unsupported JPEG process") ||
+      Says(message, "Unsupported JPEG data precision")) {
+    return "a JPEG kind that is not read (lossless, arithmetic-coded or 12-bit)";
+  }
+  if (Says(message, "Empty JPEG") || Says(message, "dimension") || Says(message, "too large")) {
+    return "its header claims an impossible size";
+  }
+  return "its compressed data is damaged";
+}
 
 // The libjpeg calls, with no object whose destructor a longjmp could skip: `image` lives in the
 // caller. Returns the outcome and leaves libjpeg's message in `error`.
@@ -104,7 +121,7 @@ cv::Mat DecodeJpeg(const std::string& path, const std::vector<unsigned char>& by
                      " pixels a side");
   }
   if (outcome == Outcome::kError || warnings > 0) {
-    throw InputError(path + ": corrupt JPEG (damaged data: " + error.message +
+    throw InputError(path + ": corrupt JPEG (" + JpegProblem(error.message) +
                      "); re-extract or re-encode the file");
   }
   return image.channels() == 4 ? CmykToBgr(image, inverted_cmyk) : image;

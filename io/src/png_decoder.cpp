@@ -33,6 +33,25 @@ void ReadBytes(png_structp png, png_bytep out, png_size_t length) {
   reader->at += length;
 }
 
+bool Says(const char* message, const char* part) { return std::strstr(message, part) != nullptr; }
+
+// libpng's message in the user's words: what is wrong with the file.
+std::string PngProblem(const char* message) {
+  if (Says(message, "Not a PNG") || Says(message, "ASCII conversion")) {
+    return "not a PNG file: its signature is wrong";
+  }
+  if (Says(message, "CRC")) return "a checksum does not match: the file is damaged";
+  if (Says(message, "ends early") || Says(message, "Read Error") ||
+      Says(message, "Not enough image data")) {
+    return "the file ends early: cut short?";
+  }
+  if (Says(message, "IHDR") || Says(message, "width") || Says(message, "height") ||
+      Says(message, "exceeds")) {
+    return "its header is damaged or claims an impossible size";
+  }
+  return "its pixel data is damaged";
+}
+
 // The transforms to 8/16-bit gray, BGR or BGRA in host byte order.
 void SetTransforms(png_structp png, png_infop info) {
   const int color_type = png_get_color_type(png, info);
@@ -79,7 +98,7 @@ cv::Mat DecodePng(const std::string& path, const std::vector<unsigned char>& byt
   Reader reader{bytes};
   cv::Mat image;
   if (!Decode(&reader, &image)) {
-    throw InputError(path + ": corrupt PNG (" + Quoted(reader.message) +
+    throw InputError(path + ": corrupt PNG (" + PngProblem(reader.message) +
                      "); re-extract or re-encode the file");
   }
   return image;

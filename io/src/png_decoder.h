@@ -10,7 +10,8 @@ namespace stillmap {
 
 // Decodes a PNG file's bytes as stored: 8 or 16 bits per channel, 1 (gray), 3 (BGR) or 4 (BGRA)
 // channels; palettes and gray below 8 bits are expanded to 8. Throws InputError naming `path` and
-// libpng's message when the data is corrupt (a bad CRC, a damaged stream, a cut-short file).
+// what is wrong, in the user's words, when the data is corrupt (a bad CRC, a damaged stream, a
+// cut-short file).
 // Callers check the header's size first: the decoder allocates what it claims.
 cv::Mat DecodePng(const std::string& path, const std::vector<unsigned char>& bytes);
 

@@ -8,9 +8,10 @@
 #include <cstring>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <type_traits>
 
+#include "jpeg_decoder.h"
+#include "png_decoder.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
 
@@ -303,7 +304,7 @@ void WriteSessionRecord(const std::string& path, const SessionRecord& record,
     write(block.depth_png.data(), block.depth_png.size());
     write(block.color_jpeg.data(), block.color_jpeg.size());
   }
-  if (!out.flush()) throw std::runtime_error(path + ": could not write the session record");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the session record"));
 }
 
 SessionRecordReader::SessionRecordReader(const std::string& path) : path_(path) {
@@ -354,9 +355,13 @@ std::vector<unsigned char> SessionRecordReader::ReadBlock(std::uint64_t offset,
 SessionImages SessionRecordReader::ReadImages(size_t index) {
   const SessionKeyframe& keyframe = record_.keyframes.at(index);
   const Camera& camera = record_.camera;
-  auto decode = [&](std::uint64_t offset, std::uint64_t size, int flags, int type,
+  auto decode = [&](std::uint64_t offset, std::uint64_t size, bool jpeg, int type,
                     const char* what) {
-    cv::Mat image = cv::imdecode(ReadBlock(offset, size), flags);
+    // stillmap's own decoders: damage is said in the user's words, never libpng's or libjpeg's.
+    const std::string where = fmt::format("{}: keyframe {}'s {}", path_, keyframe.id, what);
+    const std::vector<unsigned char> bytes = ReadBlock(offset, size);
+    cv::Mat image =
+        jpeg ? DecodeJpeg(where, bytes, Camera::kMaxImageSide) : DecodePng(where, bytes);
     if (image.type() != type || image.cols != camera.width || image.rows != camera.height) {
       HeaderReader(path_).Fail(fmt::format("keyframe {}'s {} does not decode to a {}x{} image",
                                            keyframe.id, what, camera.width, camera.height));
@@ -364,10 +369,9 @@ SessionImages SessionRecordReader::ReadImages(size_t index) {
     return image;
   };
   SessionImages images;
-  decode(keyframe.depth_offset, keyframe.depth_size, cv::IMREAD_UNCHANGED, CV_16UC1, "depth")
+  decode(keyframe.depth_offset, keyframe.depth_size, false, CV_16UC1, "depth")
       .convertTo(images.depth_m, CV_32F, record_.depth_unit_m);
-  images.color =
-      decode(keyframe.color_offset, keyframe.color_size, cv::IMREAD_COLOR, CV_8UC3, "colour");
+  images.color = decode(keyframe.color_offset, keyframe.color_size, true, CV_8UC3, "colour");
   return images;
 }
 

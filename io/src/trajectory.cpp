@@ -82,7 +82,7 @@ Trajectory Trajectory::ReadTum(const std::string& path) {
 
 void Trajectory::WriteTum(const std::string& path, const std::string& header) const {
   std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot write the trajectory");
+  if (!out) throw std::runtime_error(WriteFailure(path, "the trajectory"));
   if (!header.empty()) out << "# " << header << "\n";
   out << "# timestamp tx ty tz qx qy qz qw\n";
   char buffer[256];
@@ -93,7 +93,7 @@ void Trajectory::WriteTum(const std::string& path, const std::string& header) co
                   t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
     out << buffer;
   }
-  if (!out.flush()) throw std::runtime_error(path + ": could not write the trajectory");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the trajectory"));
 }
 
 std::optional<Eigen::Isometry3d> Trajectory::Interpolate(double time, double max_gap) const {

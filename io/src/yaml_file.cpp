@@ -63,7 +63,57 @@ class Checker {
   std::vector<YAML::Node> path_nodes_;
 };
 
+// True when line `line` (0-based) or the one before it is indented with a tab: yaml-cpp then
+// reports whatever the tab made of the structure, not the tab.
+bool TabIndented(const std::string& text, int line) {
+  std::istringstream in(text);
+  std::string current;
+  for (int i = 0; std::getline(in, current) && i <= line; ++i) {
+    if (i < line - 1) continue;
+    const size_t content = current.find_first_not_of(" \t");
+    if (current.substr(0, content).find('\t') != std::string::npos) return true;
+  }
+  return false;
+}
+
 }  // namespace
+
+std::string YamlProblem(const std::string& message) {
+  struct Problem {
+    const char* says;  // a part of yaml-cpp's message
+    const char* means;
+  };
+  static const Problem kProblems[] = {
+      {"end of map",
+       "a map ('{ ... }' or indented keys) is not closed: a missing '}', or a line "
+       "indented wrongly"},
+      {"end of sequence", "a list ('[ ... ]') is not closed: a missing ']'"},
+      {"tab", "a tab in the indentation: indent with spaces"},
+      {"map value",
+       "a ':' where no value can start: check the indentation, and quote a value "
+       "that holds ': '"},
+      {"map key", "a key where none can start: check the indentation"},
+      {"block entry", "a '- ' list item where none can start: check the indentation"},
+      {"flow end", "a ']' or '}' that closes nothing"},
+      {"escape", "a backslash escape YAML does not know inside double quotes: use single quotes"},
+      {"hex", "a backslash escape YAML does not know inside double quotes: use single quotes"},
+      {"unicode", "a backslash escape YAML does not know inside double quotes: use single quotes"},
+      {"in scalar",
+       "a quoted text that is not closed, or a character plain text may not hold: "
+       "check the quotes"},
+      {"anchor not found", "an alias (*name) whose anchor (&name) is not defined before it"},
+      {"anchor", "an anchor (&name) YAML does not allow here"},
+      {"alias", "an alias (*name) YAML does not allow here"},
+      {"tag", "a tag ('!...') YAML does not allow here"},
+      {"directive", "a '%' directive YAML does not allow here"},
+      {"conversion", "a value of another kind than expected (a number, text, or a list of them)"},
+  };
+  for (const Problem& problem : kProblems) {
+    if (message.find(problem.says) != std::string::npos) return problem.means;
+  }
+  return "text YAML cannot read here: check the indentation, the ':' after each key and the "
+         "quotes";
+}
 
 YAML::Node LoadYamlFile(const std::string& path, const std::string& what) {
   CheckInputFile(path, what);
@@ -79,7 +129,9 @@ YAML::Node LoadYamlFile(const std::string& path, const std::string& what) {
                      std::to_string(e.depth()) + " levels of maps and lists; at most " +
                      std::to_string(kMaxYamlDepth) + " are allowed");
   } catch (const YAML::Exception& e) {
-    throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " + e.msg);
+    const bool tab = TabIndented(text.str(), e.mark.line);
+    throw InputError(WhereInFile(path, e.mark.line + 1) + ": not valid YAML: " +
+                     (tab ? "a tab in the indentation: indent with spaces" : YamlProblem(e.msg)));
   }
   if (documents.empty()) return YAML::Node();
   if (documents.size() > 1) {

@@ -292,7 +292,7 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
       out.write(reinterpret_cast<const char*>(row.data()),
                 static_cast<std::streamsize>(row.size()));
     }
-    if (!out.flush()) throw std::runtime_error(pgm_path + ": could not write the grid image");
+    if (!out.flush()) throw std::runtime_error(WriteFailure(pgm_path, "the grid image"));
   }
   std::ofstream out(yaml_path);
   out << std::setprecision(9);
@@ -327,7 +327,7 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
     for (int c = 0; c < 4; ++c) out << (r + c > 0 ? ", " : "") << tidy(m(r, c));
   }
   out << "]\n";
-  if (!out.flush()) throw std::runtime_error(yaml_path + ": could not write the grid description");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(yaml_path, "the grid description"));
 }
 
 OccupancyGrid ReadGrid(const std::string& yaml_path) {
@@ -351,7 +351,8 @@ OccupancyGrid ReadGrid(const std::string& yaml_path) {
     grid.world_from_grid.matrix() = matrix;
     if (yaml["floor_source"]) grid.floor.source = yaml["floor_source"].as<std::string>();
   } catch (const YAML::Exception& e) {
-    throw InputError(yaml_path + ": malformed grid description (" + e.what() + ")");
+    throw InputError(WhereInFile(yaml_path, e.mark.line + 1) + ": malformed grid description (" +
+                     YamlProblem(e.msg) + ")");
   }
   // The map frame's z is the floor's normal and its origin lies on the floor.
   grid.floor.up = grid.world_from_grid.linear().col(2);

@@ -215,14 +215,14 @@ void OccupancyMap::WriteBinary(const std::string& path) const {
       << "res " << impl_->tree.getResolution() << "\n"
       << "data\n";
   if (!out || !impl_->tree.writeBinaryData(out) || !out.flush()) {
-    throw std::runtime_error(path + ": could not write the OctoMap (.bt)");
+    throw std::runtime_error(WriteFailure(path, "the OctoMap (.bt)"));
   }
 }
 
 void OccupancyMap::WriteFull(const std::string& path) const {
   std::ofstream out(path, std::ios::binary);
   if (!out || !impl_->tree.write(out) || !out.flush()) {
-    throw std::runtime_error(path + ": could not write the OctoMap (.ot)");
+    throw std::runtime_error(WriteFailure(path, "the OctoMap (.ot)"));
   }
 }
 

@@ -151,7 +151,7 @@ PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, 
 void WriteText(const std::string& path, const std::string& text, const char* name) {
   std::ofstream out(path);
   out << text;
-  if (!out.flush()) throw std::runtime_error(std::string("could not write ") + name);
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, name));
 }
 
 }  // namespace

@@ -281,8 +281,12 @@ void ApplyConfigFile(BuildConfig* config, const std::string& path) {
     std::string value;
     if (node.IsSequence()) {
       for (const YAML::Node& item : node) {
+        if (!item.IsScalar()) {
+          throw InputError(
+              fmt::format("{}: key '{}' must hold a value or a list of values", where, name));
+        }
         if (!value.empty()) value += ',';
-        value += item.as<std::string>();
+        value += item.Scalar();
       }
     } else if (node.IsScalar()) {
       value = node.as<std::string>();

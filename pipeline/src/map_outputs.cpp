@@ -8,6 +8,7 @@
 
 #include "map_frame.h"
 #include "session_output.h"
+#include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/mapping/map_mesh.h"
@@ -143,7 +144,7 @@ void WriteConfig(const BuildRequest& request, OutputSet& outputs) {
   config.run.threads = request.threads;
   std::ofstream out(outputs.TemporaryPath("config.yaml"));
   out << ConfigToYaml(config);
-  if (!out.flush()) throw std::runtime_error("could not write config.yaml");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(outputs.TemporaryPath("config.yaml"), "config.yaml"));
 }
 
 // Warnings about the finished map that the figures alone do not make plain.

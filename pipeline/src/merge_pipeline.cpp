@@ -338,7 +338,7 @@ void WriteMergeRenders(std::vector<VoxelPoint> cloud, const std::vector<MergeSes
 void WriteText(const std::string& path, const std::string& text) {
   std::ofstream out(path);
   out << text;
-  if (!out.flush()) throw std::runtime_error("could not write " + path);
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the file"));
 }
 
 }  // namespace

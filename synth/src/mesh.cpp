@@ -115,7 +115,7 @@ TriangleMesh MakeEllipsoid(const Eigen::Vector3f& radii, int segments) {
 
 void WriteObj(const std::string& path, const TriangleMesh& mesh) {
   std::ofstream out(path);
-  if (!out) throw std::runtime_error(path + ": cannot write the mesh");
+  if (!out) throw std::runtime_error(WriteFailure(path, "the mesh"));
   out << "# stillmap synthetic scene mesh\n";
   char line[160];
   for (const Eigen::Vector3f& v : mesh.vertices) {
@@ -130,7 +130,7 @@ void WriteObj(const std::string& path, const TriangleMesh& mesh) {
     out << "f " << f[0] + 1 << "/" << f[0] + 1 << " " << f[1] + 1 << "/" << f[1] + 1 << " "
         << f[2] + 1 << "/" << f[2] + 1 << "\n";
   }
-  if (!out.flush()) throw std::runtime_error(path + ": could not write the mesh");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the mesh"));
 }
 
 TriangleMesh LoadMesh(const std::string& path) {

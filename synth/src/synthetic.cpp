@@ -8,11 +8,11 @@
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <thread>
 
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/image_io.h"
 #include "stillmap/io/input_files.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/timing.h"
@@ -70,9 +70,8 @@ cv::Mat DepthModel(const RasterBuffers& buffers, const Camera& camera, bool nois
   return out;
 }
 
-void WritePng(const std::string& path, const cv::Mat& image) {
-  if (!cv::imwrite(path, image)) throw std::runtime_error(path + ": could not write the image");
-}
+// Encoded in memory and written by stillmap, so that a full disk is said in the user's words.
+void WritePng(const std::string& path, const cv::Mat& image) { WriteImage(path, image, ".png"); }
 
 // Draws the whole scene at `time`; the static-only depth is copied out when asked.
 void Render(const synth::Scene& scene, const std::string& scenario, double time, Rasterizer* raster,
@@ -168,7 +167,7 @@ void WriteTimestampList(const std::string& path, const std::string& what, const 
                   FrameName(i).c_str());
     out << line;
   }
-  if (!out.flush()) throw std::runtime_error(path + ": could not write");
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the file"));
 }
 
 }  // namespace
@@ -339,7 +338,8 @@ void WritePoses(const synth::Scene& scene, const SynthOptions& options, const fs
       objects << line;
     }
   }
-  if (!objects.flush()) throw std::runtime_error("could not write objects.txt");
+  if (!objects.flush())
+    throw std::runtime_error(WriteFailure((work / "objects.txt").string(), "the objects list"));
   objects.close();
   Trajectory(camera_poses)
       .WriteTum((work / "groundtruth.txt").string(),
@@ -362,7 +362,8 @@ void WriteSynthInfo(const SynthOptions& options, const SynthSummary& summary, si
                          {"dynamic_pixel_share", summary.dynamic_pixel_share}};
   std::ofstream info_file(work / "synth.json");
   info_file << info.dump(2) << "\n";
-  if (!info_file.flush()) throw std::runtime_error("could not write synth.json");
+  if (!info_file.flush())
+    throw std::runtime_error(WriteFailure((work / "synth.json").string(), "the run description"));
 }
 
 }  // namespace

@@ -111,7 +111,15 @@ inline const std::vector<std::string> kInternalMarkers = {"basic_",
                                                           "database disk image is malformed",
                                                           "file is not a database",
                                                           "no such table",
-                                                          "Too many levels of symbolic links"};
+                                                          "Too many levels of symbolic links",
+                                                          "Write Error",
+                                                          "bad adaptive filter value",
+                                                          "Premature end of JPEG file",
+                                                          "Corrupt JPEG data",
+                                                          "illegal map value",
+                                                          "end of map not found",
+                                                          "end of sequence not found",
+                                                          "unknown escape character"};
 
 // Each run has a time limit (a hang fails, not blocks), and sanitizer reports end the run
 // with a signal instead of exit status 1.

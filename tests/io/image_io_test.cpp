@@ -1,12 +1,16 @@
 #include "stillmap/io/image_io.h"
 
 #include <gtest/gtest.h>
+#include <zlib.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/trajectory.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -20,6 +24,16 @@ void Truncate(const std::string& path, double keep_fraction) {
 }
 
 using testing::ErrorOf;
+
+// The message of a run that failed (std::runtime_error, exit status 1), empty when none.
+std::string FailureOf(const std::function<void()>& call) {
+  try {
+    call();
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
 
 TEST(ImageIoTest, DepthIsConvertedToMetres) {
   TempDir dir;
@@ -72,6 +86,63 @@ TEST(ImageIoTest, MissingAndNonImageFiles) {
   testing::WriteText(dir / "text.png", "hello, not an image");
   EXPECT_NE(ErrorOf([&] { ReadColorImage(dir / "text.png"); }).find("not a PNG or JPEG"),
             std::string::npos);
+}
+
+// The library's own words for damage never reach the user: a row filter PNG does not define
+// (libpng: "bad adaptive filter value"), a JPEG whose data stops at an early end marker
+// (libjpeg: "Premature end of JPEG file" or "Corrupt JPEG data").
+TEST(ImageIoTest, DamageIsSaidInTheUsersWords) {
+  TempDir dir;
+  std::vector<unsigned char> png;
+  cv::imencode(".png", cv::Mat(8, 8, CV_16UC1, cv::Scalar(1000)), png,
+               {cv::IMWRITE_PNG_COMPRESSION, 0});  // stored deflate blocks: row bytes in the open
+  const auto idat = std::search(png.begin(), png.end(), std::begin("IDAT"), std::end("IDAT") - 1);
+  ASSERT_NE(idat, png.end());
+  const size_t type = static_cast<size_t>(idat - png.begin());
+  const size_t length = (size_t{png[type - 4]} << 24) | (size_t{png[type - 3]} << 16) |
+                        (size_t{png[type - 2]} << 8) | png[type - 1];
+  png[type + 4 + 2 + 5] = 9;  // after zlib's header and the stored block's: row 0's filter byte
+  const uLong crc = crc32(0, png.data() + type, static_cast<uInt>(length + 4));
+  for (int i = 0; i < 4; ++i)
+    png[type + 4 + length + i] = static_cast<unsigned char>(crc >> (24 - 8 * i));
+  std::ofstream(dir / "filter.png", std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  const std::string png_error = ErrorOf([&] { ReadDepthImage(dir / "filter.png", 5000.0); });
+  EXPECT_NE(png_error.find("filter.png: corrupt PNG (its pixel data is damaged)"),
+            std::string::npos)
+      << png_error;
+  EXPECT_EQ(png_error.find("adaptive"), std::string::npos) << png_error;
+
+  cv::Mat color(120, 160, CV_8UC3);
+  cv::randu(color, 0, 255);
+  std::vector<unsigned char> jpeg;
+  cv::imencode(".jpg", color, jpeg);
+  jpeg.resize(jpeg.size() * 6 / 10);
+  jpeg.insert(jpeg.end(), {0xFF, 0xD9});  // an end marker in the middle of the data
+  std::ofstream(dir / "early.jpg", std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+  const std::string jpeg_error = ErrorOf([&] { ReadColorImage(dir / "early.jpg"); });
+  EXPECT_NE(jpeg_error.find("early.jpg: corrupt JPEG ("), std::string::npos) << jpeg_error;
+  EXPECT_EQ(jpeg_error.find("Premature"), std::string::npos) << jpeg_error;
+  EXPECT_EQ(jpeg_error.find("Corrupt JPEG data"), std::string::npos) << jpeg_error;
+}
+
+// A full disk (/dev/full answers every write with ENOSPC) is said as such, for an image encoded
+// by OpenCV and for a text output; the link to it is removed, never the device.
+TEST(ImageIoTest, AFullDiskIsSaidAsSuch) {
+  TempDir dir;
+  std::filesystem::create_symlink("/dev/full", dir / "render.png");
+  const std::string image_error =
+      FailureOf([&] { WriteImage(dir / "render.png", cv::Mat(64, 64, CV_8UC3), ".png"); });
+  EXPECT_NE(image_error.find("render.png: could not write the image: the disk is full"),
+            std::string::npos)
+      << image_error;
+  EXPECT_TRUE(std::filesystem::exists("/dev/full"));
+  std::filesystem::create_symlink("/dev/full", dir / "trajectory.txt");
+  const Trajectory trajectory({{1.0, Eigen::Isometry3d::Identity()}});
+  const std::string text_error = FailureOf([&] { trajectory.WriteTum(dir / "trajectory.txt"); });
+  EXPECT_NE(text_error.find("could not write the trajectory: the disk is full"), std::string::npos)
+      << text_error;
 }
 
 }  // namespace

@@ -20,4 +20,9 @@ std::string WhereInFile(const std::string& path, int line);
 // with "...", so that a binary file's bytes never reach the terminal raw.
 std::string Quoted(const std::string& text, size_t max_chars = 80);
 
+// "PATH: could not write WHAT: REASON" for a write that just failed, the reason read from errno
+// in the user's words: the disk is full, the quota is used up, the file system is read-only,
+// permission, an I/O error; else the system's own description.
+std::string WriteFailure(const std::string& path, const std::string& what);
+
 }  // namespace stillmap

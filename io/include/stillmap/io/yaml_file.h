@@ -16,6 +16,9 @@ namespace stillmap {
 // node it is inside of, or nesting deeper than kMaxYamlDepth.
 YAML::Node LoadYamlFile(const std::string& path, const std::string& what);
 
+// yaml-cpp's message (YAML::Exception::msg) in the user's words: what is wrong and how to fix it.
+std::string YamlProblem(const std::string& message);
+
 // How deep maps and lists may nest in a file read by LoadYamlFile (a settings file needs 3).
 constexpr int kMaxYamlDepth = 32;
 
