@@ -54,6 +54,44 @@ TEST_F(HostileRound4Test, TopicsGivenWronglyAreRefused) {
   ExpectRefused(build + " --topic depth=/camera/depth", "a TUM-layout folder has no topics");
 }
 
+// YAML the user wrote wrongly (a --config, a camera.yaml, a bag's metadata.yaml): the line and
+// the fix, never yaml-cpp's own words.
+TEST_F(HostileRound4Test, BrokenYamlIsSaidWithItsLineAndTheFix) {
+  struct Case {
+    const char* text;
+    const char* expected;
+  };
+  const Case cases[] = {
+      {"mapping:\n\tvoxel_size: 0.01\n", ":2: not valid YAML: a tab in the indentation"},
+      {"mapping: {voxel_size: 0.01\n",
+       "not valid YAML: a map ('{ ... }' or indented keys) is not "
+       "closed"},
+      {"run:\n  detector: [none\n", "not valid YAML: a list ('[ ... ]') is not closed"},
+      {"mapping:\n  voxel_size: 0.01\n   extra: 2\n", ":3: not valid YAML: a ':' where no value"},
+      {"run:\n  detector: \"no\\qne\"\n", "not valid YAML: a backslash escape"},
+      {"mapping:\n  voxel_size: [ {a: 1} ]\n",
+       "key 'mapping.voxel_size' must hold a value or a "
+       "list of values"},
+  };
+  const std::string config = dir_ / "config.yaml";
+  for (const Case& c : cases) {
+    std::ofstream(config) << c.text;
+    ExpectRefused("build " + BaseSequence() + " -o " + (dir_ / "out") + " --config " + config,
+                  c.expected);
+  }
+  const std::string camera = dir_ / "seq";
+  fs::copy(BaseSequence(), camera, fs::copy_options::recursive);
+  std::ofstream(camera + "/camera.yaml") << "width: 640\nheight: [480\n";
+  ExpectRefused("build " + camera + " -o " + (dir_ / "out"),
+                "camera.yaml:3: not valid YAML: a list ('[ ... ]') is not closed");
+  fs::create_directories(dir_ / "bag");
+  std::ofstream(dir_ / "bag/metadata.yaml") << "rosbag2_bagfile_information: {version: 5\n";
+  ExpectRefused(
+      "build " + (dir_ / "bag") + " -o " + (dir_ / "out"),
+      "metadata.yaml:2: not valid YAML: a map ('{ ... }' or indented keys) is not closed");
+  EXPECT_FALSE(fs::exists(dir_ / "out/map.ply"));
+}
+
 TEST_F(HostileRound4Test, MergeRefusesAFifoAndTheSameFolderTwice) {
   const std::string a = dir_ / "a", b = dir_ / "b";
   fs::create_directories(a);
