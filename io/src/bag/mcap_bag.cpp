@@ -8,6 +8,7 @@
 #include "bag/bytes.h"
 #include "bag/decompress.h"
 #include "bag/recovered_topics.h"
+#include "bag/resync.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -232,32 +233,11 @@ std::uint64_t McapBag::NextChunkAfter(std::ifstream& file, std::uint64_t from) c
     file.read(reinterpret_cast<char*>(head), static_cast<std::streamsize>(available));
     return file && IsChunkHeader(head, available, offset, file_size_);
   };
-  // The summary's next chunk bounds the search; the bytes before it are searched too.
-  std::uint64_t limit = file_size_;
-  for (auto it = std::upper_bound(summary_chunks_.begin(), summary_chunks_.end(), from);
-       it != summary_chunks_.end(); ++it) {
-    if (is_chunk(*it)) {
-      limit = *it;
-      break;
-    }
-  }
-  constexpr std::uint64_t kWindow = 1U << 20U;
-  std::vector<std::uint8_t> window;
-  for (std::uint64_t start = from + 1; start < limit; start += kWindow) {
-    window.resize(
-        static_cast<size_t>(std::min<std::uint64_t>(kWindow + kHeaderBytes, file_size_ - start)));
-    file.clear();
-    file.seekg(static_cast<std::streamoff>(start));
-    file.read(reinterpret_cast<char*>(window.data()), static_cast<std::streamsize>(window.size()));
-    if (!file) break;
-    for (size_t i = 0; i < window.size() && i < kWindow && start + i < limit; ++i) {
-      if (window[i] == kOpChunk &&
-          IsChunkHeader(window.data() + i, window.size() - i, start + i, file_size_)) {
-        return start + i;
-      }
-    }
-  }
-  return limit;
+  const std::uint64_t limit = NextListed(summary_chunks_, from, file_size_, is_chunk);
+  const auto starts = [&](const std::uint8_t* bytes, size_t available, std::uint64_t offset) {
+    return bytes[0] == kOpChunk && IsChunkHeader(bytes, available, offset, file_size_);
+  };
+  return ScanForward(file, file_size_, from, limit, kHeaderBytes, starts);
 }
 
 void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {

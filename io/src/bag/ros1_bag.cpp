@@ -6,6 +6,7 @@
 #include "bag/bytes.h"
 #include "bag/decompress.h"
 #include "bag/recovered_topics.h"
+#include "bag/resync.h"
 #include "stillmap/io/error.h"
 
 namespace stillmap {
@@ -272,36 +273,16 @@ bool Ros1Bag::IsRecordStart(std::ifstream& file, std::uint64_t offset) const {
 }
 
 std::uint64_t Ros1Bag::NextRecordAfter(std::ifstream& file, std::uint64_t from) const {
-  // The index's next chunk bounds the search; the bytes before it are searched too, in case the
-  // index misses a chunk.
-  std::uint64_t limit = file_size_;
-  for (auto it = std::upper_bound(index_chunks_.begin(), index_chunks_.end(), from);
-       it != index_chunks_.end(); ++it) {
-    if (IsRecordStart(file, *it)) {
-      limit = *it;
-      break;
-    }
-  }
-  // Byte by byte: a plausible header length and first field length, then the records themselves.
-  constexpr std::uint64_t kWindow = 1U << 20U;
-  std::vector<std::uint8_t> window;
-  for (std::uint64_t start = from + 1; start < limit && file_size_ - start >= 8; start += kWindow) {
-    window.resize(static_cast<size_t>(std::min<std::uint64_t>(kWindow + 8, file_size_ - start)));
-    file.clear();
-    file.seekg(static_cast<std::streamoff>(start));
-    file.read(reinterpret_cast<char*>(window.data()), static_cast<std::streamsize>(window.size()));
-    if (!file) break;
-    for (size_t i = 0; i + 8 <= window.size() && i < kWindow && start + i < limit; ++i) {
-      const std::uint32_t header_size = Le32(window.data() + i);
-      const std::uint32_t first_field = Le32(window.data() + i + 4);
-      if (header_size < 8 || header_size > kMaxOuterHeaderBytes || first_field < 4 ||
-          first_field > header_size - 4) {
-        continue;
-      }
-      if (IsRecordStart(file, start + i)) return start + i;
-    }
-  }
-  return limit;
+  const auto whole = [&](std::uint64_t offset) { return IsRecordStart(file, offset); };
+  const std::uint64_t limit = NextListed(index_chunks_, from, file_size_, whole);
+  // A plausible header length and first field length, then the records themselves.
+  const auto starts = [&](const std::uint8_t* bytes, size_t available, std::uint64_t offset) {
+    if (available < 8) return false;
+    const std::uint32_t header_size = Le32(bytes), first_field = Le32(bytes + 4);
+    return header_size >= 8 && header_size <= kMaxOuterHeaderBytes && first_field >= 4 &&
+           first_field <= header_size - 4 && whole(offset);
+  };
+  return ScanForward(file, file_size_, from, limit, 8, starts);
 }
 
 void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
