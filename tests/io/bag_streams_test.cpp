@@ -108,6 +108,25 @@ TEST_F(BagStreamsTest, MessagesRecordedTwiceAreLeftOutAtTheStart) {
       << sequence.warnings()[0];
 }
 
+TEST_F(BagStreamsTest, AFileListedTwiceInTheMetadataIsReadOnce) {
+  const std::string folder = dir_ / "twice";
+  fs::copy(*testing::SharedBag("teddy_tum_jazzy_db3"), folder);
+  std::string metadata = testing::ReadText(folder + "/metadata.yaml");
+  const std::string entry = "    - teddy_tum_jazzy_db3_0.db3\n";
+  const size_t at = metadata.find(entry);
+  ASSERT_NE(at, std::string::npos);
+  metadata.insert(at, "    - ./teddy_tum_jazzy_db3_0.db3\n");
+  testing::WriteText(folder + "/metadata.yaml", metadata);
+  const Sequence sequence = Sequence::OpenBag(folder, {}, {});
+  EXPECT_EQ(sequence.frames().size(), intact_frames_);
+  ASSERT_EQ(sequence.warnings().size(), 1u);
+  EXPECT_NE(sequence.warnings()[0].find("metadata.yaml: relative_file_paths lists "
+                                        "teddy_tum_jazzy_db3_0.db3 more than once; it is read "
+                                        "once"),
+            std::string::npos)
+      << sequence.warnings()[0];
+}
+
 TEST_F(BagStreamsTest, StampsAllEqualAreRefusedNamingTheTopic) {
   // Every colour message's header stamp set to one time (sec and nanosec after the CDR header).
   Execute(

@@ -67,7 +67,7 @@ BagFolder::BagFolder(const std::string& folder) : BagReader(folder) {
   }
 }
 
-std::vector<std::string> BagFolder::FilesFromMetadata(const std::string& metadata) const {
+std::vector<std::string> BagFolder::FilesFromMetadata(const std::string& metadata) {
   const YAML::Node root = LoadYamlFile(metadata, "ROS 2 bag metadata");
   const YAML::Node info = root.IsMap() ? root["rosbag2_bagfile_information"] : YAML::Node();
   if (!info || !info.IsMap()) {
@@ -93,7 +93,13 @@ std::vector<std::string> BagFolder::FilesFromMetadata(const std::string& metadat
       if (!path.IsScalar() || path.Scalar().empty()) {
         throw InputError(metadata + ": relative_file_paths holds an entry that is not a file name");
       }
-      files.push_back((fs::path(path_) / path.Scalar()).string());
+      const std::string file = (fs::path(path_) / path.Scalar()).lexically_normal().string();
+      if (std::find(files.begin(), files.end(), file) != files.end()) {
+        notes_.push_back(metadata + ": relative_file_paths lists " + Quoted(path.Scalar()) +
+                         " more than once; it is read once");
+        continue;
+      }
+      files.push_back(file);
     }
   }
   if (files.empty()) throw InputError(metadata + ": relative_file_paths names no storage file");

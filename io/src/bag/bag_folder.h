@@ -26,7 +26,7 @@ class BagFolder : public BagReader {
   std::vector<std::uint8_t> Read(const BagPosition& position) const override;
 
  private:
-  std::vector<std::string> FilesFromMetadata(const std::string& metadata) const;
+  std::vector<std::string> FilesFromMetadata(const std::string& metadata);
   std::vector<std::string> FilesByName();
   // Joins part `part`'s topics into topics_ (by name).
   void JoinTopics(size_t part);
