@@ -59,6 +59,7 @@ cv::Point2d Polynomial(const std::vector<double>& c, cv::Point2d p, bool modifie
 double WorstProjection(const RosCameraInfo& info, const std::vector<cv::Point2d>& undistorted,
                        const std::vector<cv::Point2d>& expected) {
   std::vector<cv::Point3d> points;
+  points.reserve(undistorted.size());
   for (const cv::Point2d& p : undistorted) points.emplace_back(p.x, p.y, 1.0);
   std::vector<cv::Point2d> projected;
   cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Matx33d(info.k.data()),
