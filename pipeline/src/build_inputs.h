@@ -6,7 +6,8 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
-#include "stillmap/pipeline/build_pipeline.h"
+#include "stillmap/pipeline/build_request.h"
+#include "stillmap/pipeline/build_result.h"
 
 namespace stillmap {
 

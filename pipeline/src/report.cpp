@@ -8,7 +8,7 @@
 
 #include "report_parts.h"
 #include "report_timing.h"
-#include "stillmap/pipeline/build_pipeline.h"
+#include "stillmap/pipeline/build_request.h"
 
 namespace stillmap {
 namespace {

@@ -169,4 +169,8 @@ struct BuildResult {
   }
 };
 
+// Every top-level name a build writes (folders end with '/'): a rerun replaces all of them, so
+// that no file of an earlier run stays beside the new set.
+const std::vector<std::string>& BuildOutputNames();
+
 }  // namespace stillmap

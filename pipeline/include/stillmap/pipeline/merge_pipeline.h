@@ -12,17 +12,9 @@
 #include "stillmap/io/evaluation.h"
 #include "stillmap/pipeline/build_result.h"
 #include "stillmap/pipeline/config.h"
+#include "stillmap/pipeline/merge_request.h"
 
 namespace stillmap {
-
-struct MergeRequest {
-  std::vector<std::string> session_dirs;  // build output folders; the first sets the map frame
-  std::string output_dir;
-  BuildConfig config;  // the first session's config.yaml, with --set applied
-  int threads = 2;
-  bool show_progress = false;
-  std::string command_line;  // as typed, for the report
-};
 
 struct MergeSessionFigures {
   std::string name, dir, sequence;
