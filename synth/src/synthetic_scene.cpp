@@ -222,31 +222,43 @@ MovingObject MakePerson(Scene* scene, cv::RNG& rng, const std::string& name, std
 
 }  // namespace
 
-Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
-  cv::RNG rng(seed * 7919 + 17);
-  Scene scene;
-  scene.materials.resize(kBookFirst + kBookCount);
-  scene.materials[kCarpet] = {NoiseTexture(rng, cv::Scalar(70, 80, 95), 18.0, 256, 16, 16.0)};
-  scene.materials[kCeiling] = {NoiseTexture(rng, cv::Scalar(225, 228, 230), 4.0, 256, 8, 2.0)};
-  scene.materials[kWallFar] = {WallTexture(rng, cv::Scalar(200, 215, 222))};
-  scene.materials[kWallLeft] = {WallTexture(rng, cv::Scalar(190, 200, 170))};
-  scene.materials[kWallRight] = {WallTexture(rng, cv::Scalar(175, 195, 215))};
-  scene.materials[kWallNear] = {WallTexture(rng, cv::Scalar(205, 205, 205))};
-  scene.materials[kWood] = {WoodTexture(rng, cv::Scalar(70, 120, 170))};
-  scene.materials[kDarkWood] = {WoodTexture(rng, cv::Scalar(40, 60, 95))};
-  scene.materials[kMetal] = {NoiseTexture(rng, cv::Scalar(120, 120, 125), 8.0, 64, 4, 6.0)};
-  scene.materials[kScreen] = {ScreenTexture(rng)};
-  scene.materials[kPlastic] = {NoiseTexture(rng, cv::Scalar(35, 35, 38), 4.0, 64, 4, 5.0)};
-  scene.materials[kSkin] = {NoiseTexture(rng, cv::Scalar(120, 150, 200), 10.0, 64, 4, 4.0)};
-  for (int b = 0; b < kBookCount; ++b) {
-    scene.materials[kBookFirst + b] = {NoiseTexture(rng, RandomColor(rng, 20, 230), 10, 64, 4, 8)};
-  }
+namespace {
 
-  std::uint16_t id = 1;
-  auto add = [&](const std::string& name, TriangleMesh mesh, std::uint16_t material) {
-    scene.statics.push_back({name, std::move(mesh), material, id++});
-  };
-  // The room: x in [-2.5, 2.5], y in [-2, 3], z in [0, 2.7]; walls textured once over their area.
+void AddMaterials(cv::RNG& rng, Scene* scene) {
+  std::vector<Material>& materials = scene->materials;
+  materials.resize(kBookFirst + kBookCount);
+  materials[kCarpet] = {NoiseTexture(rng, cv::Scalar(70, 80, 95), 18.0, 256, 16, 16.0)};
+  materials[kCeiling] = {NoiseTexture(rng, cv::Scalar(225, 228, 230), 4.0, 256, 8, 2.0)};
+  materials[kWallFar] = {WallTexture(rng, cv::Scalar(200, 215, 222))};
+  materials[kWallLeft] = {WallTexture(rng, cv::Scalar(190, 200, 170))};
+  materials[kWallRight] = {WallTexture(rng, cv::Scalar(175, 195, 215))};
+  materials[kWallNear] = {WallTexture(rng, cv::Scalar(205, 205, 205))};
+  materials[kWood] = {WoodTexture(rng, cv::Scalar(70, 120, 170))};
+  materials[kDarkWood] = {WoodTexture(rng, cv::Scalar(40, 60, 95))};
+  materials[kMetal] = {NoiseTexture(rng, cv::Scalar(120, 120, 125), 8.0, 64, 4, 6.0)};
+  materials[kScreen] = {ScreenTexture(rng)};
+  materials[kPlastic] = {NoiseTexture(rng, cv::Scalar(35, 35, 38), 4.0, 64, 4, 5.0)};
+  materials[kSkin] = {NoiseTexture(rng, cv::Scalar(120, 150, 200), 10.0, 64, 4, 4.0)};
+  for (int b = 0; b < kBookCount; ++b) {
+    materials[kBookFirst + b] = {NoiseTexture(rng, RandomColor(rng, 20, 230), 10, 64, 4, 8)};
+  }
+}
+
+// Adds the scene's static objects, each with the next id.
+class StaticAdder {
+ public:
+  explicit StaticAdder(Scene* scene) : scene_(scene) {}
+  void operator()(const std::string& name, TriangleMesh mesh, std::uint16_t material) {
+    scene_->statics.push_back({name, std::move(mesh), material, next_id++});
+  }
+  std::uint16_t next_id = 1;
+
+ private:
+  Scene* scene_;
+};
+
+// The room: x in [-2.5, 2.5], y in [-2, 3], z in [0, 2.7]; walls textured once over their area.
+void AddRoom(StaticAdder& add) {
   const float x0 = -2.5f, x1 = 2.5f, y0 = -2.0f, y1 = 3.0f, h = 2.7f;
   TriangleMesh floor = MakeQuad({x0, y0, 0}, {x1 - x0, 0, 0}, {0, y1 - y0, 0});
   for (auto& uv : floor.uvs) uv *= 5.0f;  // carpet repeats every metre
@@ -259,8 +271,9 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
   add("wall_left", MakeQuad({x0, y0, h}, {0, y1 - y0, 0}, {0, 0, -h}), kWallLeft);
   add("wall_right", MakeQuad({x1, y1, h}, {0, y0 - y1, 0}, {0, 0, -h}), kWallRight);
   add("wall_near", MakeQuad({x1, y0, h}, {x0 - x1, 0, 0}, {0, 0, -h}), kWallNear);
+}
 
-  // Furniture.
+void AddFurniture(StaticAdder& add) {
   add("desk", Table(0.3f, 2.6f, 1.5f, 0.75f, 0.74f), kWood);
   add("monitor_case", Box(0.25f, 2.75f, 1.05f, 0.6f, 0.05f, 0.38f), kPlastic);
   add("monitor_stand", Box(0.25f, 2.8f, 0.82f, 0.08f, 0.08f, 0.16f), kPlastic);
@@ -271,7 +284,10 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
   add("box_on_cabinet", Box(1.75f, 2.5f, 1.22f, 0.35f, 0.3f, 0.24f), kBookFirst + 7);
   add("chair_desk", Chair(0.3f, 1.95f, 0.0f), kMetal);
   add("chair_side", Chair(1.45f, 1.2f, -kPi / 2), kMetal);
-  // Shelves along the left wall, filled with books.
+}
+
+// Shelves along the left wall, filled with books of random thickness and height.
+void AddShelves(cv::RNG& rng, StaticAdder& add) {
   TriangleMesh shelf = Box(-2.32f, 1.5f, 0.95f, 0.34f, 0.03f, 1.9f);
   shelf.Append(Box(-2.32f, 2.7f, 0.95f, 0.34f, 0.03f, 1.9f));
   for (int board = 0; board < 5; ++board) {
@@ -290,119 +306,118 @@ Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
     }
     add("books_" + std::to_string(board), books, static_cast<std::uint16_t>(kBookFirst + board));
   }
+}
 
-  // look_alike: a second shelf with the same books on the near wall, a twin of the first: two
-  // places that look the same and must never be joined.
-  if (scenario == "look_alike") {
-    std::vector<StaticObject> twins;
-    for (const StaticObject& object : scene.statics) {
-      if (object.name != "shelf" && object.name.rfind("books_", 0) != 0) continue;
-      StaticObject twin = object;
-      twin.name = object.name + "_twin";
-      twin.id = id++;
-      // Turned from facing +x (left wall) to facing +y (near wall), 0.5 m right of the middle.
-      const Eigen::Matrix3f turn = Eigen::AngleAxisf(kPi / 2, Eigen::Vector3f::UnitZ()).matrix();
-      for (Eigen::Vector3f& vertex : twin.mesh.vertices) {
-        vertex = turn * vertex + Eigen::Vector3f(2.6f, 0.5f, 0.0f);
-      }
-      twins.push_back(std::move(twin));
+// look_alike: a second shelf with the same books on the near wall, a twin of the first: two
+// places that look the same and must never be joined.
+void AddTwinShelf(Scene* scene, StaticAdder& add) {
+  std::vector<StaticObject> twins;
+  for (const StaticObject& object : scene->statics) {
+    if (object.name != "shelf" && object.name.rfind("books_", 0) != 0) continue;
+    StaticObject twin = object;
+    twin.name = object.name + "_twin";
+    twin.id = add.next_id++;
+    // Turned from facing +x (left wall) to facing +y (near wall), 0.5 m right of the middle.
+    const Eigen::Matrix3f turn = Eigen::AngleAxisf(kPi / 2, Eigen::Vector3f::UnitZ()).matrix();
+    for (Eigen::Vector3f& vertex : twin.mesh.vertices) {
+      vertex = turn * vertex + Eigen::Vector3f(2.6f, 0.5f, 0.0f);
     }
-    for (StaticObject& twin : twins) scene.statics.push_back(std::move(twin));
+    twins.push_back(std::move(twin));
   }
+  for (StaticObject& twin : twins) scene->statics.push_back(std::move(twin));
+}
 
-  // People and what they carry.
-  std::uint16_t dynamic_id = kFirstDynamicId;
-  if (scenario.rfind("walking", 0) == 0) {
-    MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
-    first.from = {-2.1f, 0.9f};  // across the view, clear of the side chair (x >= 1.22)
-    first.to = {1.0f, 0.9f};
-    first.speed = 1.1f;
-    scene.movers.push_back(first);
-    MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
-    second.from = {-1.2f, 2.2f};  // towards the camera and back
-    second.to = {-0.5f, 1.25f};   // stops short of person_0's line (y = 0.9)
-    second.speed = 0.9f;
-    second.phase_offset = 1.0f;
-    scene.movers.push_back(second);
-  } else if (scenario == "loop") {
-    // Two people walking along the far and the left wall, outside the camera's circle.
-    MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
-    first.from = {-1.6f, 2.35f};
-    first.to = {1.3f, 2.35f};
-    first.speed = 0.8f;
-    scene.movers.push_back(first);
-    MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
-    second.from = {-1.85f, -1.5f};
-    second.to = {-1.85f, 1.3f};
-    second.speed = 0.7f;
-    second.phase_offset = 2.0f;
-    scene.movers.push_back(second);
-  } else if (scenario == "crowd_start") {
-    // Three people in view from the first frame, crossing it early.
-    const std::array<std::array<float, 6>, 3> paths = {{
-        {-1.9f, 1.0f, 1.0f, 1.0f, 1.0f, 1.2f},    // from x, y, to x, y, speed, phase [s]
-        {-1.3f, 2.1f, -0.4f, 1.3f, 0.8f, 0.4f},   // towards the camera
-        {1.0f, 1.45f, -1.6f, 1.45f, 0.9f, 0.9f},  // the other way, behind the first
-    }};
-    for (const auto& path : paths) {
-      MovingObject person = MakePerson(
-          &scene, rng, "person_" + std::to_string(dynamic_id - kFirstDynamicId), dynamic_id);
-      ++dynamic_id;
-      person.from = {path[0], path[1]};
-      person.to = {path[2], path[3]};
-      person.speed = path[4];
-      person.phase_offset = path[5];
-      scene.movers.push_back(person);
-    }
-  } else if (scenario == "lens_pass") {
-    // One person walking in the room, and one crossing 0.4-0.7 m in front of the lens once
-    // (at about 3.75 s), filling most of the image; the room's walls hide them outside it.
-    MovingObject walker = MakePerson(&scene, rng, "person_0", dynamic_id++);
-    walker.from = {-2.1f, 1.2f};
-    walker.to = {1.0f, 1.2f};
-    walker.speed = 0.9f;
-    scene.movers.push_back(walker);
-    MovingObject passer = MakePerson(&scene, rng, "person_1", dynamic_id++);
-    passer.from = {-4.5f, -0.35f};
-    passer.to = {4.5f, -0.35f};
-    passer.speed = 1.2f;
-    scene.movers.push_back(passer);
-  } else if (scenario == "stop_and_go") {
-    // A person walks in from the left (out of view at first), stands 4 s, and walks out.
-    MovingObject person = MakePerson(&scene, rng, "person_0", dynamic_id++);
-    person.motion = Motion::kStopAndGo;
-    person.from = {-3.2f, 1.3f};
-    person.to = {-0.2f, 1.3f};
-    person.speed = 1.0f;
-    person.stand_s = 4.0f;
-    scene.movers.push_back(person);
-  } else if (scenario == "sitting") {
-    MovingObject first = MakePerson(&scene, rng, "person_0", dynamic_id++);
-    first.motion = Motion::kSit;
-    first.seat = {0.3f, 1.93f, 0.5f};
-    first.seat_yaw = 0.0f;
-    scene.movers.push_back(first);
-    MovingObject second = MakePerson(&scene, rng, "person_1", dynamic_id++);
-    second.motion = Motion::kSit;
-    second.seat = {1.43f, 1.2f, 0.5f};
-    second.seat_yaw = -kPi / 2;
-    second.phase_offset = 2.0f;
-    scene.movers.push_back(second);
-  } else if (scenario == "carried_object") {
-    MovingObject person = MakePerson(&scene, rng, "person_0", dynamic_id++);
-    person.motion = Motion::kCarry;
-    person.from = {-1.8f, 0.3f};
-    person.to = {1.2f, 0.5f};
-    person.speed = 0.7f;
-    scene.movers.push_back(person);
+// Adds the scene's people (person_0, person_1, ...) and what they carry, each with the next id.
+class PeopleAdder {
+ public:
+  PeopleAdder(Scene* scene, cv::RNG& rng) : scene_(scene), rng_(rng) {}
+  // A person walking back and forth between `from` and `to` (kWalk unless changed after).
+  MovingObject& Walker(Eigen::Vector2f from, Eigen::Vector2f to, float speed, float phase = 0.0f) {
+    MovingObject& person = Person();
+    person.from = from;
+    person.to = to;
+    person.speed = speed;
+    person.phase_offset = phase;
+    return person;
+  }
+  // A person sitting on a chair at `seat` (hips), facing `yaw`.
+  void Sitter(Eigen::Vector3f seat, float yaw, float phase = 0.0f) {
+    MovingObject& person = Person();
+    person.motion = Motion::kSit;
+    person.seat = seat;
+    person.seat_yaw = yaw;
+    person.phase_offset = phase;
+  }
+  // A book in the hands of the first person.
+  void CarriedBook() {
     MovingObject book;
     book.name = "book";
-    book.id = dynamic_id++;
+    book.id = next_id_++;
     book.motion = Motion::kCarried;
     book.carrier = 0;
     book.parts = {{"book", Box(0, 0, 0, 0.26f, 0.05f, 0.2f, 0.2f), kBookFirst + 5}};
-    scene.movers.push_back(book);
+    scene_->movers.push_back(book);
   }
+
+ private:
+  MovingObject& Person() {
+    const std::string name = "person_" + std::to_string(next_id_ - kFirstDynamicId);
+    scene_->movers.push_back(MakePerson(scene_, rng_, name, next_id_++));
+    return scene_->movers.back();
+  }
+
+  Scene* scene_;
+  cv::RNG& rng_;
+  std::uint16_t next_id_ = kFirstDynamicId;
+};
+
+void AddPeople(const std::string& scenario, cv::RNG& rng, Scene* scene) {
+  PeopleAdder add(scene, rng);
+  if (scenario.rfind("walking", 0) == 0) {
+    // Across the view, clear of the side chair (x >= 1.22); then towards the camera and back,
+    // stopping short of the first one's line (y = 0.9).
+    add.Walker({-2.1f, 0.9f}, {1.0f, 0.9f}, 1.1f);
+    add.Walker({-1.2f, 2.2f}, {-0.5f, 1.25f}, 0.9f, 1.0f);
+  } else if (scenario == "loop") {
+    // Two people walking along the far and the left wall, outside the camera's circle.
+    add.Walker({-1.6f, 2.35f}, {1.3f, 2.35f}, 0.8f);
+    add.Walker({-1.85f, -1.5f}, {-1.85f, 1.3f}, 0.7f, 2.0f);
+  } else if (scenario == "crowd_start") {
+    // Three people in view from the first frame, crossing it early.
+    add.Walker({-1.9f, 1.0f}, {1.0f, 1.0f}, 1.0f, 1.2f);
+    add.Walker({-1.3f, 2.1f}, {-0.4f, 1.3f}, 0.8f, 0.4f);   // towards the camera
+    add.Walker({1.0f, 1.45f}, {-1.6f, 1.45f}, 0.9f, 0.9f);  // the other way, behind the first
+  } else if (scenario == "lens_pass") {
+    // One person walking in the room, and one crossing 0.4-0.7 m in front of the lens once
+    // (at about 3.75 s), filling most of the image; the room's walls hide them outside it.
+    add.Walker({-2.1f, 1.2f}, {1.0f, 1.2f}, 0.9f);
+    add.Walker({-4.5f, -0.35f}, {4.5f, -0.35f}, 1.2f);
+  } else if (scenario == "stop_and_go") {
+    // A person walks in from the left (out of view at first), stands 4 s, and walks out.
+    MovingObject& person = add.Walker({-3.2f, 1.3f}, {-0.2f, 1.3f}, 1.0f);
+    person.motion = Motion::kStopAndGo;
+    person.stand_s = 4.0f;
+  } else if (scenario == "sitting") {
+    add.Sitter({0.3f, 1.93f, 0.5f}, 0.0f);
+    add.Sitter({1.43f, 1.2f, 0.5f}, -kPi / 2, 2.0f);
+  } else if (scenario == "carried_object") {
+    add.Walker({-1.8f, 0.3f}, {1.2f, 0.5f}, 0.7f).motion = Motion::kCarry;
+    add.CarriedBook();
+  }
+}
+
+}  // namespace
+
+Scene BuildScene(const std::string& scenario, std::uint64_t seed) {
+  cv::RNG rng(seed * 7919 + 17);
+  Scene scene;
+  AddMaterials(rng, &scene);
+  StaticAdder add(&scene);
+  AddRoom(add);
+  AddFurniture(add);
+  AddShelves(rng, add);
+  if (scenario == "look_alike") AddTwinShelf(&scene, add);
+  AddPeople(scenario, rng, &scene);
   return scene;
 }
 
