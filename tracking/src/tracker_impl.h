@@ -190,6 +190,19 @@ struct Tracker::Impl {
   bool UsableDepth(float depth) const;
   TrackResult Track(size_t frame_index, double time, const cv::Mat& gray, const cv::Mat& depth_m,
                     const cv::Mat& ignore_mask);
+  // Track's steps: the first map (while there is none); the frame's pose against the local map,
+  // else by relocalization near the last good pose; the bookkeeping of a frame with a pose; and
+  // of one without (carried by the motion model behind an occluder, else lost, a new map after
+  // options.new_map_after_lost frames).
+  void TrackWithoutMap(FrameData& frame, int with_depth, size_t frame_index, double time,
+                       std::unique_lock<std::mutex>& lock, TrackResult* result);
+  PoseEstimate FindPose(const Eigen::Isometry3d& predicted, const LocalSet& local,
+                        const FrameData& frame, double time, Association* association);
+  void TakePose(const PoseEstimate& estimate, const LocalSet& local, const FrameData& frame,
+                Association* association, TrackResult* result);
+  void TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameData& frame, int with_depth,
+                        size_t frame_index, double time, std::unique_lock<std::mutex>& lock,
+                        TrackResult* result);
   // Visible / found counts for landmark culling.
   void CountVisibility(const Eigen::Isometry3d& camera_from_world, const LocalSet& local,
                        const Association& association);

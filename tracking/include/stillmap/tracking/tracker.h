@@ -191,8 +191,12 @@ struct TrackerOptions {
   double loop_max_drift_deg = 3.0;
   double loop_max_drift_deg_per_m = 1.0;
 
-  // Throws InputError naming the first impossible value.
+  // Throws InputError naming the first impossible value. Its parts: matching and depth,
+  // keyframes and the solvers, relocalization, redundancy and loops (tracker_options.cpp).
   void Validate() const;
+  void ValidateMatching() const;
+  void ValidateKeyframes() const;
+  void ValidateLoops() const;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
