@@ -201,6 +201,14 @@ struct TrackerOptions {
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
   static void VisitFields(Self& self, Visitor& visit) {
+    VisitMatchingFields(self, visit);
+    VisitKeyframeFields(self, visit);
+    VisitLoopFields(self, visit);
+  }
+  // VisitFields' parts, in the order config.yaml lists them: the solvers, matching and depth;
+  // keyframes, culling and the local map; relocalization, places and loops.
+  template <typename Self, typename Visitor>
+  static void VisitMatchingFields(Self& self, Visitor& visit) {
     visit.Nested("", self.features);
     visit.Nested("pnp_", self.pnp);
     visit.Nested("refinement_", self.refinement);
@@ -233,6 +241,9 @@ struct TrackerOptions {
           "landmarks are made from depth from this [m]");
     visit("max_landmark_depth", self.max_landmark_depth,
           "landmarks are made from depth up to this [m]");
+  }
+  template <typename Self, typename Visitor>
+  static void VisitKeyframeFields(Self& self, Visitor& visit) {
     visit("keyframe_ratio", self.keyframe_ratio,
           "new keyframe when inliers fall below this share of the reference's landmarks "
           "(ORB-SLAM2 RGB-D: 0.75)");
@@ -279,6 +290,9 @@ struct TrackerOptions {
     visit("bundle_adjustment_handover_frames", self.bundle_adjustment_handover_frames,
           "frames after its request when the local bundle adjustment's result is taken (sooner "
           "at the next keyframe); fixed by the data, so runs repeat exactly");
+  }
+  template <typename Self, typename Visitor>
+  static void VisitLoopFields(Self& self, Visitor& visit) {
     visit("min_tracked", self.min_tracked, "inliers for a frame to count as tracked");
     visit("min_relocalized", self.min_relocalized, "inliers for a relocalization to be accepted");
     visit("relocalization_keyframes", self.relocalization_keyframes,
