@@ -123,59 +123,122 @@ Eigen::Matrix<double, 5, 5> CorrectionInformation(const BundleAdjustmentProblem&
   return information;
 }
 
+// The solver's parameter blocks: 7 per pose (quaternion, translation), 3 per point, and the
+// depth correction's 5 coefficients (`correction` null when it is not estimated).
+struct Parameters {
+  std::vector<double> poses, points;
+  std::array<double, 5> coefficients{};
+  double* correction = nullptr;
+};
+
+Parameters ParametersOf(const BundleAdjustmentProblem& problem) {
+  Parameters parameters;
+  parameters.poses.resize(7 * problem.keyframes.size());
+  for (size_t k = 0; k < problem.keyframes.size(); ++k) {
+    PoseToParameters(problem.keyframes[k].camera_from_world, &parameters.poses[7 * k]);
+  }
+  parameters.points.resize(3 * problem.landmarks.size());
+  for (size_t i = 0; i < problem.landmarks.size(); ++i) {
+    Eigen::Map<Eigen::Vector3d> point(&parameters.points[3 * i]);
+    point = problem.landmarks[i];
+  }
+  if (problem.depth_correction.has_value()) {
+    parameters.coefficients = problem.depth_correction->coefficients;
+    parameters.correction = parameters.coefficients.data();
+  }
+  return parameters;
+}
+
+// One residual block per observation not marked an outlier; the number added. Round one is
+// robust (Huber); round two runs on the inliers only, like ORB-SLAM2.
+int AddObservations(const BundleAdjustmentProblem& problem, const BundleAdjustmentOptions& options,
+                    int round, const std::vector<bool>& outlier, Parameters& parameters,
+                    ceres::Problem* ceres_problem) {
+  int residual_count = 0;
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    if (outlier[o]) continue;
+    const BundleAdjustmentObservation& observation = problem.observations[o];
+    double* pose = &parameters.poses[7 * static_cast<size_t>(observation.keyframe)];
+    double* point = &parameters.points[3 * static_cast<size_t>(observation.landmark)];
+    ceres::LossFunction* loss =
+        round == 0
+            ? new ceres::HuberLoss(std::sqrt(ChiSquareThreshold(observation.observation, options)))
+            : nullptr;
+    auto* cost = new BundleCost(observation.observation, parameters.correction != nullptr);
+    if (parameters.correction != nullptr) {
+      ceres_problem->AddResidualBlock(cost, loss, pose, point, parameters.correction);
+    } else {
+      ceres_problem->AddResidualBlock(cost, loss, pose, point);
+    }
+    ++residual_count;
+  }
+  return residual_count;
+}
+
+// Every observation classified against the current estimate.
+void ClassifyObservations(const BundleAdjustmentProblem& problem,
+                          const BundleAdjustmentOptions& options, const Parameters& parameters,
+                          std::vector<bool>* outlier) {
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    const BundleAdjustmentObservation& observation = problem.observations[o];
+    const Eigen::Isometry3d camera_from_world =
+        PoseFromParameters(&parameters.poses[7 * static_cast<size_t>(observation.keyframe)]);
+    const Eigen::Map<const Eigen::Vector3d> point(
+        &parameters.points[3 * static_cast<size_t>(observation.landmark)]);
+    const RgbdObservation corrected = Corrected(observation.observation, parameters.correction);
+    Eigen::Vector3d r;
+    (*outlier)[o] = !EvaluateRgbdResidual(camera_from_world, point, corrected, &r, nullptr) ||
+                    r.squaredNorm() > ChiSquareThreshold(observation.observation, options);
+  }
+}
+
+// The poses, points and depth correction solved for, with how well the data pins the correction.
+void ReadResult(const BundleAdjustmentProblem& problem, Parameters& parameters,
+                BundleAdjustmentResult* result) {
+  result->camera_from_world.reserve(problem.keyframes.size());
+  for (size_t k = 0; k < problem.keyframes.size(); ++k) {
+    result->camera_from_world.push_back(PoseFromParameters(&parameters.poses[7 * k]));
+  }
+  if (parameters.correction != nullptr) {
+    result->depth_correction = DepthCorrection{parameters.coefficients};
+    const Eigen::Matrix<double, 5, 5> information =
+        CorrectionInformation(problem, result->outlier, parameters.correction);
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> eigen(information);
+    const double weakest = std::max(eigen.eigenvalues()(0), 1e-300);
+    result->depth_correction_weakest_sd = 1.0 / std::sqrt(weakest);
+    Eigen::Map<const Eigen::Matrix<double, 5, 1>> p(parameters.coefficients.data());
+    result->depth_correction_significance = p.dot(information * p);
+  }
+  result->landmarks.reserve(problem.landmarks.size());
+  for (size_t i = 0; i < problem.landmarks.size(); ++i) {
+    result->landmarks.emplace_back(Eigen::Map<const Eigen::Vector3d>(&parameters.points[3 * i]));
+  }
+}
+
 }  // namespace
 
 BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& problem,
                                              const BundleAdjustmentOptions& options) {
-  const size_t keyframe_count = problem.keyframes.size();
-  std::vector<double> poses(7 * keyframe_count);
-  for (size_t k = 0; k < keyframe_count; ++k) {
-    PoseToParameters(problem.keyframes[k].camera_from_world, &poses[7 * k]);
-  }
-  std::vector<double> points(3 * problem.landmarks.size());
-  for (size_t i = 0; i < problem.landmarks.size(); ++i) {
-    Eigen::Map<Eigen::Vector3d> point(&points[3 * i]);
-    point = problem.landmarks[i];
-  }
+  Parameters parameters = ParametersOf(problem);
   BundleAdjustmentResult result;
   result.outlier.assign(problem.observations.size(), false);
-  std::array<double, 5> coefficients{};
-  const bool calibrating = problem.depth_correction.has_value();
-  if (calibrating) coefficients = problem.depth_correction->coefficients;
-  double* correction = calibrating ? coefficients.data() : nullptr;
-
   static PoseManifold manifold;
   for (int round = 0; round < 2; ++round) {
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
     ceres::Problem ceres_problem(problem_options);
-    int residual_count = 0;
-    for (size_t o = 0; o < problem.observations.size(); ++o) {
-      if (result.outlier[o]) continue;
-      const BundleAdjustmentObservation& observation = problem.observations[o];
-      double* pose = &poses[7 * static_cast<size_t>(observation.keyframe)];
-      double* point = &points[3 * static_cast<size_t>(observation.landmark)];
-      // Round one is robust (Huber); round two runs on the inliers only, like ORB-SLAM2.
-      ceres::LossFunction* loss = round == 0 ? new ceres::HuberLoss(std::sqrt(ChiSquareThreshold(
-                                                   observation.observation, options)))
-                                             : nullptr;
-      auto* cost = new BundleCost(observation.observation, calibrating);
-      if (calibrating) {
-        ceres_problem.AddResidualBlock(cost, loss, pose, point, correction);
-      } else {
-        ceres_problem.AddResidualBlock(cost, loss, pose, point);
-      }
-      ++residual_count;
+    if (AddObservations(problem, options, round, result.outlier, parameters, &ceres_problem) == 0) {
+      break;
     }
-    if (residual_count == 0) break;
-    if (calibrating) {
+    if (parameters.correction != nullptr) {
       const Eigen::Matrix<double, 5, 5> weight =
           Eigen::Matrix<double, 5, 5>::Identity() / problem.depth_correction_sigma;
       ceres_problem.AddResidualBlock(
-          new ceres::NormalPrior(weight, Eigen::Matrix<double, 5, 1>::Zero()), nullptr, correction);
+          new ceres::NormalPrior(weight, Eigen::Matrix<double, 5, 1>::Zero()), nullptr,
+          parameters.correction);
     }
-    for (size_t k = 0; k < keyframe_count; ++k) {
-      double* pose = &poses[7 * k];
+    for (size_t k = 0; k < problem.keyframes.size(); ++k) {
+      double* pose = &parameters.poses[7 * k];
       if (!ceres_problem.HasParameterBlock(pose)) continue;
       ceres_problem.SetManifold(pose, &manifold);
       if (problem.keyframes[k].fixed) ceres_problem.SetParameterBlockConstant(pose);
@@ -192,38 +255,9 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
     if (round == 0) result.initial_cost = summary.initial_cost;
     result.final_cost = summary.final_cost;
     result.iterations += static_cast<int>(summary.iterations.size());
-
-    // Classify every observation against the current estimate.
-    for (size_t o = 0; o < problem.observations.size(); ++o) {
-      const BundleAdjustmentObservation& observation = problem.observations[o];
-      const Eigen::Isometry3d camera_from_world =
-          PoseFromParameters(&poses[7 * static_cast<size_t>(observation.keyframe)]);
-      const Eigen::Map<const Eigen::Vector3d> point(
-          &points[3 * static_cast<size_t>(observation.landmark)]);
-      const RgbdObservation corrected = Corrected(observation.observation, correction);
-      Eigen::Vector3d r;
-      result.outlier[o] = !EvaluateRgbdResidual(camera_from_world, point, corrected, &r, nullptr) ||
-                          r.squaredNorm() > ChiSquareThreshold(observation.observation, options);
-    }
+    ClassifyObservations(problem, options, parameters, &result.outlier);
   }
-  result.camera_from_world.reserve(keyframe_count);
-  for (size_t k = 0; k < keyframe_count; ++k) {
-    result.camera_from_world.push_back(PoseFromParameters(&poses[7 * k]));
-  }
-  if (calibrating) {
-    result.depth_correction = DepthCorrection{coefficients};
-    const Eigen::Matrix<double, 5, 5> information =
-        CorrectionInformation(problem, result.outlier, correction);
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 5, 5>> eigen(information);
-    const double weakest = std::max(eigen.eigenvalues()(0), 1e-300);
-    result.depth_correction_weakest_sd = 1.0 / std::sqrt(weakest);
-    Eigen::Map<const Eigen::Matrix<double, 5, 1>> p(coefficients.data());
-    result.depth_correction_significance = p.dot(information * p);
-  }
-  result.landmarks.reserve(problem.landmarks.size());
-  for (size_t i = 0; i < problem.landmarks.size(); ++i) {
-    result.landmarks.emplace_back(Eigen::Map<const Eigen::Vector3d>(&points[3 * i]));
-  }
+  ReadResult(problem, parameters, &result);
   return result;
 }
 
