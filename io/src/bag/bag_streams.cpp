@@ -117,12 +117,79 @@ bool SameIntrinsics(const RosCameraInfo& a, const RosCameraInfo& b) {
 
 }  // namespace
 
+namespace {
+
+// A camera-info message of `stream` (message.topic): the first is kept, a librealsense model
+// restated (said in a note, and in a warning when plumb_bob fits it coarsely); the time of the
+// first later one that differs goes to *changed.
+void ScanCameraInfo(const BagMessage& message, BagSerialization serialization,
+                    const std::string& path, BagStream* stream, std::map<size_t, double>* changed,
+                    BagContents* contents) {
+  RosCameraInfo info;
+  std::string error;
+  if (!DecodeRosCameraInfo(message.data, message.size, serialization, &info, &error)) return;
+  const std::string model = info.distortion_model;
+  double fit_px = 0.0;
+  if (RestateRealSenseModel(&info, &fit_px) && !stream->has_info && fit_px > 0.0) {
+    char worst[32];
+    std::snprintf(worst, sizeof(worst), "%.3f px", fit_px);
+    contents->notes.push_back(stream->name + ": distortion " + Quoted(model) +
+                              " restated as the plumb_bob fitted to it (largest difference " +
+                              worst + ")");
+    if (fit_px > 0.1) {
+      contents->warnings.push_back(path + ": " + stream->name +
+                                   ": its distortion model is matched by plumb_bob only to " +
+                                   worst + "; give camera.distortion if that is too coarse");
+    }
+  }
+  if (!stream->has_info) {
+    stream->info = info;
+    stream->has_info = true;
+  } else if (!changed->count(message.topic) && !SameIntrinsics(stream->info, info)) {
+    (*changed)[message.topic] = message.time;
+  }
+}
+
+// What the scan met beyond the images, in warnings: camera infos that change, a topic with two
+// types, messages of the RealSense description or /tf_static that do not decode.
+void WarnOfScan(const std::string& path, const std::map<size_t, double>& info_changed,
+                size_t undecoded_transforms, BagContents* contents) {
+  for (const auto& [index, time] : info_changed) {
+    char when[32];
+    std::snprintf(when, sizeof(when), "%.3f", time);
+    contents->warnings.push_back(path + ": the CameraInfo on " + contents->streams[index].name +
+                                 " changes at t = " + when +
+                                 " s (size, K or distortion); its first message is used for every "
+                                 "frame");
+  }
+  for (size_t i = 0; i < contents->streams.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (contents->streams[j].name != contents->streams[i].name) continue;
+      contents->warnings.push_back(path + ": topic " + contents->streams[i].name +
+                                   " carries two types (" + contents->streams[j].type + ", " +
+                                   contents->streams[i].type +
+                                   "); each is read as its own, and --topic takes the first");
+    }
+  }
+  if (contents->realsense.undecoded > 0) {
+    contents->warnings.push_back(path + ": " + std::to_string(contents->realsense.undecoded) +
+                                 " RealSense device, extrinsic or option messages that do not "
+                                 "decode are left out");
+  }
+  if (undecoded_transforms > 0) {
+    contents->warnings.push_back(path + ": " + std::to_string(undecoded_transforms) +
+                                 " /tf_static messages that do not decode are left out");
+  }
+}
+
+}  // namespace
+
 BagContents ScanBagContents(BagReader& bag) {
   BagContents contents;
   std::map<size_t, ImageMessages> images;  // by stream
   std::map<size_t, double> info_changed;   // camera-info streams: when the intrinsics change
-  std::map<size_t, double> restated;       // camera-info streams: a librealsense model restated
   std::vector<RealSenseTopic> realsense;   // per stream
+  std::vector<std::string> scan_warnings;  // said after the reader's own
   size_t undecoded_transforms = 0;
   bag.Scan([&](const BagMessage& message) {
     for (size_t t = contents.streams.size(); t < bag.topics().size(); ++t) {
@@ -152,69 +219,20 @@ BagContents ScanBagContents(BagReader& bag) {
                          bag.serialization(), &contents.realsense);
     }
     if (stream.kind == BagStreamKind::kCameraInfo) {
-      RosCameraInfo info;
-      double fit_px = 0.0;
-      if (DecodeRosCameraInfo(message.data, message.size, bag.serialization(), &info, &error)) {
-        const std::string model = info.distortion_model;
-        if (RestateRealSenseModel(&info, &fit_px) && !stream.has_info && fit_px > 0.0) {
-          restated[message.topic] = fit_px;
-          char worst[64];
-          std::snprintf(worst, sizeof(worst), " (largest difference %.3f px)", fit_px);
-          contents.notes.push_back(stream.name + ": distortion " + Quoted(model) +
-                                   " restated as the plumb_bob fitted to it" + worst);
-        }
-        if (!stream.has_info) {
-          stream.info = info;
-          stream.has_info = true;
-        } else if (!info_changed.count(message.topic) && !SameIntrinsics(stream.info, info)) {
-          info_changed[message.topic] = message.time;
-        }
-      }
+      ScanCameraInfo(message, bag.serialization(), bag.path(), &stream, &info_changed, &contents);
     }
     if (stream.count == 0 || message.time < stream.first_stamp) stream.first_stamp = message.time;
     stream.last_stamp = std::max(stream.last_stamp, message.time);
     ++stream.count;
   });
   contents.truncated = bag.truncated();
+  scan_warnings.swap(contents.warnings);  // the fit warnings met during the scan
   contents.warnings = bag.warnings();
   for (const auto& [index, messages] : images) {
     JudgeImages(messages, bag.path(), &contents.streams[index], &contents.warnings);
   }
-  for (const auto& [index, time] : info_changed) {
-    char when[32];
-    std::snprintf(when, sizeof(when), "%.3f", time);
-    contents.warnings.push_back(bag.path() + ": the CameraInfo on " + contents.streams[index].name +
-                                " changes at t = " + when +
-                                " s (size, K or distortion); its first message is used for every "
-                                "frame");
-  }
-  for (size_t i = 0; i < contents.streams.size(); ++i) {
-    for (size_t j = 0; j < i; ++j) {
-      if (contents.streams[j].name != contents.streams[i].name) continue;
-      contents.warnings.push_back(bag.path() + ": topic " + contents.streams[i].name +
-                                  " carries two types (" + contents.streams[j].type + ", " +
-                                  contents.streams[i].type +
-                                  "); each is read as its own, and --topic takes the first");
-    }
-  }
-  for (const auto& [index, fit_px] : restated) {
-    char worst[32];
-    std::snprintf(worst, sizeof(worst), "%.3f", fit_px);
-    if (fit_px > 0.1) {
-      contents.warnings.push_back(bag.path() + ": " + contents.streams[index].name +
-                                  ": its distortion model is matched by plumb_bob only to " +
-                                  worst + " px; give camera.distortion if that is too coarse");
-    }
-  }
-  if (contents.realsense.undecoded > 0) {
-    contents.warnings.push_back(bag.path() + ": " + std::to_string(contents.realsense.undecoded) +
-                                " RealSense device, extrinsic or option messages that do not "
-                                "decode are left out");
-  }
-  if (undecoded_transforms > 0) {
-    contents.warnings.push_back(bag.path() + ": " + std::to_string(undecoded_transforms) +
-                                " /tf_static messages that do not decode are left out");
-  }
+  WarnOfScan(bag.path(), info_changed, undecoded_transforms, &contents);
+  contents.warnings.insert(contents.warnings.end(), scan_warnings.begin(), scan_warnings.end());
   return contents;
 }
 
