@@ -317,7 +317,7 @@ SessionRecordReader::SessionRecordReader(const std::string& path) : path_(path) 
   file_size_ = static_cast<std::uint64_t>(file_.tellg());
   const HeaderReader read(path);
   const std::vector<unsigned char> start = ReadBlock(0, std::min<std::uint64_t>(file_size_, 16));
-  if (std::memcmp(start.data(), kMagic, start.size()) != 0 || start.empty()) {
+  if (start.empty() || std::memcmp(start.data(), kMagic, start.size()) != 0) {
     throw InputError(path +
                      ": not a stillmap session record (its first bytes are not "
                      "'stillmap-session')");

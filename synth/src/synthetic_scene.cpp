@@ -332,7 +332,8 @@ class PeopleAdder {
  public:
   PeopleAdder(Scene* scene, cv::RNG& rng) : scene_(scene), rng_(rng) {}
   // A person walking back and forth between `from` and `to` (kWalk unless changed after).
-  MovingObject& Walker(Eigen::Vector2f from, Eigen::Vector2f to, float speed, float phase = 0.0f) {
+  MovingObject& Walker(const Eigen::Vector2f& from, const Eigen::Vector2f& to, float speed,
+                       float phase = 0.0f) {
     MovingObject& person = Person();
     person.from = from;
     person.to = to;
@@ -341,7 +342,7 @@ class PeopleAdder {
     return person;
   }
   // A person sitting on a chair at `seat` (hips), facing `yaw`.
-  void Sitter(Eigen::Vector3f seat, float yaw, float phase = 0.0f) {
+  void Sitter(const Eigen::Vector3f& seat, float yaw, float phase = 0.0f) {
     MovingObject& person = Person();
     person.motion = Motion::kSit;
     person.seat = seat;
