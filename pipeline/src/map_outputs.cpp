@@ -144,7 +144,8 @@ void WriteConfig(const BuildRequest& request, OutputSet& outputs) {
   config.run.threads = request.threads;
   std::ofstream out(outputs.TemporaryPath("config.yaml"));
   out << ConfigToYaml(config);
-  if (!out.flush()) throw std::runtime_error(WriteFailure(outputs.TemporaryPath("config.yaml"), "config.yaml"));
+  if (!out.flush())
+    throw std::runtime_error(WriteFailure(outputs.TemporaryPath("config.yaml"), "config.yaml"));
 }
 
 // Warnings about the finished map that the figures alone do not make plain.

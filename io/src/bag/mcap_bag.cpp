@@ -262,10 +262,7 @@ void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
         WarnTruncated(offset, file_size_, last_time_);
         return;
       }
-      warnings_.push_back(path_ + ": bytes " + std::to_string(offset) + " to " +
-                          std::to_string(next) + " (" + std::to_string(next - offset) +
-                          " bytes) are damaged and skipped; the bag is read on from byte " +
-                          std::to_string(next));
+      warnings_.push_back(path_ + ": " + SkippedBytes(offset, next, ""));
       offset = next;
       continue;
     }
@@ -277,11 +274,7 @@ void McapBag::Scan(const std::function<void(const BagMessage&)>& visit) {
       if (!LoadChunk(file, content_offset, length, &chunk, &error)) {
         // The chunk's length may be the damage: the next chunk is looked for, not assumed.
         const std::uint64_t next = NextChunkAfter(file, offset);
-        warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
-                            " is skipped (" + error + "); " +
-                            (next < file_size_
-                                 ? "the bag is read on from byte " + std::to_string(next)
-                                 : std::string("nothing after it could be read")));
+        warnings_.push_back(path_ + ": " + SkippedChunk(offset, error, next, file_size_));
         if (next >= file_size_) return;
         offset = next;
         continue;

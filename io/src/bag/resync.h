@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <fstream>
+#include <string>
 #include <vector>
 
 namespace stillmap {
@@ -41,6 +42,23 @@ std::uint64_t ScanForward(std::ifstream& file, std::uint64_t file_size, std::uin
     }
   }
   return limit;
+}
+
+// The warnings of a re-synchronisation: bytes `from` to `to` skipped (with what was wrong, when
+// known); a chunk at `offset` that did not load, read on from `next` (nothing more when `next`
+// reaches the file's end).
+inline std::string SkippedBytes(std::uint64_t from, std::uint64_t to, const std::string& damage) {
+  return "bytes " + std::to_string(from) + " to " + std::to_string(to) + " (" +
+         std::to_string(to - from) + " bytes) are damaged" +
+         (damage.empty() ? std::string() : " (" + damage + ")") +
+         " and skipped; the bag is read on from byte " + std::to_string(to);
+}
+
+inline std::string SkippedChunk(std::uint64_t offset, const std::string& error, std::uint64_t next,
+                                std::uint64_t file_size) {
+  return "the chunk at byte " + std::to_string(offset) + " is skipped (" + error + "); " +
+         (next < file_size ? "the bag is read on from byte " + std::to_string(next)
+                           : std::string("nothing after it could be read"));
 }
 
 }  // namespace stillmap

@@ -72,13 +72,6 @@ bool IsOuterOp(std::uint8_t op) {
 }
 
 // The warning for bytes [from, to) skipped after damage.
-std::string SkippedBytes(std::uint64_t from, std::uint64_t to, const std::string& damage) {
-  return "bytes " + std::to_string(from) + " to " + std::to_string(to) + " (" +
-         std::to_string(to - from) + " bytes) are damaged" +
-         (damage.empty() ? std::string() : " (" + damage + ")") +
-         " and skipped; the bag is read on from byte " + std::to_string(to);
-}
-
 // A ROS 1 time field: seconds and nanoseconds, 32 bits each.
 bool FieldTime(const Fields& fields, const char* name, double* seconds) {
   const auto it = fields.find(name);
@@ -314,11 +307,7 @@ void Ros1Bag::Scan(const std::function<void(const BagMessage&)>& visit) {
       if (!LoadChunk(file, record, &chunk, &error)) {
         // The chunk's length may be the damage: the next chunk is looked for, not assumed.
         const std::uint64_t next = NextRecordAfter(file, offset);
-        warnings_.push_back(path_ + ": the chunk at byte " + std::to_string(offset) +
-                            " is skipped (" + error + "); " +
-                            (next < file_size_
-                                 ? "the bag is read on from byte " + std::to_string(next)
-                                 : std::string("nothing after it could be read")));
+        warnings_.push_back(path_ + ": " + SkippedChunk(offset, error, next, file_size_));
         if (next >= file_size_) return;
         offset = next;
         continue;

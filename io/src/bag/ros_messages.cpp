@@ -106,17 +106,17 @@ bool Header(Cursor& cursor, BagSerialization serialization, RosHeader* header) {
   return cursor.String(&header->frame_id);
 }
 
-std::string LowerCase(std::string text) {
-  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return text;
-}
-
 bool Fail(std::string* error, const char* what) {
   *error = what;
   return false;
 }
 
 }  // namespace
+
+std::string LowerCase(std::string text) {
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return text;
+}
 
 bool DecodeRosHeader(const std::uint8_t* data, size_t size, BagSerialization serialization,
                      RosHeader* header, std::string* error) {

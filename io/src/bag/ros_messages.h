@@ -51,6 +51,9 @@ struct RosTransform {
   std::array<double, 4> rotation{};     // quaternion x, y, z, w
 };
 
+// `text` in lower case (ASCII): encodings and topic names are compared in any letter case.
+std::string LowerCase(std::string text);
+
 // Each returns false with *error saying what does not fit when the bytes are not such a message.
 bool DecodeRosHeader(const std::uint8_t* data, size_t size, BagSerialization serialization,
                      RosHeader* header, std::string* error);
