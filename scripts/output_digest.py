@@ -10,8 +10,9 @@ import sys
 
 FILES = ["trajectory.txt", "keyframes.txt", "map.ply", "map.pcd", "grid.pgm", "grid.yaml"]
 # Keys whose values change from run to run on the same input: report.json keeps every timing,
-# speed and memory figure under "timing"; "sequence" is the path as given.
-VOLATILE = ("timing", "sequence")
+# speed and memory figure under "timing"; "sequence", "command" and a session's "folder" are paths
+# as given.
+VOLATILE = ("timing", "sequence", "command", "folder")
 
 
 def stable(value):

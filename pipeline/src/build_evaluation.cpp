@@ -12,9 +12,9 @@
 namespace stillmap {
 namespace {
 
-void EvaluateTrajectory(const BuildInputs& inputs, const BuildRequest& request,
+void EvaluateTrajectory(const BuildInputs& inputs, const EvaluationOptions& options,
                         const PosedFrames& posed, EvaluationFigures* evaluation) {
-  if (request.poses == PoseSource::kGroundTruth) {
+  if (options.poses == PoseSource::kGroundTruth) {
     evaluation->trajectory_note = "not evaluated: the poses are the ground truth";
     return;
   }
@@ -24,13 +24,13 @@ void EvaluateTrajectory(const BuildInputs& inputs, const BuildRequest& request,
   }
   const Trajectory& groundtruth = *inputs.sequence.groundtruth();
   try {
-    evaluation->ate = ComputeAte(groundtruth, posed.trajectory, request.config.ate);
+    evaluation->ate = ComputeAte(groundtruth, posed.trajectory, options.ate);
   } catch (const InputError& e) {
     evaluation->trajectory_note = std::string("not evaluated: ") + e.what();
     return;
   }
   try {
-    evaluation->rpe = ComputeRpe(groundtruth, posed.trajectory, request.config.rpe);
+    evaluation->rpe = ComputeRpe(groundtruth, posed.trajectory, options.rpe);
   } catch (const InputError& e) {
     evaluation->rpe_note = std::string("not evaluated: ") + e.what();
   }
@@ -40,7 +40,8 @@ void EvaluateTrajectory(const BuildInputs& inputs, const BuildRequest& request,
 // occupied only because a moving object (objects.txt) stood there.
 void EvaluateGridAgainst(const std::vector<VoxelPoint>& truth,
                          const Eigen::Isometry3d& map_from_groundtruth,
-                         const std::string& sequence_dir, BuildResult* result) {
+                         const std::string& sequence_dir, const OccupancyGrid& grid,
+                         EvaluationFigures* evaluation) {
   std::vector<Eigen::Vector3d> truth_in_map;
   truth_in_map.reserve(truth.size());
   for (const VoxelPoint& point : truth) {
@@ -53,21 +54,21 @@ void EvaluateGridAgainst(const std::vector<VoxelPoint>& truth,
       moving_in_map.push_back(map_from_groundtruth * object.world_from_object.translation());
     }
   }
-  result->evaluation.grid_quality = EvaluateGrid(*result->grid, truth_in_map, moving_in_map);
-  result->evaluation.moving_objects_known = !moving_in_map.empty();
+  evaluation->grid_quality = EvaluateGrid(grid, truth_in_map, moving_in_map);
+  evaluation->moving_objects_known = !moving_in_map.empty();
 }
 
 // The map against the static ground truth of synthetic sequences, in the truth's frame.
-void EvaluateMapQuality(const BuildInputs& inputs, const BuildRequest& request,
+void EvaluateMapQuality(const BuildInputs& inputs, const EvaluationOptions& options,
                         const PosedFrames& posed, const std::vector<VoxelPoint>& cloud,
-                        BuildResult* result) {
-  EvaluationFigures& evaluation = result->evaluation;
+                        const std::optional<OccupancyGrid>& grid, EvaluationFigures* out) {
+  EvaluationFigures& evaluation = *out;
   const std::string truth_path =
-      (std::filesystem::path(request.sequence_dir) / "static_gt.ply").string();
+      (std::filesystem::path(options.sequence_dir) / "static_gt.ply").string();
   if (!PathExists(truth_path)) return;
   evaluation.static_groundtruth = truth_path;
   const std::optional<Eigen::Isometry3d> groundtruth_from_map =
-      GroundTruthFromPoses(inputs, request, posed);
+      GroundTruthFromPoses(inputs, options.max_groundtruth_gap_s, posed);
   if (!groundtruth_from_map) {
     evaluation.map_quality_note =
         "not evaluated: no tracked frame has a ground-truth pose to anchor the map";
@@ -80,17 +81,21 @@ void EvaluateMapQuality(const BuildInputs& inputs, const BuildRequest& request,
   const std::vector<VoxelPoint> truth = ReadCloud(truth_path);
   evaluation.map_quality = stillmap::EvaluateMap(points, truth);
   evaluation.map_evaluation_s = SecondsSince(start);
-  if (result->grid) {
-    EvaluateGridAgainst(truth, groundtruth_from_map->inverse(), request.sequence_dir, result);
+  if (grid) {
+    EvaluateGridAgainst(truth, groundtruth_from_map->inverse(), options.sequence_dir, *grid,
+                        &evaluation);
   }
 }
 
 }  // namespace
 
-void EvaluateBuild(const BuildInputs& inputs, const BuildRequest& request, const PosedFrames& posed,
-                   const std::vector<VoxelPoint>& cloud, BuildResult* result) {
-  EvaluateTrajectory(inputs, request, posed, &result->evaluation);
-  EvaluateMapQuality(inputs, request, posed, cloud, result);
+EvaluationFigures EvaluateBuild(const BuildInputs& inputs, const EvaluationOptions& options,
+                                const PosedFrames& posed, const std::vector<VoxelPoint>& cloud,
+                                const std::optional<OccupancyGrid>& grid) {
+  EvaluationFigures evaluation;
+  EvaluateTrajectory(inputs, options, posed, &evaluation);
+  EvaluateMapQuality(inputs, options, posed, cloud, grid, &evaluation);
+  return evaluation;
 }
 
 }  // namespace stillmap

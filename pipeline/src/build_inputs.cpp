@@ -13,27 +13,27 @@ namespace {
 
 // Refuses ground-truth poses the maps cannot hold (a motion-capture world far from its origin):
 // OctoMap's keys reach +-1.6 km at 5 cm, and beyond them every insertion would be dropped.
-void CheckWithinMapExtent(const std::vector<StampedPose>& poses, const BuildConfig& config) {
+void CheckWithinMapExtent(const std::vector<StampedPose>& poses, const InputOptions& options) {
   double farthest = 0.0;
   for (const StampedPose& pose : poses) {
     farthest = std::max(farthest, pose.world_from_camera.translation().cwiseAbs().maxCoeff());
   }
-  const double reach = farthest + config.mapping.back_projection.max_depth;
-  const double extent = config.mapping.Extent();
+  const double reach = farthest + options.max_depth_m;
+  const double extent = options.map_extent_m;
   if (reach >= extent) {
     throw InputError(fmt::format(
         "groundtruth.txt: the camera lies up to {:.0f} m from the ground truth's origin along an "
         "axis, but the maps reach {:.0f} m (octomap.resolution {} m, mapping.voxel_leaf_size {} "
         "m); "
         "shift the ground truth nearer its origin or coarsen the maps",
-        farthest, extent, config.mapping.occupancy.resolution, config.mapping.voxel.leaf_size));
+        farthest, extent, options.octomap_resolution_m, options.voxel_leaf_m));
   }
 }
 
 // The frames of [begin, end) to process; with ground-truth poses only those the ground truth
 // covers, with their poses.
-void PickFrames(const BuildRequest& request, size_t begin, size_t end, BuildInputs* inputs) {
-  const bool tracking = request.poses == PoseSource::kTracking;
+void PickFrames(const InputOptions& options, size_t begin, size_t end, BuildInputs* inputs) {
+  const bool tracking = options.poses == PoseSource::kTracking;
   for (size_t i = begin; i < end; ++i) {
     if (tracking) {
       inputs->frame_indices.push_back(i);
@@ -41,8 +41,7 @@ void PickFrames(const BuildRequest& request, size_t begin, size_t end, BuildInpu
     }
     const double time = inputs->sequence.frames()[i].time;
     const std::optional<Eigen::Isometry3d> world_from_camera =
-        inputs->sequence.groundtruth()->Interpolate(time,
-                                                    request.config.sequence.max_groundtruth_gap);
+        inputs->sequence.groundtruth()->Interpolate(time, options.sequence.max_groundtruth_gap);
     if (!world_from_camera) continue;
     inputs->frame_indices.push_back(i);
     inputs->groundtruth_poses.push_back({time, *world_from_camera});
@@ -50,75 +49,75 @@ void PickFrames(const BuildRequest& request, size_t begin, size_t end, BuildInpu
 }
 
 // A TUM-layout folder, or a recorded bag (its notes logged, its warnings in the report).
-BuildInputs OpenSequence(const BuildRequest& request, BuildResult* result) {
-  const BuildConfig& config = request.config;
-  if (IsBag(request.sequence_dir)) {
-    Sequence sequence = Sequence::OpenBag(request.sequence_dir, config.camera, config.sequence);
+BuildInputs OpenSequence(const InputOptions& options, std::vector<std::string>* warnings) {
+  const std::string& folder = options.sequence_dir;
+  if (IsBag(folder)) {
+    Sequence sequence = Sequence::OpenBag(folder, options.camera, options.sequence);
     for (const std::string& note : sequence.notes()) spdlog::info("{}", note);
-    for (const std::string& warning : sequence.warnings()) result->warnings.push_back(warning);
+    for (const std::string& warning : sequence.warnings()) warnings->push_back(warning);
     const Camera camera = sequence.camera();
     return {camera, std::move(sequence), {}, {}};
   }
-  CheckSequenceFolder(request.sequence_dir);
-  for (const std::string* topic : {&config.sequence.color_topic, &config.sequence.depth_topic,
-                                   &config.sequence.camera_info_topic}) {
+  CheckSequenceFolder(folder);
+  for (const std::string* topic : {&options.sequence.color_topic, &options.sequence.depth_topic,
+                                   &options.sequence.camera_info_topic}) {
     if (!topic->empty()) {
-      throw InputError(request.sequence_dir + ": a TUM-layout folder has no topics, but " +
-                       Quoted(*topic) +
+      throw InputError(folder + ": a TUM-layout folder has no topics, but " + Quoted(*topic) +
                        " is named (--topic or sequence.*_topic); name topics only for a bag");
     }
   }
-  const Camera camera = ResolveCamera(request.sequence_dir, config.camera);
-  return {camera, Sequence::Open(request.sequence_dir, camera, config.sequence), {}, {}};
+  const Camera camera = ResolveCamera(folder, options.camera);
+  return {camera, Sequence::Open(folder, camera, options.sequence), {}, {}};
 }
 
 }  // namespace
 
-BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result) {
-  const BuildConfig& config = request.config;
-  BuildInputs inputs = OpenSequence(request, result);
-  const bool tracking = request.poses == PoseSource::kTracking;
+OpenedInputs OpenInputs(const InputOptions& options) {
+  OpenedInputs opened;
+  BuildInputs& inputs = opened.inputs;
+  inputs = OpenSequence(options, &opened.warnings);
+  const bool tracking = options.poses == PoseSource::kTracking;
   const std::string& no_poses = inputs.sequence.groundtruth_note();
   if (!tracking && !inputs.sequence.groundtruth()) {
-    throw InputError((no_poses.empty() ? request.sequence_dir + ": no groundtruth.txt" : no_poses) +
+    throw InputError((no_poses.empty() ? options.sequence_dir + ": no groundtruth.txt" : no_poses) +
                      "; --poses groundtruth needs the sequence's ground truth");
   }
-  if (!no_poses.empty() && config.map.frame != "groundtruth") {
-    result->warnings.push_back(no_poses + ": the map is built without ATE and RPE");
+  if (!no_poses.empty() && options.map_frame != "groundtruth") {
+    opened.warnings.push_back(no_poses + ": the map is built without ATE and RPE");
   }
-  if (config.map.frame == "groundtruth" && !inputs.sequence.groundtruth()) {
-    throw InputError(request.sequence_dir +
+  if (options.map_frame == "groundtruth" && !inputs.sequence.groundtruth()) {
+    throw InputError(options.sequence_dir +
                      ": no groundtruth.txt; map.frame=groundtruth needs the sequence's ground "
                      "truth (map.frame=floor puts the map on the floor)");
   }
   const size_t total_pairs = inputs.sequence.frames().size();
-  if (config.first_frame >= total_pairs) {
-    throw InputError("sequence.first_frame=" + std::to_string(config.first_frame) +
+  if (options.first_frame >= total_pairs) {
+    throw InputError("sequence.first_frame=" + std::to_string(options.first_frame) +
                      " but the sequence has " + std::to_string(total_pairs) + " color/depth pairs");
   }
-  const size_t end = config.max_frames == 0
+  const size_t end = options.max_frames == 0
                          ? total_pairs
-                         : std::min(total_pairs, config.first_frame + config.max_frames);
-  PickFrames(request, config.first_frame, end, &inputs);
-  FrameCounts& frames = result->frames;
+                         : std::min(total_pairs, options.first_frame + options.max_frames);
+  PickFrames(options, options.first_frame, end, &inputs);
+  FrameCounts& frames = opened.frames;
   frames.color_images = inputs.sequence.color_count();
   frames.depth_images = inputs.sequence.depth_count();
   frames.pairs_in_sequence = total_pairs;
-  frames.pairs_used = end - config.first_frame;
+  frames.pairs_used = end - options.first_frame;
   frames.without_pose = frames.pairs_used - inputs.frame_indices.size();
   if (inputs.frame_indices.empty()) {
-    throw InputError(request.sequence_dir +
+    throw InputError(options.sequence_dir +
                      ": no frame lies within the ground truth's time range (compare the timestamps "
                      "of rgb.txt and groundtruth.txt)");
   }
-  if (!tracking) CheckWithinMapExtent(inputs.groundtruth_poses, config);
+  if (!tracking) CheckWithinMapExtent(inputs.groundtruth_poses, options);
   if (frames.without_pose > 0) {
     spdlog::warn(
         "{} of {} frames lie outside the ground truth (or across a gap wider than {} s) "
         "and are left out",
-        frames.without_pose, frames.pairs_used, config.sequence.max_groundtruth_gap);
+        frames.without_pose, frames.pairs_used, options.sequence.max_groundtruth_gap);
   }
-  return inputs;
+  return opened;
 }
 
 }  // namespace stillmap

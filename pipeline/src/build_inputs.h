@@ -6,7 +6,6 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
-#include "stillmap/pipeline/build_request.h"
 #include "stillmap/pipeline/build_result.h"
 
 namespace stillmap {
@@ -20,9 +19,27 @@ struct BuildInputs {
   std::vector<StampedPose> groundtruth_poses;
 };
 
-// Opens the sequence of `request`, picks its frames and fills result->frames' input counts.
-// Throws InputError for a missing folder, bad lists or camera, a frame range beyond the sequence,
-// ground-truth poses missing or beyond the maps' reach.
-BuildInputs OpenInputs(const BuildRequest& request, BuildResult* result);
+// What opening the inputs reads of the request.
+struct InputOptions {
+  std::string sequence_dir;  // a TUM-layout folder or a bag
+  PoseSource poses = PoseSource::kTracking;
+  std::string map_frame;  // map.frame: "groundtruth" needs the ground truth
+  CameraOverrides camera;
+  SequenceOptions sequence;
+  size_t first_frame = 0, max_frames = 0;  // sequence.first_frame, sequence.max_frames
+  // The maps' reach, which ground-truth poses must lie within.
+  double max_depth_m = 0.0, map_extent_m = 0.0, octomap_resolution_m = 0.0, voxel_leaf_m = 0.0;
+};
+
+struct OpenedInputs {
+  BuildInputs inputs;
+  FrameCounts frames;                 // the input counts (color_images .. without_pose)
+  std::vector<std::string> warnings;  // the bag's, then a missing ground truth's
+};
+
+// Opens the sequence, picks its frames and counts them. Throws InputError for a missing folder,
+// bad lists or camera, a frame range beyond the sequence, ground-truth poses missing or beyond
+// the maps' reach.
+OpenedInputs OpenInputs(const InputOptions& options);
 
 }  // namespace stillmap

@@ -14,7 +14,9 @@
 #include "build_evaluation.h"
 #include "build_inputs.h"
 #include "frame_reader.h"
+#include "map_finish.h"
 #include "map_outputs.h"
+#include "mask_setup.h"
 #include "pose_loops.h"
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
@@ -71,7 +73,7 @@ void CheckOutputOutsideSequence(const BuildRequest& request) {
 
 void CheckRequest(const BuildRequest& request) {
   request.config.Validate();
-  if (request.threads < 1) throw InputError("--threads must be at least 1");
+  if (request.threads() < 1) throw InputError("--threads must be at least 1");
   CheckOutputOutsideSequence(request);
   // OpenCV's own parallel loops (the depth check, KLT, ORB's pyramid) use as many threads, at
   // most one per core: TBB, OpenCV's backend, warns on stderr about more, even under --quiet.
@@ -83,75 +85,132 @@ void CheckRequest(const BuildRequest& request) {
   cv::setNumThreads(1);
   static_cast<void>(cores);
 #else
-  cv::setNumThreads(std::min(request.threads, cores));
+  cv::setNumThreads(std::min(request.threads(), cores));
 #endif
 }
 
-// The mask stage with its detector (loaded here, so that its errors come before any output).
-std::unique_ptr<MaskStage> MakeMaskStage(const BuildRequest& request, const Camera& camera,
-                                         BuildResult* result) {
+// The slices of the request each step reads.
+InputOptions InputOptionsOf(const BuildRequest& request) {
   const BuildConfig& config = request.config;
-  std::unique_ptr<Detector> detector;
-  if (config.masking_enabled) {
-    detector = MakeDetector(request.detector, request.models_dir, MotionLevels(config),
-                            {config.fastest, config.yolox, config.deeplab});
-    if (request.detector == "auto" && detector == nullptr && config.masking.semantics) {
-      result->warnings.push_back(
-          (request.models_dir.empty() ? "no detector model in " + DescribeModelSearchPath()
-                                      : "no detector model under '" + request.models_dir + "'") +
-          ": moving objects are found by geometry only, and people who stand still stay in the "
-          "map (scripts/fetch-models gets the model; or pass --models DIR holding "
-          "yolo_fastest_1.1/ or yolox_nano/, "
-          "or --detector none to silence this)");
-    }
-  }
-  // One thread runs the same schedule (the detector when its result is due): the same masks.
-  auto masks = std::make_unique<MaskStage>(
-      camera, config.masking, config.masking_enabled, std::move(detector),
-      config.masking.detector_in_background, request.sequence_dir, request.threads > 1);
-  result->masking.enabled = masks->enabled();
-  result->masking.detector = masks->detector_name();
-  result->masking.semantics = masks->semantics();
-  result->masking.options = masks->options();
-  if (masks->semantics()) {
-    result->masking.models_dir = request.models_dir;
-    result->masking.models_found_by = request.models_found_by;
-  }
-  return masks;
+  const MapperOptions& mapping = config.mapping;
+  return {request.sequence_dir,   request.poses(),
+          config.map.frame,       config.camera,
+          config.sequence,        config.first_frame,
+          config.max_frames,      mapping.back_projection.max_depth,
+          mapping.Extent(),       mapping.occupancy.resolution,
+          mapping.voxel.leaf_size};
 }
 
-PosedFrames RunPoseLoop(const BuildInputs& inputs, const BuildRequest& request, MaskStage& masks,
-                        Mapper& mapper, BuildResult* result) {
+MaskSetupOptions MaskOptionsOf(const BuildRequest& request) {
   const BuildConfig& config = request.config;
-  ProgressLine progress("stillmap build", inputs.frame_indices.size(), request.show_progress);
-  std::optional<FlowTracker> flow;
-  if (config.masking_enabled && config.masking.TracksFlow()) {
-    // The mask stage resolved the corner count and the KLT window.
-    flow.emplace(masks.options().flow_points, masks.options().flow);
-  }
-  FrameReader reader(inputs.sequence, inputs.frame_indices, request.threads > 1, std::move(flow));
-  const LoopStages stages{reader, masks, mapper, progress};
-  PosedFrames posed = result->tracked() ? RunTrackedLoop(inputs, request, stages, result)
-                                        : RunGroundTruthLoop(inputs, config, stages);
-  progress.Finish();
-  result->timings.reader_cpu_ms = reader.ahead_cpu_ms();
-  result->timings.load_wait_ms = reader.wait_ms();
-  result->timings.flow_ms = reader.flow_ms();
-  const StreamChecks& checks = reader.checks();
-  result->frames.depth_median_m = checks.DepthQuantile(0.5);
-  result->frames.depth_95th_percentile_m = checks.DepthQuantile(0.95);
-  result->frames.frozen_colour = checks.frozen_colour_frames();
-  for (std::string& warning : checks.Warnings(inputs.camera.depth_factor)) {
-    result->warnings.push_back(std::move(warning));
-  }
-  result->masking.statistics = masks.statistics();
-  return posed;
+  MaskSetupOptions options;
+  options.enabled = config.masking_enabled;
+  options.masking = config.masking;
+  options.detector = config.run.detector;
+  options.models_dir = config.run.models;
+  options.models_found_by = request.models_found_by;
+  if (config.masking_enabled) options.levels = MotionLevels(config);  // checks detector.levels
+  options.detectors = {config.fastest, config.yolox, config.deeplab};
+  options.sequence_dir = request.sequence_dir;
+  options.detector_thread = request.threads() > 1;
+  return options;
+}
+
+LoopOptions LoopOptionsOf(const BuildRequest& request) {
+  const BuildConfig& config = request.config;
+  LoopOptions options;
+  options.poses = request.poses();
+  options.tracking = config.tracking;
+  if (request.threads() == 1) options.tracking.background_bundle_adjustment = false;
+  const BackProjectionOptions& depth = config.mapping.back_projection;
+  options.fuser = {config.tracking.loop_closure,
+                   config.session_record,
+                   config.map_recheck,
+                   config.masking,
+                   config.selection,
+                   depth.min_depth,
+                   depth.max_depth};
+  options.groundtruth_reference_interval = config.groundtruth_reference_interval;
+  options.flow = config.masking_enabled && config.masking.TracksFlow();
+  options.read_ahead = request.threads() > 1;
+  options.show_progress = request.show_progress;
+  return options;
+}
+
+MapFinishOptions MapFinishOptionsOf(const BuildRequest& request) {
+  const BuildConfig& config = request.config;
+  return {config.mapping,
+          config.grid,
+          {config.map.frame, request.poses(), config.sequence.max_groundtruth_gap},
+          request.threads() > 1};
+}
+
+MapFileOptions MapFileOptionsOf(const BuildRequest& request) {
+  return {request.config.mesh, request.config.mapping.voxel.leaf_size, request.threads() > 1};
+}
+
+EvaluationOptions EvaluationOptionsOf(const BuildRequest& request) {
+  const BuildConfig& config = request.config;
+  return {request.sequence_dir, request.poses(), config.sequence.max_groundtruth_gap, config.ate,
+          config.rpe};
+}
+
+void Append(std::vector<std::string> from, std::vector<std::string>* to) {
+  for (std::string& line : from) to->push_back(std::move(line));
+}
+
+// The frame loop's figures into the result.
+void TakeLoopFigures(LoopResult loop, BuildResult* result) {
+  result->tracking = std::move(loop.tracking);
+  result->selection = loop.selection;
+  result->masking.statistics = loop.masking;
+  result->frames.depth_median_m = loop.depth_median_m;
+  result->frames.depth_95th_percentile_m = loop.depth_95th_percentile_m;
+  result->frames.frozen_colour = loop.frozen_colour;
+  result->timings.reader_cpu_ms = loop.reader_cpu_ms;
+  result->timings.load_wait_ms = loop.load_wait_ms;
+  result->timings.flow_ms = std::move(loop.flow_ms);
+  Append(std::move(loop.warnings), &result->warnings);
 }
 
 void WriteText(const std::string& path, const std::string& text, const char* name) {
   std::ofstream out(path);
   out << text;
   if (!out.flush()) throw std::runtime_error(WriteFailure(path, name));
+}
+
+// An earlier run's outputs restored, and files stillmap did not write, said as warnings.
+void AddOutputFolderWarnings(const OutputSet& outputs, std::vector<std::string>* warnings) {
+  if (!outputs.recovery_note().empty()) warnings->push_back(outputs.recovery_note());
+  const std::vector<std::string> foreign = outputs.ForeignNames();
+  if (foreign.empty()) return;
+  std::string names;
+  for (const std::string& name : foreign) names += (names.empty() ? "" : ", ") + name;
+  warnings->push_back(
+      "the output folder also holds files stillmap did not write, left "
+      "as they are: " +
+      names);
+}
+
+// The finished map's files and the build's own, with their figures; `posed` moves into the map
+// frame, and so does finished->cloud.
+void WriteOutputs(const BuildRequest& request, const BuildInputs& inputs,
+                  FinishedBuildMap* finished, PosedFrames* posed, OutputSet& outputs,
+                  BuildResult* result) {
+  result->map = finished->figures;
+  result->map_frame = finished->frame;
+  result->grid = std::move(finished->grid);
+  result->timings.map_cleaning_ms = finished->cleaning_ms;
+  result->timings.grid_ms = finished->grid_ms;
+  result->mesh = WriteMapFiles(finished->map, &finished->cloud, finished->frame, result->grid,
+                               MapFileOptionsOf(request), outputs, &result->timings);
+  WriteBuildFiles(posed, finished->frame, inputs, request.config, request.sequence_dir,
+                  result->tracked(), outputs);
+  result->frames.fused = result->map.statistics.frames;
+  result->frames.tracked = posed->trajectory.size();
+  const size_t new_maps = result->tracking ? result->tracking->statistics.new_maps : 0;
+  Append(MapWarnings(result->map, result->map_frame, request.config.mapping, new_maps),
+         &result->warnings);
 }
 
 }  // namespace
@@ -175,37 +234,39 @@ BuildResult RunBuild(const BuildRequest& request) {
   result.sequence_dir = request.sequence_dir;
   result.command_line = request.command_line;
   result.started_utc = fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::time(nullptr)));
-  result.poses = request.poses;
-  result.threads = request.threads;
-  const BuildInputs inputs = OpenInputs(request, &result);  // checked before anything is written
+  result.poses = request.poses();
+  result.threads = request.threads();
+  // The inputs and the detector are checked before anything is written.
+  OpenedInputs opened = OpenInputs(InputOptionsOf(request));
+  const BuildInputs& inputs = opened.inputs;
+  result.frames = opened.frames;
+  Append(std::move(opened.warnings), &result.warnings);
   result.camera = inputs.camera;
-  const std::unique_ptr<MaskStage> masks = MakeMaskStage(request, inputs.camera, &result);
+  MaskSetup masks = SetUpMasks(MaskOptionsOf(request), inputs.camera);
+  result.masking = masks.figures;
+  Append(std::move(masks.warnings), &result.warnings);
 
   // Locks the output folder and stages the outputs aside until all are written.
   OutputSet outputs(request.output_dir, "build", BuildOutputNames());
-  if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
-  const std::vector<std::string> foreign = outputs.ForeignNames();
-  if (!foreign.empty()) {
-    std::string names;
-    for (const std::string& name : foreign) names += (names.empty() ? "" : ", ") + name;
-    result.warnings.push_back(
-        "the output folder also holds files stillmap did not write, left "
-        "as they are: " +
-        names);
-  }
+  AddOutputFolderWarnings(outputs, &result.warnings);
 
   MapperOptions mapper_options = request.config.mapping;
-  mapper_options.in_background = mapper_options.in_background && request.threads > 1;
+  mapper_options.in_background = mapper_options.in_background && request.threads() > 1;
   Mapper mapper(inputs.camera, mapper_options);
   const double loop_cpu_start = ThreadCpuMs();
-  PosedFrames posed = RunPoseLoop(inputs, request, *masks, mapper, &result);
+  LoopResult loop = RunPoseLoop(inputs, LoopOptionsOf(request), *masks.stage, mapper);
+  PosedFrames posed = std::move(loop.posed);
+  TakeLoopFigures(std::move(loop), &result);
   const double finish_cpu_start = ThreadCpuMs();
   result.timings.frame_loop_cpu_ms = finish_cpu_start - loop_cpu_start;
   FinishedMap map = mapper.Finish();
   result.timings.processing_ms = SecondsSince(start) * 1000.0;
 
-  std::vector<VoxelPoint> cloud =
-      WriteMapOutputs(std::move(map), &posed, inputs, request, outputs, &result);
+  const Clock::time_point write_start = Clock::now();
+  FinishedBuildMap finished =
+      FinishMapInFrame(std::move(map), posed, inputs, result.masking, MapFinishOptionsOf(request));
+  WriteOutputs(request, inputs, &finished, &posed, outputs, &result);
+  result.timings.write_ms = MillisecondsSince(write_start);
   result.timings.finish_cpu_ms = ThreadCpuMs() - finish_cpu_start;
   result.timings.process_cpu_ms = (ProcessCpuSeconds() - process_cpu_start_s) * 1000.0;
   result.timings.core_busy = CoreBusyShares(cores_at_start, ReadCoreTimes());
@@ -213,11 +274,18 @@ BuildResult RunBuild(const BuildRequest& request) {
   result.frames_per_second = static_cast<double>(result.frames.pairs_used) / result.wall_time_s;
   result.peak_memory_mib = PeakMemoryMib();
 
-  EvaluateBuild(inputs, request, posed, cloud, &result);  // not counted in the speed above
-  WriteRenders(std::move(cloud), posed, request, outputs, &result);
-  for (std::string& warning : outputs.SetAsideWarnings({"report.json", "report.html"})) {
-    result.warnings.push_back(std::move(warning));
+  // Not counted in the speed above.
+  result.evaluation =
+      EvaluateBuild(inputs, EvaluationOptionsOf(request), posed, finished.cloud, result.grid);
+  if (request.config.render.enabled) {
+    const Clock::time_point renders_start = Clock::now();
+    result.renders = WriteRenders(
+        std::move(finished.cloud),
+        {&result.grid, &posed, &result.evaluation.ate, SequenceName(request.sequence_dir)},
+        request.config.render, outputs);
+    result.timings.renders_ms = MillisecondsSince(renders_start);
   }
+  Append(outputs.SetAsideWarnings({"report.json", "report.html"}), &result.warnings);
   const nlohmann::json report = ReportJson(result, request.config);
   WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n", "report.json");
   WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report), "report.html");

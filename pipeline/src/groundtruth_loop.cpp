@@ -2,9 +2,9 @@
 
 namespace stillmap {
 
-PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const BuildConfig& config,
+PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, int reference_interval,
                                LoopStages stages) {
-  const auto reference_every = static_cast<size_t>(config.groundtruth_reference_interval);
+  const auto reference_every = static_cast<size_t>(reference_interval);
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     const PreparedFrame prepared = stages.reader.Get(k);
     const Frame& frame = prepared.frame;

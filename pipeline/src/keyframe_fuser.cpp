@@ -30,20 +30,19 @@ std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features) {
 
 }  // namespace
 
-KeyframeFuser::KeyframeFuser(const Camera& camera, const BuildConfig& config,
+KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
                              const MaskStage& masks, Mapper* mapper)
     : mapper_(*mapper),
-      keep_for_refusion_(config.tracking.loop_closure),
-      keep_for_session_(config.session_record),
+      keep_for_refusion_(options.keep_for_refusion),
+      keep_for_session_(options.keep_for_session),
       // The stored depth's step: the range the back-projection uses in 60000 steps (0.07 mm at
       // 4 m), far below any sensor's noise.
-      depth_unit_m_(config.mapping.back_projection.max_depth / 60000.0),
-      selector_(config.selection),
-      revisits_(camera, config.selection.revisit, config.mapping.back_projection.min_depth,
-                config.mapping.back_projection.max_depth),
+      depth_unit_m_(options.max_depth_m / 60000.0),
+      selector_(options.selection),
+      revisits_(camera, options.selection.revisit, options.min_depth_m, options.max_depth_m),
       factors_(camera) {
-  if (masks.enabled() && config.map_recheck && config.masking.depth_check) {
-    recheck_.emplace(masks.masker()->geometry(), config.masking);
+  if (masks.enabled() && options.recheck && options.masking.depth_check) {
+    recheck_.emplace(masks.masker()->geometry(), options.masking);
   }
 }
 

@@ -13,7 +13,6 @@
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/mapping/revisit_cells.h"
 #include "stillmap/pipeline/build_result.h"
-#include "stillmap/pipeline/config.h"
 #include "stillmap/tracking/depth_correction.h"
 #include "stillmap/tracking/map_recheck.h"
 #include "stillmap/tracking/mask_stage.h"
@@ -21,11 +20,21 @@
 
 namespace stillmap {
 
+// What the fuser reads of the build's configuration.
+struct FuserOptions {
+  bool keep_for_refusion = true;  // tracking.loop_closure: fused keyframes may move
+  bool keep_for_session = true;   // map.session_record
+  bool recheck = true;            // masking.map_recheck (with masking and its depth check on)
+  DynamicMaskOptions masking;     // the re-check's depth check
+  KeyframeSelectionOptions selection;
+  double min_depth_m = 0.0, max_depth_m = 0.0;  // the back-projection's range
+};
+
 class KeyframeFuser {
  public:
   // `masks` (its depth check, for the re-check) and `mapper` must outlive the fuser. The
-  // re-check runs when masking, the depth check and config.map_recheck are all on.
-  KeyframeFuser(const Camera& camera, const BuildConfig& config, const MaskStage& masks,
+  // re-check runs when masking, its depth check and options.recheck are all on.
+  KeyframeFuser(const Camera& camera, const FuserOptions& options, const MaskStage& masks,
                 Mapper* mapper);
 
   // Holds a new keyframe's images, with its mask and pose at tracking time, until it is final.

@@ -21,24 +21,22 @@ std::string FloorDescription(const FloorPlane& floor) {
 
 }  // namespace
 
-std::optional<Eigen::Isometry3d> GroundTruthFromPoses(const BuildInputs& inputs,
-                                                      const BuildRequest& request,
+std::optional<Eigen::Isometry3d> GroundTruthFromPoses(const BuildInputs& inputs, double max_gap_s,
                                                       const PosedFrames& posed) {
   if (!inputs.sequence.groundtruth()) return std::nullopt;
   // The first tracked frame with a ground-truth pose (the motion capture may start late).
   for (const StampedPose& tracked : posed.trajectory.poses()) {
     const std::optional<Eigen::Isometry3d> world_from_camera =
-        inputs.sequence.groundtruth()->Interpolate(tracked.time,
-                                                   request.config.sequence.max_groundtruth_gap);
+        inputs.sequence.groundtruth()->Interpolate(tracked.time, max_gap_s);
     if (world_from_camera) return *world_from_camera * tracked.world_from_camera.inverse();
   }
   return std::nullopt;
 }
 
 MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& inputs,
-                               const BuildRequest& request, const PosedFrames& posed) {
+                               const MapFrameChoice& choice, const PosedFrames& posed) {
   MapFrameFigures frame;
-  frame.name = request.config.map.frame;
+  frame.name = choice.frame;
   frame.floor = floor;
   frame.floor_found = FloorFound(floor);
   const Eigen::Isometry3d first_camera = posed.trajectory.poses().front().world_from_camera;
@@ -52,9 +50,9 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
     frame.description = "camera: the first camera's optical frame (x right, y down, z forward)";
   } else {
     const std::optional<Eigen::Isometry3d> groundtruth_from_poses =
-        request.poses == PoseSource::kGroundTruth
+        choice.poses == PoseSource::kGroundTruth
             ? std::optional<Eigen::Isometry3d>(Eigen::Isometry3d::Identity())
-            : GroundTruthFromPoses(inputs, request, posed);
+            : GroundTruthFromPoses(inputs, choice.max_groundtruth_gap_s, posed);
     if (!groundtruth_from_poses) {
       throw std::runtime_error(
           "map.frame=groundtruth: no tracked frame has a ground-truth pose to anchor the map; "
@@ -62,7 +60,7 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
     }
     frame.poses_from_map = groundtruth_from_poses->inverse();
     frame.description =
-        request.poses == PoseSource::kGroundTruth
+        choice.poses == PoseSource::kGroundTruth
             ? "groundtruth: the ground truth's world frame (groundtruth.txt)"
             : "groundtruth: the ground truth's world frame (groundtruth.txt), the tracked map "
               "anchored at the ground-truth pose of the first tracked frame that has one";

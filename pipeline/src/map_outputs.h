@@ -1,48 +1,57 @@
-// The map outputs of a build, written into the staged output set.
+// The last step of a build (and of a merge): the finished map's files, written into the staged
+// output set. Nothing here changes the map; map_finish.h makes it final first.
 #pragma once
 
 #include <optional>
+#include <string>
 #include <vector>
 
-#include "build_inputs.h"
+#include "map_finish.h"
 #include "pose_loops.h"
 #include "stillmap/io/cloud_files.h"
+#include "stillmap/io/evaluation.h"
 #include "stillmap/io/output_files.h"
-#include "stillmap/mapping/mapper.h"
+#include "stillmap/mapping/map_mesh.h"
+#include "stillmap/pipeline/config.h"
+#include "stillmap/viewer/renders.h"
 
 namespace stillmap {
 
-// Finishes and writes the map: the cloud is cleaned against the final OctoMap on another thread
-// while the floor is fitted to the OctoMap; then the map frame is chosen, the grid projected,
-// and the OctoMap files, the cloud files, the mesh (on other threads), trajectory.txt,
-// keyframes.txt and config.yaml written. Fills
-// result->map, mesh, grid, timings and warnings. Returns the cloud's points for the evaluation
-// and the renders. Throws std::runtime_error for an empty map or mesh (nothing is committed).
-// The 3-D outputs are in the map frame (config.map.frame, result->map_frame), and so are `posed`
-// and the cloud afterwards.
-std::vector<VoxelPoint> WriteMapOutputs(FinishedMap map, PosedFrames* posed,
-                                        const BuildInputs& inputs, const BuildRequest& request,
-                                        OutputSet& outputs, BuildResult* result);
-
-// The files of a cleaned map, in the frame `frame` (the cloud's points and `start`, the first
-// camera's position, in the poses' frame): grid.pgm/yaml (when enabled), map.bt/ot, map.ply/pcd
-// and the mesh, the OctoMap and mesh on other threads when `parallel`. Moves `cloud` into the map
-// frame; sets timings->grid_ms and mesh_ms. Throws std::runtime_error for an empty mesh.
-struct MapFiles {
-  std::optional<OccupancyGrid> grid;
-  MeshFigures mesh;
+// What the map files read of the configuration.
+struct MapFileOptions {
+  MapMeshOptions mesh;
+  double voxel_leaf_m = 0.0;  // mapping.voxel_leaf_size, for the cloud files' header
+  bool parallel = true;       // the OctoMap and the mesh on other threads (run.threads > 1)
 };
-MapFiles WriteMapFiles(const FinishedMap& map, std::vector<VoxelPoint>* cloud,
-                       const MapFrameFigures& frame, const Eigen::Vector3d& start_in_poses,
-                       const BuildConfig& config, bool parallel, OutputSet& outputs,
-                       StageTimings* timings);
 
-// The figures of a finished map and its cleaning.
-MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleaning);
+// The files of a finished map in the frame `frame`: grid.pgm/yaml (when `grid`), map.bt/ot,
+// map.ply/pcd and the mesh (made from the cloud as it is written). Moves `cloud` from the poses'
+// frame into the map frame; adds the grid's writing to timings->grid_ms, sets mesh_ms. Returns
+// the mesh's figures when mesh.enabled. Throws std::runtime_error for an empty mesh.
+std::optional<MeshFigures> WriteMapFiles(const FinishedMap& map, std::vector<VoxelPoint>* cloud,
+                                         const MapFrameFigures& frame,
+                                         const std::optional<OccupancyGrid>& grid,
+                                         const MapFileOptions& options, OutputSet& outputs,
+                                         StageTimings* timings);
 
-// The renders (renders/: top views of the cloud and grid, the trajectory error plot when the
-// trajectory was evaluated) into the staged set; sets result->renders.
-void WriteRenders(std::vector<VoxelPoint> cloud, const PosedFrames& posed,
-                  const BuildRequest& request, OutputSet& outputs, BuildResult* result);
+// A build's own files besides the map's: session.bin (from posed->session_keyframes, which it
+// takes), trajectory.txt and keyframes.txt (`posed` is moved into the map frame `frame` first)
+// and config.yaml (`config`, so that `--config OUT/config.yaml` repeats the run).
+void WriteBuildFiles(PosedFrames* posed, const MapFrameFigures& frame, const BuildInputs& inputs,
+                     const BuildConfig& config, const std::string& sequence_dir, bool tracked,
+                     OutputSet& outputs);
+
+// What the renders show besides the cloud.
+struct RenderSources {
+  const std::optional<OccupancyGrid>* grid = nullptr;
+  const PosedFrames* posed = nullptr;
+  const std::optional<AteResult>* ate = nullptr;  // its error plot, when evaluated
+  std::string title;
+};
+
+// renders/: top views of the cloud and grid, the trajectory error plot when the trajectory was
+// evaluated. Returns the files written (under renders/).
+std::vector<std::string> WriteRenders(std::vector<VoxelPoint> cloud, const RenderSources& sources,
+                                      const RenderOptions& options, OutputSet& outputs);
 
 }  // namespace stillmap

@@ -137,7 +137,7 @@ FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
   const BuildConfig& config = request.config;
   const Camera& camera = sessions[FusionOrder(sessions, joined).front()].record().camera;
   MapperOptions mapper_options = config.mapping;
-  mapper_options.in_background = mapper_options.in_background && request.threads > 1;
+  mapper_options.in_background = mapper_options.in_background && request.threads() > 1;
   Mapper mapper(camera, mapper_options);
   RevisitCells revisits(camera, config.selection.revisit, config.mapping.back_projection.min_depth,
                         config.mapping.back_projection.max_depth);
@@ -308,10 +308,12 @@ std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeS
   result->map_frame = FirstSessionFrame(sessions[0]);
   const Eigen::Vector3d start =
       sessions[0].record().keyframes.front().map_from_camera.translation();
-  MapFiles files = WriteMapFiles(map, &cloud, result->map_frame, start, config, request.threads > 1,
-                                 outputs, &result->timings);
-  result->grid = std::move(files.grid);
-  if (config.mesh.enabled) result->mesh = files.mesh;
+  const Clock::time_point grid_start = Clock::now();
+  result->grid = ProjectMapGrid(map, cloud, start, result->map_frame, config.grid);
+  result->timings.grid_ms = MillisecondsSince(grid_start);
+  const MapFileOptions files{config.mesh, config.mapping.voxel.leaf_size, request.threads() > 1};
+  result->mesh =
+      WriteMapFiles(map, &cloud, result->map_frame, result->grid, files, outputs, &result->timings);
   return cloud;
 }
 

@@ -74,4 +74,13 @@ std::string DescribeModelSearchPath() {
   return text;
 }
 
+std::string ResolveModels(RunSettings* run, const std::string& given_by) {
+  if (!run->models.empty()) return given_by;
+  if (run->detector == "none") return "";
+  const std::optional<ModelsFolder> found = FindModels();
+  if (!found) return "";
+  run->models = found->path;
+  return found->found_by;
+}
+
 }  // namespace stillmap

@@ -6,6 +6,7 @@
 
 #include "build_inputs.h"
 #include "frame_reader.h"
+#include "keyframe_fuser.h"
 #include "stillmap/io/session_record.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/mapper.h"
@@ -22,6 +23,37 @@ struct PosedFrames {
   double session_depth_unit_m = 0.0;  // the step of their depth PNGs [m]
 };
 
+// What the frame loops read of the request.
+struct LoopOptions {
+  PoseSource poses = PoseSource::kTracking;
+  TrackerOptions tracking;  // tracked runs
+  FuserOptions fuser;       // tracked runs
+  // With ground-truth poses every n-th frame is a depth-check reference
+  // (masking.groundtruth_reference_interval).
+  int groundtruth_reference_interval = 5;
+  bool flow = false;       // the flow check's corners are tracked ahead with the decoding
+  bool read_ahead = true;  // frames decoded on another thread (run.threads > 1)
+  bool show_progress = false;
+};
+
+// What the frame loop gives the build result.
+struct LoopResult {
+  PosedFrames posed;
+  std::optional<TrackingFigures> tracking;  // tracked runs
+  SelectionFigures selection;               // tracked runs
+  MaskingStatistics masking;
+  double depth_median_m = 0.0, depth_95th_percentile_m = 0.0;  // every depth reading's
+  size_t frozen_colour = 0;  // colour frames equal to the one before
+  double reader_cpu_ms = 0.0, load_wait_ms = 0.0;
+  std::vector<double> flow_ms;
+  std::vector<std::string> warnings;  // the streams' plausibility
+};
+
+// Reads, masks, poses and fuses every frame of `inputs` (the masks' and mapper's state carries
+// on). Throws std::runtime_error when no frame could be tracked.
+LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, MaskStage& masks,
+                       Mapper& mapper);
+
 // The steps every loop shares.
 struct LoopStages {
   FrameReader& reader;
@@ -30,15 +62,15 @@ struct LoopStages {
   ProgressLine& progress;
 };
 
-// With the ground truth's poses: every frame is fused; every
-// config.groundtruth_reference_interval-th one becomes a depth-check reference.
-PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const BuildConfig& config,
+// With the ground truth's poses: every frame is fused; every n-th one becomes a depth-check
+// reference.
+PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, int reference_interval,
                                LoopStages stages);
 
 // With tracked poses: keyframes are fused once their pose is final (they left the bundle
 // adjustment window). Fills result->tracking and result->selection. Throws std::runtime_error
 // when no frame could be tracked.
-PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& request,
-                           LoopStages stages, BuildResult* result);
+PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options, LoopStages stages,
+                           LoopResult* result);
 
 }  // namespace stillmap

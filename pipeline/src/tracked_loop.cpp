@@ -20,13 +20,10 @@ void Record(const TrackResult& result, double time, TrackingFigures* figures) {
 
 }  // namespace
 
-PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& request,
-                           LoopStages stages, BuildResult* result) {
-  const BuildConfig& config = request.config;
-  TrackerOptions tracker_options = config.tracking;
-  if (request.threads == 1) tracker_options.background_bundle_adjustment = false;
-  Tracker tracker(inputs.camera, tracker_options);
-  KeyframeFuser fuser(inputs.camera, config, stages.masks, &stages.mapper);
+PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options, LoopStages stages,
+                           LoopResult* result) {
+  Tracker tracker(inputs.camera, options.tracking);
+  KeyframeFuser fuser(inputs.camera, options.fuser, stages.masks, &stages.mapper);
   auto fuse_final = [&tracker, &fuser] {
     const std::vector<FinalKeyframe> finals = tracker.TakeFinalKeyframes();
     if (!finals.empty()) fuser.Fuse(finals, tracker.depth_correction());
@@ -69,8 +66,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const BuildRequest& reques
   figures.refuse_ms = fuser.refuse_ms();
   figures.refused_keyframes_moved = moved;
   figures.refusion_store_mib = store_mib;
-  figures.bundle_adjustment_thread =
-      config.tracking.background_bundle_adjustment && request.threads > 1;
+  figures.bundle_adjustment_thread = options.tracking.background_bundle_adjustment;
   result->tracking = std::move(figures);
   result->selection = fuser.figures();
   return posed;

@@ -44,7 +44,7 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   BuildRequest request;
   request.sequence_dir = dir / "seq";
   request.output_dir = dir / "out";
-  request.poses = PoseSource::kGroundTruth;
+  request.config.run.poses = "groundtruth";
   ApplySetArgument(&request.config, "mapping.voxel_leaf_size=0.02");
   ApplySetArgument(&request.config, "map.frame=groundtruth");  // the truth's frame, exactly
   const BuildResult summary = RunBuild(request);
@@ -140,8 +140,8 @@ TEST(BuildTest, FramesOutsideTheGroundTruthAreLeftOutNotInvented) {
   BuildRequest request;
   request.sequence_dir = dir / "seq";
   request.output_dir = dir / "out";
-  request.poses = PoseSource::kGroundTruth;
-  request.threads = 1;
+  request.config.run.poses = "groundtruth";
+  request.config.run.threads = 1;
   const BuildResult summary = RunBuild(request);
   EXPECT_EQ(summary.frames.fused, 3u);
   EXPECT_EQ(summary.frames.without_pose, 2u);
@@ -156,7 +156,7 @@ MapQuality BuildSynthetic(const std::string& scenario, const std::string& dir,
   BuildRequest request;
   request.sequence_dir = dir + "/seq";
   request.output_dir = dir + "/out";
-  request.poses = PoseSource::kGroundTruth;
+  request.config.run.poses = "groundtruth";
   request.config.masking_enabled = false;
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
   const BuildResult summary = RunBuild(request);

@@ -23,8 +23,8 @@ BuildResult Build(const std::string& sequence, const std::string& output, size_t
   BuildRequest request;
   request.sequence_dir = sequence;
   request.output_dir = output;
-  request.detector = models ? "auto" : "none";
-  request.models_dir = models.value_or("");
+  request.config.run.detector = models ? "auto" : "none";
+  request.config.run.models = models.value_or("");
   request.config.first_frame = first;
   request.config.max_frames = count;
   return RunBuild(request);

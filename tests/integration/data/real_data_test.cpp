@@ -33,7 +33,7 @@ TEST(BuildTest, RealTeddyMapAgreesWithHeldOutFrames) {
   BuildRequest request;
   request.sequence_dir = *sequence;
   request.output_dir = dir / "out";
-  request.poses = PoseSource::kGroundTruth;
+  request.config.run.poses = "groundtruth";
   ApplySetArgument(&request.config,
                    "sequence.first_frame=5");  // frames 0-4 precede the ground truth
   ApplySetArgument(&request.config, "sequence.max_frames=40");
@@ -114,7 +114,7 @@ TEST(BuildTest, GroundTruthMapFrameAnchorsOnTheFirstFrameWithAPose) {
   BuildRequest request;
   request.sequence_dir = *sequence;
   request.output_dir = dir / "out";
-  request.detector = "none";
+  request.config.run.detector = "none";
   ApplySetArgument(&request.config, "map.frame=groundtruth");
   ApplySetArgument(&request.config, "sequence.max_frames=40");
   const BuildResult result = RunBuild(request);

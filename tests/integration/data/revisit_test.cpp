@@ -35,9 +35,9 @@ BuildResult Build(const std::string& sequence, const std::string& output,
   BuildRequest request;
   request.sequence_dir = sequence;
   request.output_dir = output;
-  request.threads = threads;
-  request.detector = models.empty() ? "none" : "auto";
-  request.models_dir = models;
+  request.config.run.threads = threads;
+  request.config.run.detector = models.empty() ? "none" : "auto";
+  request.config.run.models = models;
   for (const std::string& setting : settings) ApplySetArgument(&request.config, setting);
   return RunBuild(request);
 }

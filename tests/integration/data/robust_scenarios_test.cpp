@@ -30,8 +30,8 @@ ScenarioRun TrackScenario(const testing::TempDir& dir, const std::string& scenar
   BuildRequest request;
   request.sequence_dir = dir / "seq";
   request.output_dir = dir / "out";
-  request.detector = "auto";
-  request.models_dir = models;
+  request.config.run.detector = "auto";
+  request.config.run.models = models;
   ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
   ApplySetArgument(&request.config, "octomap.enabled=false");
   ScenarioRun run{RunBuild(request), dir / "seq"};

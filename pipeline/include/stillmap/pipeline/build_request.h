@@ -1,6 +1,6 @@
-// What `stillmap build` is asked to do: the sequence, the output folder, the configuration and
-// how the run is carried out. A header of its own so that the build's steps take it without
-// depending on the controller (build_pipeline.h).
+// What `stillmap build` is asked to do: the sequence, the output folder and the configuration,
+// whose run.* keys (poses, detector, models, threads) are the one copy of the run settings. A
+// header of its own so that the build's steps take it without depending on the controller.
 #pragma once
 
 #include <string>
@@ -13,16 +13,17 @@ namespace stillmap {
 struct BuildRequest {
   std::string sequence_dir;
   std::string output_dir;
-  BuildConfig config;
-  PoseSource poses = PoseSource::kTracking;
-  // auto (yolo-fastest, else yolox, whichever models_dir holds), none, yolo-fastest, yolox,
-  // deeplab, both
-  std::string detector = "auto";
-  std::string models_dir;       // holds yolo_fastest_1.1/, yolox_nano/, deeplabv3_mnv2_voc/
-  std::string models_found_by;  // how: "--models", "$STILLMAP_MODELS", ... (model_search.h)
-  int threads = 2;  // 1: decode and map in one thread; >= 2: decode frames ahead (FrameReader)
+  BuildConfig config;  // config.run: poses, detector, models folder, threads
+  // How config.run.models was found: "--models", "run.models", "$STILLMAP_MODELS", ...
+  // (model_search.h); for the report.
+  std::string models_found_by = "run.models";
   bool show_progress = false;  // a progress line on stderr
   std::string command_line;    // as typed, for the report (empty: a library call)
+
+  PoseSource poses() const {
+    return config.run.poses == "groundtruth" ? PoseSource::kGroundTruth : PoseSource::kTracking;
+  }
+  int threads() const { return config.run.threads; }
 };
 
 }  // namespace stillmap

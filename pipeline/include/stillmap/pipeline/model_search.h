@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "stillmap/pipeline/config.h"
+
 namespace stillmap {
 
 struct ModelsFolder {
@@ -31,6 +33,11 @@ std::optional<ModelsFolder> FindModels();
 // What `build --detector auto` would run and from where, for `info` ("yolox (models in DIR,
 // found through $STILLMAP_MODELS)").
 std::string DescribeDefaultDetector();
+
+// The models folder of a run: run->models when it is set (found by `given_by`), else the first
+// folder of the search path that holds a model, unless run->detector is none. Returns how it was
+// found ("" when there is none).
+std::string ResolveModels(RunSettings* run, const std::string& given_by);
 
 // One line naming the folders searched, for messages.
 std::string DescribeModelSearchPath();

@@ -1,0 +1,152 @@
+#include "map_finish.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <future>
+
+#include "stillmap/io/timing.h"
+
+namespace stillmap {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Why a build ends without a map, from the figures that explain it: an empty or nearly empty map
+// (`points` in all) is a failed run (exit 1, nothing written), not files that look like a result.
+std::string EmptyMapMessage(size_t points, const MapFigures& map, const MapperOptions& options,
+                            const MaskingFigures& masking) {
+  std::string message = fmt::format(
+      "the map is {}: {} frames fused, {} depth readings within [{}, {}] m (mapping.min_depth, "
+      "mapping.max_depth) outside the masks",
+      points == 0 ? "empty"
+                  : fmt::format("nearly empty ({} points, fewer than mapping.min_map_points={})",
+                                points, options.min_map_points),
+      map.statistics.frames, map.statistics.points, options.back_projection.min_depth,
+      options.back_projection.max_depth);
+  if (map.voxels_out_of_range > 0) {
+    message += fmt::format(", {} of them beyond the voxel grid's range (poses far from the origin)",
+                           map.voxels_out_of_range);
+  }
+  const MapCleaningResult& cleaning = map.cleaning;
+  const size_t cleaned = cleaning.seen_through + cleaning.seen_through_views + cleaning.outliers;
+  if (cleaned > 0) message += fmt::format(", {} voxels removed by the map cleaning", cleaned);
+  if (masking.enabled) {
+    message += fmt::format("; {:.1f} % of the pixels were masked as moving",
+                           100 * masking.statistics.MeanShare());
+  }
+  return message + ". Check the depth scale (camera.depth_factor), the depth range and the poses";
+}
+
+// The floor fitted to the OctoMap's occupied voxels or, without one, to the cloud thinned to grid
+// cells (RefineFloor then moves it onto the clean cloud); checked against the fused cameras' mean
+// up direction (camera -y).
+FloorPlane MapFloor(const FinishedMap& map, const std::vector<VoxelPoint>* cloud,
+                    const PosedFrames& posed, const GridOptions& options) {
+  const Eigen::Vector3d cameras_up = MeanCameraUp(WorldFromCameras(posed.fused_poses));
+  if (map.occupancy) return FindFloor(*map.occupancy, cameras_up, options);
+  return FindFloor(*cloud, options.resolution, cameras_up, options);
+}
+
+}  // namespace
+
+FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
+                                  const BuildInputs& inputs, const MaskingFigures& masking,
+                                  const MapFinishOptions& options) {
+  FinishedBuildMap out{std::move(map), {}, {}, {}, std::nullopt, 0.0, 0.0};
+  FinishedMap& finished = out.map;
+  MapCleaningResult cleaning;
+  const std::launch policy = options.parallel ? std::launch::async : std::launch::deferred;
+  std::future<void> clean_job = std::async(policy, [&] {
+    const Clock::time_point start = Clock::now();
+    cleaning = finished.CleanCloud(options.mapping.cleaning);
+    out.cleaning_ms = MillisecondsSince(start);
+  });
+  const Clock::time_point floor_start = Clock::now();
+  std::optional<FloorPlane> fitted;  // beside the cleaning
+  if (finished.occupancy) fitted = MapFloor(finished, nullptr, posed, options.grid);
+  double floor_ms = MillisecondsSince(floor_start);
+  clean_job.get();
+  out.figures = MapFiguresOf(finished, cleaning);
+  // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
+  out.cloud = finished.cloud.Points();
+  if (out.cloud.size() < static_cast<size_t>(options.mapping.min_map_points)) {
+    throw std::runtime_error(
+        EmptyMapMessage(out.cloud.size(), out.figures, options.mapping, masking));
+  }
+  const Clock::time_point refine_start = Clock::now();
+  // Two of the fit's cells (OctoMap voxels, or grid cells without an OctoMap) either side.
+  const double band =
+      2.0 * (finished.occupancy ? finished.occupancy->resolution() : options.grid.resolution);
+  const FloorPlane floor = RefineFloor(
+      fitted ? *fitted : MapFloor(finished, &out.cloud, posed, options.grid), out.cloud, band);
+  out.frame = ChooseMapFrame(floor, inputs, options.frame, posed);
+  const Eigen::Vector3d start = posed.trajectory.poses().front().world_from_camera.translation();
+  out.grid = ProjectMapGrid(finished, out.cloud, start, out.frame, options.grid);
+  out.grid_ms = floor_ms + MillisecondsSince(refine_start);
+  return out;
+}
+
+std::optional<OccupancyGrid> ProjectMapGrid(const FinishedMap& map,
+                                            const std::vector<VoxelPoint>& cloud,
+                                            const Eigen::Vector3d& start,
+                                            const MapFrameFigures& frame,
+                                            const GridOptions& options) {
+  if (!options.enabled || map.occupancy == nullptr) return std::nullopt;
+  GridSources sources;
+  sources.map = map.occupancy.get();
+  sources.floor = frame.floor;
+  sources.world_from_grid = frame.poses_from_map * frame.map_from_floor;
+  sources.cloud = &cloud;
+  sources.start = start;
+  OccupancyGrid grid = ProjectToGrid(sources, options);
+  grid.world_from_grid = frame.map_from_floor;
+  return grid;
+}
+
+MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleaning) {
+  MapFigures figures;
+  figures.statistics = map.statistics;
+  figures.cleaning = cleaning;
+  figures.voxels = map.cloud.size();
+  figures.voxels_written = map.cloud.OutputSize();
+  figures.voxels_out_of_range = map.cloud.rejected_count();
+  figures.voxel_table_mib = static_cast<double>(map.cloud.MemoryBytes()) / (1024.0 * 1024.0);
+  if (map.occupancy) {
+    figures.octomap_leaves = map.occupancy->LeafCount();
+    figures.octomap_occupied_leaves = map.occupancy->OccupiedLeafCount();
+    figures.octomap_points_out_of_range = map.occupancy->rejected_count();
+  }
+  return figures;
+}
+
+std::vector<std::string> MapWarnings(const MapFigures& map, const MapFrameFigures& frame,
+                                     const MapperOptions& options, size_t new_maps) {
+  std::vector<std::string> warnings;
+  if (new_maps > 0) {
+    warnings.push_back(fmt::format(
+        "tracking was lost and not relocalized {} time(s); each time a new local map was started "
+        "from the last good pose and fused into the same cloud, so parts of the map may be "
+        "misaligned copies (report.json: tracking.lost_frame_times)",
+        new_maps));
+  }
+  if (map.voxels_out_of_range + map.octomap_points_out_of_range > 0) {
+    warnings.push_back(fmt::format(
+        "{} points of the voxel cloud and {} of the OctoMap lay beyond the maps' extent ({:.0f} m "
+        "from the origin) and were left out: the poses went far astray",
+        map.voxels_out_of_range, map.octomap_points_out_of_range, options.Extent()));
+  }
+  if (!options.occupancy.enabled) {
+    warnings.push_back(
+        "the OctoMap is off (octomap.enabled=false): no map.bt, map.ot or grid, and the "
+        "cloud was not cleaned of voxels the cameras saw through");
+  }
+  if (!frame.floor_found && frame.name == "floor") {
+    warnings.push_back(
+        "no floor plane was found (report.json: map_frame.floor): the map "
+        "frame's z is the cameras' mean up, gravity assumed");
+  }
+  return warnings;
+}
+
+}  // namespace stillmap

@@ -1,0 +1,32 @@
+#include "pose_loops.h"
+
+namespace stillmap {
+
+LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, MaskStage& masks,
+                       Mapper& mapper) {
+  LoopResult result;
+  ProgressLine progress("stillmap build", inputs.frame_indices.size(), options.show_progress);
+  std::optional<FlowTracker> flow;
+  if (options.flow) {
+    // The mask stage resolved the corner count and the KLT window.
+    flow.emplace(masks.options().flow_points, masks.options().flow);
+  }
+  FrameReader reader(inputs.sequence, inputs.frame_indices, options.read_ahead, std::move(flow));
+  const LoopStages stages{reader, masks, mapper, progress};
+  result.posed = options.poses == PoseSource::kTracking
+                     ? RunTrackedLoop(inputs, options, stages, &result)
+                     : RunGroundTruthLoop(inputs, options.groundtruth_reference_interval, stages);
+  progress.Finish();
+  result.reader_cpu_ms = reader.ahead_cpu_ms();
+  result.load_wait_ms = reader.wait_ms();
+  result.flow_ms = reader.flow_ms();
+  const StreamChecks& checks = reader.checks();
+  result.depth_median_m = checks.DepthQuantile(0.5);
+  result.depth_95th_percentile_m = checks.DepthQuantile(0.95);
+  result.frozen_colour = checks.frozen_colour_frames();
+  result.warnings = checks.Warnings(inputs.camera.depth_factor);
+  result.masking = masks.statistics();
+  return result;
+}
+
+}  // namespace stillmap
