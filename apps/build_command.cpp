@@ -1,10 +1,13 @@
 #include "build_command.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <map>
 #include <set>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/pipeline/build_pipeline.h"
 #include "stillmap/pipeline/model_search.h"
@@ -21,10 +24,12 @@ void BuildCommand::RecoverEarlierSwap() const {
 void BuildCommand::Add(CLI::App& app) {
   command = app.add_subcommand(
       "build",
-      "Build the maps of a TUM-layout sequence: map.ply, map.pcd, map.bt, map.ot, grid.pgm + "
-      "grid.yaml, mesh.glb, trajectory.txt, keyframes.txt, renders/, report.json, report.html, "
-      "config.yaml, session.bin (for stillmap merge); the 3-D outputs in one z-up map frame "
-      "(map.frame).");
+      fmt::format(
+          "Build the maps of a TUM-layout sequence: map.ply, map.pcd, map.bt, map.ot, grid.pgm + "
+          "grid.yaml, mesh.glb, trajectory.txt, keyframes.txt, renders/, report.json, report.html, "
+          "config.yaml, session.bin (for stillmap merge); the 3-D outputs in one z-up map frame "
+          "({}).",
+          stillmap::OptionKey(&stillmap::MapFrameOptions::frame)));
   command
       ->add_option("SEQUENCE_DIR", request.sequence_dir,
                    "TUM-layout sequence folder, or a recorded bag: a ROS 1 .bag, an .mcap or "
@@ -75,14 +80,17 @@ void BuildCommand::AddRunOptions() {
       ->check(CLI::Range(1, 64));
 }
 
-// --topic KIND=NAME as the sequence.*_topic keys.
+// --topic KIND=NAME as the sequence's topic keys.
 void BuildCommand::ApplyTopics() {
+  stillmap::SequenceOptions& sequence = request.config.sequence;
+  const std::map<std::string, std::string*> fields = {{"color", &sequence.color_topic},
+                                                      {"depth", &sequence.depth_topic},
+                                                      {"camera_info", &sequence.camera_info_topic}};
   std::set<std::string> kinds;
   for (const std::string& topic : topics) {
     const size_t equals = topic.find('=');
     const std::string kind = topic.substr(0, equals);
-    if (equals == std::string::npos ||
-        (kind != "color" && kind != "depth" && kind != "camera_info")) {
+    if (equals == std::string::npos || fields.count(kind) == 0) {
       throw stillmap::InputError("--topic " + stillmap::Quoted(topic) +
                                  ": expected color=NAME, depth=NAME or camera_info=NAME");
     }
@@ -95,8 +103,7 @@ void BuildCommand::ApplyTopics() {
                                  "= given twice; give each of color, depth and camera_info "
                                  "once");
     }
-    stillmap::ApplySetArgument(&request.config,
-                               "sequence." + kind + "_topic=" + topic.substr(equals + 1));
+    *fields.at(kind) = topic.substr(equals + 1);
   }
 }
 
@@ -108,8 +115,9 @@ void BuildCommand::ApplyRunOptions() {
   if (command->count("--detector") > 0) run.detector = detector;
   if (command->count("--models") > 0) run.models = models;
   if (command->count("--threads") > 0) run.threads = threads;
-  request.models_found_by =
-      stillmap::ResolveModels(&run, command->count("--models") > 0 ? "--models" : "run.models");
+  request.models_found_by = stillmap::ResolveModels(
+      &run, command->count("--models") > 0 ? std::string("--models")
+                                           : stillmap::OptionKey(&stillmap::RunSettings::models));
 }
 
 void BuildCommand::Run() {

@@ -10,6 +10,7 @@
 #include "build_command.h"
 #include "merge_command.h"
 #include "stillmap/io/error.h"
+#include "stillmap/pipeline/config.h"
 #include "stillmap/pipeline/library_messages.h"
 #include "tool_commands.h"
 
@@ -25,6 +26,7 @@ using stillmap_app::ViewCommand;
 int Run(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_st("stillmap"));
   spdlog::set_pattern("stillmap: %l: %v");
+  stillmap::RegisterConfigKeys();  // the help texts name keys through the registry
 
   CLI::App app{"stillmap: clean static maps from RGB-D sequences in which people move."};
   app.set_version_flag("--version", std::string("stillmap ") + STILLMAP_VERSION);

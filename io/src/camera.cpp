@@ -1,5 +1,6 @@
 #include "stillmap/io/camera.h"
 
+#include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
@@ -10,6 +11,8 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
+#include "stillmap/io/sequence.h"
 #include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
@@ -195,7 +198,8 @@ Camera CameraPreset(const std::string& name) {
   } else {
     std::string known;
     for (const std::string& preset : CameraPresetNames()) known += " " + preset;
-    throw InputError("camera.preset: unknown preset '" + name + "' (known:" + known + ")");
+    throw InputError(fmt::format("{}: unknown preset '{}' (known:{})",
+                                 OptionKey(&CameraOverrides::preset), name, known));
   }
   return camera;
 }

@@ -1,5 +1,7 @@
 #include "stillmap/io/sequence.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <filesystem>
 
@@ -7,6 +9,7 @@
 #include "stillmap/io/file_list.h"
 #include "stillmap/io/image_io.h"
 #include "stillmap/io/input_files.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
@@ -18,17 +21,21 @@ Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& ove
   std::string source;
   if (!overrides.preset.empty()) {
     camera = CameraPreset(overrides.preset);
-    source = "camera.preset=" + overrides.preset;
+    source = fmt::format("{}=", OptionKey(&CameraOverrides::preset)) + overrides.preset;
   } else if (PathExists(yaml.string())) {
     camera = LoadCameraYaml(yaml.string());
     source = yaml.string();
   } else if (overrides.fx && overrides.fy && overrides.cx && overrides.cy) {
     source = "camera keys";
   } else {
-    throw InputError(sequence_dir + ": no camera.yaml; name the camera with --set camera.preset=" +
+    throw InputError(sequence_dir +
+                     fmt::format(": no camera.yaml; name the camera with --set {}=",
+                                 OptionKey(&CameraOverrides::preset)) +
                      CameraPresetChoices() +
-                     ", or give camera.fx, camera.fy, camera.cx "
-                     "and camera.cy");
+                     fmt::format(", or give {}, {}, {} "
+                                 "and {}",
+                                 OptionKey(&CameraOverrides::fx), OptionKey(&CameraOverrides::fy),
+                                 OptionKey(&CameraOverrides::cx), OptionKey(&CameraOverrides::cy)));
   }
   if (overrides.width) camera.width = *overrides.width;
   if (overrides.height) camera.height = *overrides.height;
@@ -51,7 +58,8 @@ Sequence Sequence::Open(const std::string& dir, const Camera& camera,
                      "rgb.txt and depth.txt)");
   }
   if (!(options.max_pair_time_difference > 0.0)) {
-    throw InputError("sequence.max_pair_time_difference must be positive");
+    throw InputError(
+        fmt::format("{} must be positive", OptionKey(&SequenceOptions::max_pair_time_difference)));
   }
   Sequence sequence;
   sequence.dir_ = dir;

@@ -1,24 +1,31 @@
 #include "stillmap/mapping/back_projection.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
 void BackProjectionOptions::Validate() const {
-  if (!(min_depth >= 0.0)) throw InputError("mapping.min_depth must be >= 0 m");
+  if (!(min_depth >= 0.0))
+    throw InputError(fmt::format("{} must be >= 0 m", OptionKey(*this, min_depth)));
   if (!(max_depth > min_depth && max_depth <= 100.0)) {
-    throw InputError("mapping.max_depth must be greater than mapping.min_depth, at most 100 m");
+    throw InputError(fmt::format("{} must be greater than {}, at most 100 m",
+                                 OptionKey(*this, max_depth), OptionKey(*this, min_depth)));
   }
   if (pixel_stride < 1 || pixel_stride > 64) {
-    throw InputError("mapping.pixel_stride must be 1..64 (every n-th pixel along u and v)");
+    throw InputError(fmt::format("{} must be 1..64 (every n-th pixel along u and v)",
+                                 OptionKey(*this, pixel_stride)));
   }
   if (smoothing_radius < 0 || smoothing_radius > 5) {
-    throw InputError("mapping.smoothing_radius must be between 0 and 5 pixels");
+    throw InputError(
+        fmt::format("{} must be between 0 and 5 pixels", OptionKey(*this, smoothing_radius)));
   }
 }
 

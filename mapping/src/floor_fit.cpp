@@ -1,5 +1,6 @@
 // The floor under an occupancy map (FindFloor, occupancy_grid.h): given, fitted with PCL's RANSAC
 // to the occupied voxels, or, without a horizontal plane, a low percentile of their heights.
+#include <fmt/format.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/ransac.h>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/mapping/occupancy_grid.h"
 #include "voxel_key.h"
 
@@ -181,13 +183,14 @@ std::optional<FloorPlane> GivenFloor(const Eigen::Vector3d& hint, const GridOpti
   floor.up = options.floor->head<3>() / norm;
   floor.offset = (*options.floor)[3] / norm;
   if (floor.up.dot(hint) < 0.0) floor.up = -floor.up, floor.offset = -floor.offset;
-  floor.source = "given (grid.floor)";
+  floor.source = fmt::format("given ({})", OptionKey(options, options.floor));
   floor.tilt_to_cameras_deg = TiltDeg(floor, hint);
   if (floor.tilt_to_cameras_deg > options.max_floor_tilt_deg) {
     throw InputError(
-        "grid.floor: the plane's normal lies " +
+        fmt::format("{}: the plane's normal lies ", OptionKey(options, options.floor)) +
         std::to_string(static_cast<int>(std::lround(floor.tilt_to_cameras_deg))) +
-        " deg from the cameras' up direction, more than grid.max_floor_tilt_deg (" +
+        fmt::format(" deg from the cameras' up direction, more than {} (",
+                    OptionKey(options, options.max_floor_tilt_deg)) +
         std::to_string(options.max_floor_tilt_deg) +
         "): not a floor; give 'a b c d' with (a, b, c) the floor's normal in the poses' "
         "frame (when tracking, the first camera's: x right, y down, z forward, "

@@ -3,15 +3,16 @@
 #include <fmt/format.h>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
 void KeyframeSelectionOptions::Validate() const {
   if (!(max_masked_share > 0.0 && max_masked_share <= 1.0)) {
-    throw InputError("keyframes.max_masked_share must be in (0, 1]");
+    throw InputError(fmt::format("{} must be in (0, 1]", OptionKey(*this, max_masked_share)));
   }
   if (!(max_shared_landmarks > 0.0 && max_shared_landmarks <= 1.0)) {
-    throw InputError("keyframes.max_shared_landmarks must be in (0, 1]");
+    throw InputError(fmt::format("{} must be in (0, 1]", OptionKey(*this, max_shared_landmarks)));
   }
   revisit.Validate();
 }

@@ -1,5 +1,6 @@
 #include "stillmap/mapping/map_cleaning.h"
 
+#include <fmt/format.h>
 #include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
@@ -103,13 +105,18 @@ KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
 }
 
 void MapCleaningOptions::Validate() const {
-  if (outlier_neighbors < 1) throw InputError("mapping.outlier_neighbors must be >= 1");
-  if (!(outlier_std_ratio > 0.0)) throw InputError("mapping.outlier_std_ratio must be positive");
-  if (min_free_views < 1) throw InputError("mapping.min_free_views must be >= 1");
-  if (!(free_view_ratio >= 0.0)) throw InputError("mapping.free_view_ratio must not be negative");
+  if (outlier_neighbors < 1)
+    throw InputError(fmt::format("{} must be >= 1", OptionKey(*this, outlier_neighbors)));
+  if (!(outlier_std_ratio > 0.0))
+    throw InputError(fmt::format("{} must be positive", OptionKey(*this, outlier_std_ratio)));
+  if (min_free_views < 1)
+    throw InputError(fmt::format("{} must be >= 1", OptionKey(*this, min_free_views)));
+  if (!(free_view_ratio >= 0.0))
+    throw InputError(fmt::format("{} must not be negative", OptionKey(*this, free_view_ratio)));
   if (!(view_margin_m >= 0.0 && view_margin_m <= 1.0 && view_margin_sigmas >= 0.0 &&
         view_margin_sigmas <= 100.0)) {
-    throw InputError("mapping.view_margin_m must be 0..1 m and mapping.view_margin_sigmas 0..100");
+    throw InputError(fmt::format("{} must be 0..1 m and {} 0..100", OptionKey(*this, view_margin_m),
+                                 OptionKey(*this, view_margin_sigmas)));
   }
 }
 

@@ -1,6 +1,7 @@
 #include "stillmap/mapping/map_mesh.h"
 
 #include <assimp/scene.h>
+#include <fmt/format.h>
 
 #include <assimp/Exporter.hpp>
 #include <cmath>
@@ -8,6 +9,7 @@
 #include <unordered_map>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "voxel_key.h"
 
 namespace stillmap {
@@ -31,10 +33,13 @@ aiMatrix4x4 GltfFromMap() {
 
 void MapMeshOptions::Validate() const {
   if (format != "glb" && format != "obj" && format != "ply") {
-    throw InputError("mesh.format: '" + format + "' is not one of glb, obj, ply");
+    throw InputError(fmt::format("{}: '", OptionKey(*this, format)) + format +
+                     "' is not one of glb, obj, ply");
   }
-  if (!(voxel >= 0.005 && voxel <= 1.0)) throw InputError("mesh.voxel must be in [0.005, 1] m");
-  if (min_points < 1) throw InputError("mesh.min_points must be at least 1");
+  if (!(voxel >= 0.005 && voxel <= 1.0))
+    throw InputError(fmt::format("{} must be in [0.005, 1] m", OptionKey(*this, voxel)));
+  if (min_points < 1)
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, min_points)));
 }
 
 ColoredMesh VoxelSurfaceMesh(const std::vector<VoxelPoint>& points, const MapMeshOptions& options) {

@@ -1,5 +1,7 @@
 #include "stillmap/mapping/mapper.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
@@ -7,6 +9,7 @@
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
@@ -21,7 +24,8 @@ void MapperOptions::Validate() const {
   voxel.Validate();
   occupancy.Validate();
   cleaning.Validate();
-  if (min_map_points < 1) throw InputError("mapping.min_map_points must be at least 1");
+  if (min_map_points < 1)
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, min_map_points)));
 }
 
 Mapper::Mapper(const Camera& camera, const MapperOptions& options)

@@ -1,5 +1,6 @@
 #include "stillmap/mapping/occupancy_grid.h"
 
+#include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
@@ -53,30 +55,35 @@ Eigen::Vector3d MeanCameraUp(const std::vector<Eigen::Isometry3d>& world_from_ca
 void GridOptions::Validate() const {
   // The band is sampled at the OctoMap's resolution in every cell: 100 m bounds the work.
   if (!(min_height >= 0.0 && max_height > min_height && max_height <= 100.0)) {
-    throw InputError("grid.min_height must be >= 0 and grid.max_height above it, at most 100 m");
+    throw InputError(fmt::format("{} must be >= 0 and {} above it, at most 100 m",
+                                 OptionKey(*this, min_height), OptionKey(*this, max_height)));
   }
   if (!(resolution >= 0.005 && resolution <= 5.0)) {
-    throw InputError("grid.resolution must be between 0.005 and 5 m");
+    throw InputError(fmt::format("{} must be between 0.005 and 5 m", OptionKey(*this, resolution)));
   }
-  if (min_cloud_points < 0) throw InputError("grid.min_cloud_points must be >= 0");
+  if (min_cloud_points < 0)
+    throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, min_cloud_points)));
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
-    throw InputError("grid.occupied_probability must be in [0.5, 1)");
+    throw InputError(fmt::format("{} must be in [0.5, 1)", OptionKey(*this, occupied_probability)));
   }
   if (!(confirm_probability >= 0.5 && confirm_probability < 1.0)) {
-    throw InputError("grid.confirm_probability must be in [0.5, 1)");
+    throw InputError(fmt::format("{} must be in [0.5, 1)", OptionKey(*this, confirm_probability)));
   }
   if (floor_ransac_rounds < 1 || floor_ransac_rounds > 100 || floor_ransac_iterations < 1 ||
       floor_ransac_iterations > 1000000 || floor_min_points < 3 ||
       floor_min_inliers_per_mille < 0 || floor_min_inliers_per_mille > 1000) {
-    throw InputError(
-        "grid.floor_ransac_rounds must be 1..100, grid.floor_ransac_iterations 1..1000000, "
-        "grid.floor_min_points at least 3 and grid.floor_min_inliers_per_mille 0..1000");
+    throw InputError(fmt::format(
+        "{} must be 1..100, {} 1..1000000, "
+        "{} at least 3 and {} 0..1000",
+        OptionKey(*this, floor_ransac_rounds), OptionKey(*this, floor_ransac_iterations),
+        OptionKey(*this, floor_min_points), OptionKey(*this, floor_min_inliers_per_mille)));
   }
   if (!(max_floor_tilt_deg > 0.0 && max_floor_tilt_deg < 90.0)) {
-    throw InputError("grid.max_floor_tilt_deg must be in (0, 90)");
+    throw InputError(fmt::format("{} must be in (0, 90)", OptionKey(*this, max_floor_tilt_deg)));
   }
   if (floor && !(floor->head<3>().norm() > 0.0 && floor->allFinite())) {
-    throw InputError("grid.floor: the plane 'a b c d' needs a non-zero normal (a, b, c)");
+    throw InputError(fmt::format("{}: the plane 'a b c d' needs a non-zero normal (a, b, c)",
+                                 OptionKey(*this, floor)));
   }
 }
 
@@ -301,7 +308,7 @@ void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std
       << "# Frame: x, y in the floor plane, z up from the floor; the origin lies on the floor\n"
       << "# under the first camera, x along its view. world_from_map places this frame in the\n"
       << "# frame of stillmap's 3-D outputs (map.ply, map.bt, trajectory.txt; report.json\n"
-      << "# map_frame), row-major 4x4: the identity when map.frame=floor.\n"
+      << "# map_frame), row-major 4x4: the identity when map.frame=floor.\n"  // file format
       << "# Occupied: an occupied OctoMap voxel between min_height and max_height above the\n"
       << "# floor, with voxel-cloud points there; free: that band observed free, or the floor\n"
       << "# seen with nothing above it.\n"

@@ -1,5 +1,6 @@
 #include "stillmap/mapping/occupancy_map.h"
 
+#include <fmt/format.h>
 #include <octomap/OcTree.h>
 
 #include <cmath>
@@ -7,24 +8,27 @@
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
 void OccupancyMapOptions::Validate() const {
   if (!(resolution >= 0.005 && resolution <= 5.0)) {
-    throw InputError("octomap.resolution must be between 0.005 and 5 m");
+    throw InputError(fmt::format("{} must be between 0.005 and 5 m", OptionKey(*this, resolution)));
   }
   if (!(probability_hit > 0.5 && probability_hit < 1.0)) {
-    throw InputError("octomap.probability_hit must be in (0.5, 1)");
+    throw InputError(fmt::format("{} must be in (0.5, 1)", OptionKey(*this, probability_hit)));
   }
   if (!(probability_miss > 0.0 && probability_miss < 0.5)) {
-    throw InputError("octomap.probability_miss must be in (0, 0.5)");
+    throw InputError(fmt::format("{} must be in (0, 0.5)", OptionKey(*this, probability_miss)));
   }
   if (!(clamping_min > 0.0 && clamping_min < 0.5 && clamping_max > 0.5 && clamping_max < 1.0)) {
-    throw InputError("octomap.clamping_min must be in (0, 0.5) and clamping_max in (0.5, 1)");
+    throw InputError(fmt::format("{} must be in (0, 0.5) and clamping_max in (0.5, 1)",
+                                 OptionKey(*this, clamping_min)));
   }
   if (!(later_session_decisive_hits >= 0.0 && later_session_decisive_hits <= 100.0)) {
-    throw InputError("octomap.later_session_decisive_hits must be in [0, 100]");
+    throw InputError(
+        fmt::format("{} must be in [0, 100]", OptionKey(*this, later_session_decisive_hits)));
   }
 }
 

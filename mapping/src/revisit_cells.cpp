@@ -1,19 +1,24 @@
 #include "stillmap/mapping/revisit_cells.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
 #include "stillmap/io/depth_cells.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
 void RevisitOptions::Validate() const {
-  if (keyframes_apart < 1) throw InputError("keyframes.revisit_keyframes_apart must be at least 1");
+  if (keyframes_apart < 1)
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, keyframes_apart)));
   if (!(view_angle_deg >= 0.0 && view_angle_deg <= 180.0)) {
-    throw InputError("keyframes.revisit_view_angle_deg must lie in 0..180");
+    throw InputError(fmt::format("{} must lie in 0..180", OptionKey(*this, view_angle_deg)));
   }
-  if (!(scale_ratio >= 1.0)) throw InputError("keyframes.revisit_scale_ratio must be at least 1");
+  if (!(scale_ratio >= 1.0))
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, scale_ratio)));
 }
 
 RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,

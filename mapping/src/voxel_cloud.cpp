@@ -1,9 +1,12 @@
 #include "stillmap/mapping/voxel_cloud.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 namespace {
@@ -30,9 +33,10 @@ inline std::int64_t AxisIndex(std::uint64_t key, int axis) {
 
 void VoxelCloudOptions::Validate() const {
   if (!(leaf_size >= 0.001 && leaf_size <= 10.0)) {
-    throw InputError("mapping.voxel_leaf_size must be between 0.001 and 10 m");
+    throw InputError(fmt::format("{} must be between 0.001 and 10 m", OptionKey(*this, leaf_size)));
   }
-  if (min_points < 1) throw InputError("mapping.voxel_min_points must be >= 1");
+  if (min_points < 1)
+    throw InputError(fmt::format("{} must be >= 1", OptionKey(*this, min_points)));
 }
 
 VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)

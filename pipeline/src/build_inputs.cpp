@@ -7,6 +7,7 @@
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 namespace {
@@ -23,10 +24,10 @@ void CheckWithinMapExtent(const std::vector<StampedPose>& poses, const InputOpti
   if (reach >= extent) {
     throw InputError(fmt::format(
         "groundtruth.txt: the camera lies up to {:.0f} m from the ground truth's origin along an "
-        "axis, but the maps reach {:.0f} m (octomap.resolution {} m, mapping.voxel_leaf_size {} "
-        "m); "
-        "shift the ground truth nearer its origin or coarsen the maps",
-        farthest, extent, options.octomap_resolution_m, options.voxel_leaf_m));
+        "axis, but the maps reach {:.0f} m ({} {} m, {} {} m); shift the ground truth nearer its "
+        "origin or coarsen the maps",
+        farthest, extent, OptionKey(&OccupancyMapOptions::resolution), options.octomap_resolution_m,
+        OptionKey(&VoxelCloudOptions::leaf_size), options.voxel_leaf_m));
   }
 }
 
@@ -87,13 +88,16 @@ OpenedInputs OpenInputs(const InputOptions& options) {
   }
   if (options.map_frame == "groundtruth" && !inputs.sequence.groundtruth()) {
     throw InputError(options.sequence_dir +
-                     ": no groundtruth.txt; map.frame=groundtruth needs the sequence's ground "
-                     "truth (map.frame=floor puts the map on the floor)");
+                     fmt::format(": no groundtruth.txt; {}=groundtruth needs the sequence's ground "
+                                 "truth ({}=floor puts the map on the floor)",
+                                 OptionKey(&MapFrameOptions::frame),
+                                 OptionKey(&MapFrameOptions::frame)));
   }
   const size_t total_pairs = inputs.sequence.frames().size();
   if (options.first_frame >= total_pairs) {
-    throw InputError("sequence.first_frame=" + std::to_string(options.first_frame) +
-                     " but the sequence has " + std::to_string(total_pairs) + " color/depth pairs");
+    throw InputError(fmt::format("{}=", OptionKey(&BuildConfig::first_frame)) +
+                     std::to_string(options.first_frame) + " but the sequence has " +
+                     std::to_string(total_pairs) + " color/depth pairs");
   }
   const size_t end = options.max_frames == 0
                          ? total_pairs

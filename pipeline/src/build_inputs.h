@@ -7,6 +7,7 @@
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/pipeline/build_result.h"
+#include "stillmap/pipeline/config.h"
 
 namespace stillmap {
 

@@ -108,7 +108,8 @@ MaskSetupOptions MaskOptionsOf(const BuildRequest& request) {
   options.masking = config.masking;
   options.detector = config.run.detector;
   options.models_dir = config.run.models;
-  options.models_found_by = request.models_found_by;
+  options.models_found_by = request.models_found_by.empty() ? OptionKey(config, config.run.models)
+                                                            : request.models_found_by;
   if (config.masking_enabled) options.levels = MotionLevels(config);  // checks detector.levels
   options.detectors = {config.fastest, config.yolox, config.deeplab};
   options.sequence_dir = request.sequence_dir;
@@ -121,9 +122,9 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
   LoopOptions options;
   options.poses = request.poses();
   options.tracking = config.tracking;
-  if (request.threads() == 1) options.tracking.background_bundle_adjustment = false;
+  if (request.threads() == 1) options.tracking.local_map.background_bundle_adjustment = false;
   const BackProjectionOptions& depth = config.mapping.back_projection;
-  options.fuser = {config.tracking.loop_closure,
+  options.fuser = {config.tracking.loops.loop_closure,
                    config.session_record,
                    config.map_recheck,
                    config.masking,

@@ -11,6 +11,7 @@
 #include "config_values.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/option_fields.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
@@ -101,13 +102,13 @@ class KeySetter : public OptionVisitor<KeySetter> {
 // Checks of string values that only a component can make, at the place they were given.
 void CheckSetValue(const BuildConfig& config, const std::string& key,
                    const ConfigSetting& setting) {
-  if (key == "camera.preset" && !setting.text.empty()) {
+  if (key == OptionKey(config, config.camera.preset) && !setting.text.empty()) {
     CameraPreset(setting.text);  // throws for an unknown name
-  } else if (key == "detector.levels") {
+  } else if (key == OptionKey(config, config.detector_levels)) {
     try {
       MotionLevels(config);
     } catch (const InputError& e) {
-      throw InputError(setting.where + ": detector.levels: " + e.what());
+      throw InputError(setting.where + ": " + key + ": " + e.what());
     }
   }
 }
@@ -124,80 +125,129 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
   }
 }
 
-// A box detector's thresholds and input size; `prefix` names their keys.
-void CheckNetworkOptions(const std::string& prefix, double score_threshold, double nms_threshold,
-                         int input_width, int input_height) {
-  if (!(score_threshold > 0.0 && score_threshold < 1.0)) {
-    throw InputError(prefix + "score_threshold must be in (0, 1)");
+// A box detector's thresholds and input size.
+template <typename Network>
+void CheckNetworkOptions(const Network& network) {
+  const OptionKeys key(network);
+  if (!(network.score_threshold > 0.0 && network.score_threshold < 1.0)) {
+    throw InputError(key(network.score_threshold) + " must be in (0, 1)");
   }
-  if (!(nms_threshold > 0.0 && nms_threshold <= 1.0)) {
-    throw InputError(prefix + "nms_threshold must be in (0, 1]");
+  if (!(network.nms_threshold > 0.0 && network.nms_threshold <= 1.0)) {
+    throw InputError(key(network.nms_threshold) + " must be in (0, 1]");
   }
   // The network's cost grows with its input: 1280 px is 3x a 640x480 frame's size.
-  for (const int size : {input_width, input_height}) {
+  for (const int size : {network.input_width, network.input_height}) {
     if (size < 32 || size > 1280 || size % 32 != 0) {
-      std::string message = prefix + "input_width and ";
-      message += prefix + "input_height must be multiples of 32 in 32..1280";
-      throw InputError(message);
+      throw InputError(key(network.input_width) + " and " + key(network.input_height) +
+                       " must be multiples of 32 in 32..1280");
     }
   }
 }
 
+// Records each field under every struct that encloses it, with its offset there.
+class KeyRecorder : public OptionVisitor<KeyRecorder> {
+ public:
+  template <typename Options>
+  void EnterStruct(Options& options) {
+    enclosing_.emplace_back(typeid(Options), reinterpret_cast<const char*>(&options));
+  }
+  void LeaveStruct() { enclosing_.pop_back(); }
+
+  template <typename T>
+  void operator()(const char* name, const T& field, const char* /*help*/) {
+    const char* at = reinterpret_cast<const char*>(&field);
+    for (const auto& [type, base] : enclosing_) RegisterOptionKey(type, at - base, KeyOf(name));
+  }
+
+ private:
+  std::vector<std::pair<std::type_index, const char*>> enclosing_;
+};
+
 }  // namespace
 
 void MergeOptions::Validate() const {
-  if (place_candidates < 1) throw InputError("merge.place_candidates must be at least 1");
-  if (place_min_votes < 1) throw InputError("merge.place_min_votes must be at least 1");
+  if (place_candidates < 1)
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, place_candidates)));
+  if (place_min_votes < 1)
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, place_min_votes)));
   if (max_descriptor_distance < 0 || max_descriptor_distance > 256) {
-    throw InputError("merge.max_descriptor_distance must be 0..256");
+    throw InputError(fmt::format("{} must be 0..256", OptionKey(*this, max_descriptor_distance)));
   }
   if (!(match_ratio > 0.0 && match_ratio <= 1.0)) {
-    throw InputError("merge.match_ratio must be in (0, 1]");
+    throw InputError(fmt::format("{} must be in (0, 1]", OptionKey(*this, match_ratio)));
   }
-  if (min_inliers < 6) throw InputError("merge.min_inliers must be at least 6");
-  if (min_links < 1) throw InputError("merge.min_links must be at least 1");
+  if (min_inliers < 6)
+    throw InputError(fmt::format("{} must be at least 6", OptionKey(*this, min_inliers)));
+  if (min_links < 1)
+    throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, min_links)));
   if (!(agreement_m > 0.0) || !(agreement_deg > 0.0 && agreement_deg <= 180.0)) {
-    throw InputError("merge.agreement_m must be > 0 and merge.agreement_deg in (0, 180]");
+    throw InputError(fmt::format("{} must be > 0 and {} in (0, 180]", OptionKey(*this, agreement_m),
+                                 OptionKey(*this, agreement_deg)));
   }
-  if (neighbour_edges < 0) throw InputError("merge.neighbour_edges must be >= 0");
-  if (!(neighbour_radius_m >= 0.0)) throw InputError("merge.neighbour_radius_m must be >= 0");
+  if (neighbour_edges < 0)
+    throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, neighbour_edges)));
+  if (!(neighbour_radius_m >= 0.0))
+    throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, neighbour_radius_m)));
   if (!(max_seen_share >= 0.0 && max_seen_share <= 1.0)) {
-    throw InputError("merge.max_seen_share must be in [0, 1]");
+    throw InputError(fmt::format("{} must be in [0, 1]", OptionKey(*this, max_seen_share)));
   }
   if (!(link_weight > 0.0 && link_weight < 1e6)) {
-    throw InputError("merge.link_weight must be positive (and below 1e6)");
+    throw InputError(
+        fmt::format("{} must be positive (and below 1e6)", OptionKey(*this, link_weight)));
   }
 }
 
+void RegisterConfigKeys() {
+  static const bool registered = [] {
+    const BuildConfig config;
+    KeyRecorder recorder;
+    recorder.Root(config);
+    return true;
+  }();
+  static_cast<void>(registered);
+}
+
 void BuildConfig::Validate() const {
+  RegisterConfigKeys();
   if (run.poses != "tracking" && run.poses != "groundtruth") {
-    throw InputError("run.poses must be tracking or groundtruth, not '" + run.poses + "'");
+    throw InputError(
+        fmt::format("{} must be tracking or groundtruth, not '", OptionKey(*this, run.poses)) +
+        run.poses + "'");
   }
   const std::vector<std::string> detectors = {"auto",  "none",    "yolo-fastest",
                                               "yolox", "deeplab", "both"};
   if (std::find(detectors.begin(), detectors.end(), run.detector) == detectors.end()) {
     throw InputError(
-        "run.detector must be auto, none, yolo-fastest, yolox, deeplab or both, not '" +
+        fmt::format("{} must be auto, none, yolo-fastest, yolox, deeplab or both, not '",
+                    OptionKey(*this, run.detector)) +
         run.detector + "'");
   }
-  if (run.threads < 1 || run.threads > 64) throw InputError("run.threads must be 1..64");
+  if (run.threads < 1 || run.threads > 64)
+    throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, run.threads)));
   if (map.frame != "floor" && map.frame != "camera" && map.frame != "groundtruth") {
-    throw InputError("map.frame must be floor, camera or groundtruth, not '" + map.frame + "'");
+    throw InputError(
+        fmt::format("{} must be floor, camera or groundtruth, not '", OptionKey(*this, map.frame)) +
+        map.frame + "'");
   }
   // Association looks at every pair within the window: beyond a second it pairs wrong frames and
   // its candidates grow with the square of the frame rate.
   if (!(sequence.max_pair_time_difference > 0.0 && sequence.max_pair_time_difference <= 1.0)) {
-    throw InputError("sequence.max_pair_time_difference must be in (0, 1] s");
+    throw InputError(
+        fmt::format("{} must be in (0, 1] s", OptionKey(*this, sequence.max_pair_time_difference)));
   }
   if (!(sequence.max_groundtruth_gap > 0.0)) {
-    throw InputError("sequence.max_groundtruth_gap must be positive");
+    throw InputError(
+        fmt::format("{} must be positive", OptionKey(*this, sequence.max_groundtruth_gap)));
   }
   if (!(ate.max_time_difference > 0.0 && ate.max_time_difference <= 1.0)) {
-    throw InputError("eval.max_time_difference must be in (0, 1] s");
+    throw InputError(
+        fmt::format("{} must be in (0, 1] s", OptionKey(*this, ate.max_time_difference)));
   }
-  if (!(rpe.delta > 0.0)) throw InputError("eval.rpe_delta must be > 0");
+  if (!(rpe.delta > 0.0))
+    throw InputError(fmt::format("{} must be > 0", OptionKey(*this, rpe.delta)));
   if (groundtruth_reference_interval < 1 || groundtruth_reference_interval > 1000) {
-    throw InputError("masking.groundtruth_reference_interval must be 1..1000 frames");
+    throw InputError(
+        fmt::format("{} must be 1..1000 frames", OptionKey(*this, groundtruth_reference_interval)));
   }
   mapping.Validate();
   tracking.Validate();
@@ -206,24 +256,26 @@ void BuildConfig::Validate() const {
   selection.Validate();
   grid.Validate();
   mesh.Validate();
-  CheckNetworkOptions("detector.", yolox.score_threshold, yolox.nms_threshold, yolox.input_width,
-                      yolox.input_height);
-  CheckNetworkOptions("detector.fastest_", fastest.score_threshold, fastest.nms_threshold,
-                      fastest.input_width, fastest.input_height);
+  CheckNetworkOptions(yolox);
+  CheckNetworkOptions(fastest);
   const int coarse_width = fastest.coarse_input_width, coarse_height = fastest.coarse_input_height;
   const bool coarse_valid = coarse_width >= 32 && coarse_width <= fastest.input_width &&
                             coarse_height >= 32 && coarse_height <= fastest.input_height &&
                             coarse_width % 32 == 0 && coarse_height % 32 == 0;
   if (!(coarse_width == 0 && coarse_height == 0) && !coarse_valid) {
     throw InputError(
-        "detector.fastest_coarse_input_width and detector.fastest_coarse_input_height must both "
-        "be 0 (no coarse pass) or multiples of 32 from 32 up to the first pass's size");
+        fmt::format("{} and {} must both "
+                    "be 0 (no coarse pass) or multiples of 32 from 32 up to the first pass's size",
+                    OptionKey(*this, fastest.coarse_input_width),
+                    OptionKey(*this, fastest.coarse_input_height)));
   }
   if (render.width < 64 || render.width > 4096 || render.height < 64 || render.height > 4096) {
-    throw InputError("render.width and render.height must be 64..4096 px");
+    throw InputError(fmt::format("{} and {} must be 64..4096 px", OptionKey(*this, render.width),
+                                 OptionKey(*this, render.height)));
   }
   if (!(deeplab.min_segment_share >= 0.0 && deeplab.min_segment_share < 1.0)) {
-    throw InputError("detector.min_segment_share must be in [0, 1)");
+    throw InputError(
+        fmt::format("{} must be in [0, 1)", OptionKey(*this, deeplab.min_segment_share)));
   }
 }
 
@@ -243,6 +295,7 @@ MotionLevelTable MotionLevels(const BuildConfig& config) {
 }
 
 std::vector<ConfigKeyInfo> ListConfigKeys() {
+  RegisterConfigKeys();
   std::vector<ConfigKeyInfo> infos;
   for (KeyLister::Entry& entry : ListEntries(BuildConfig{})) {
     infos.push_back({entry.key, entry.help, entry.value.value_or("")});
@@ -252,6 +305,7 @@ std::vector<ConfigKeyInfo> ListConfigKeys() {
 
 void SetConfigValue(BuildConfig* config, const std::string& key, const std::string& value,
                     const std::string& where) {
+  RegisterConfigKeys();
   const auto former = FormerKeys().find(key);
   const std::string& current = former == FormerKeys().end() ? key : former->second;
   const ConfigSetting setting{key, value, where};
@@ -265,7 +319,8 @@ void ApplySetArgument(BuildConfig* config, const std::string& argument) {
   const size_t equals = argument.find('=');
   if (equals == std::string::npos || equals == 0) {
     throw InputError("--set " + argument +
-                     ": expected key=value, e.g. --set mapping.voxel_leaf_size=0.02");
+                     fmt::format(": expected key=value, e.g. --set {}=0.02",
+                                 OptionKey(&VoxelCloudOptions::leaf_size)));
   }
   SetConfigValue(config, argument.substr(0, equals), argument.substr(equals + 1), "--set");
 }

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <future>
 
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
@@ -17,13 +18,14 @@ using Clock = std::chrono::steady_clock;
 std::string EmptyMapMessage(size_t points, const MapFigures& map, const MapperOptions& options,
                             const MaskingFigures& masking) {
   std::string message = fmt::format(
-      "the map is {}: {} frames fused, {} depth readings within [{}, {}] m (mapping.min_depth, "
-      "mapping.max_depth) outside the masks",
+      "the map is {}: {} frames fused, {} depth readings within [{}, {}] m ({}, {}) outside the "
+      "masks",
       points == 0 ? "empty"
-                  : fmt::format("nearly empty ({} points, fewer than mapping.min_map_points={})",
-                                points, options.min_map_points),
+                  : fmt::format("nearly empty ({} points, fewer than {}={})", points,
+                                OptionKey(options, options.min_map_points), options.min_map_points),
       map.statistics.frames, map.statistics.points, options.back_projection.min_depth,
-      options.back_projection.max_depth);
+      options.back_projection.max_depth, OptionKey(options, options.back_projection.min_depth),
+      OptionKey(options, options.back_projection.max_depth));
   if (map.voxels_out_of_range > 0) {
     message += fmt::format(", {} of them beyond the voxel grid's range (poses far from the origin)",
                            map.voxels_out_of_range);
@@ -35,7 +37,8 @@ std::string EmptyMapMessage(size_t points, const MapFigures& map, const MapperOp
     message += fmt::format("; {:.1f} % of the pixels were masked as moving",
                            100 * masking.statistics.MeanShare());
   }
-  return message + ". Check the depth scale (camera.depth_factor), the depth range and the poses";
+  return message + fmt::format(". Check the depth scale ({}), the depth range and the poses",
+                               OptionKey(&CameraOverrides::depth_factor));
 }
 
 // The floor fitted to the OctoMap's occupied voxels or, without one, to the cloud thinned to grid
@@ -138,8 +141,9 @@ std::vector<std::string> MapWarnings(const MapFigures& map, const MapFrameFigure
   }
   if (!options.occupancy.enabled) {
     warnings.push_back(
-        "the OctoMap is off (octomap.enabled=false): no map.bt, map.ot or grid, and the "
-        "cloud was not cleaned of voxels the cameras saw through");
+        fmt::format("the OctoMap is off ({}=false): no map.bt, map.ot or grid, and the "
+                    "cloud was not cleaned of voxels the cameras saw through",
+                    OptionKey(&OccupancyMapOptions::enabled)));
   }
   if (!frame.floor_found && frame.name == "floor") {
     warnings.push_back(

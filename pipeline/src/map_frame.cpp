@@ -1,6 +1,10 @@
 #include "map_frame.h"
 
+#include <fmt/format.h>
+
 #include <stdexcept>
+
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 namespace {
@@ -55,8 +59,9 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
             : GroundTruthFromPoses(inputs, choice.max_groundtruth_gap_s, posed);
     if (!groundtruth_from_poses) {
       throw std::runtime_error(
-          "map.frame=groundtruth: no tracked frame has a ground-truth pose to anchor the map; "
-          "use map.frame=floor");
+          fmt::format("{}=groundtruth: no tracked frame has a ground-truth pose to anchor the map; "
+                      "use {}=floor",
+                      OptionKey(&MapFrameOptions::frame), OptionKey(&MapFrameOptions::frame)));
     }
     frame.poses_from_map = groundtruth_from_poses->inverse();
     frame.description =

@@ -9,6 +9,7 @@
 #include "session_output.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/viewer/trajectory_plot.h"
 
@@ -47,9 +48,10 @@ MeshFigures WriteMesh(const std::vector<VoxelPoint>& cloud, const MapMeshOptions
   const ColoredMesh mesh = VoxelSurfaceMesh(cloud, options);
   if (mesh.faces.empty()) {
     throw std::runtime_error(
-        fmt::format("the mesh is empty: no {} m voxel holds mesh.min_points={} map points; lower "
-                    "mesh.min_points or set mesh.enabled=false",
-                    options.voxel, options.min_points));
+        fmt::format("the mesh is empty: no {} m voxel holds {}={} map points; lower {} or set "
+                    "{}=false",
+                    options.voxel, OptionKey(options, options.min_points), options.min_points,
+                    OptionKey(options, options.min_points), OptionKey(options, options.enabled)));
   }
   WriteColoredMesh(path, mesh, options.format);
   return {options.FileName(), mesh.voxels, mesh.vertices.size(), mesh.faces.size()};

@@ -16,6 +16,7 @@
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/mapping/map_quality.h"
@@ -52,7 +53,7 @@ std::vector<PairLinks> LinkSessions(const std::vector<MergeSession>& sessions,
   std::vector<SessionPlaces> places;
   places.reserve(sessions.size());
   for (const MergeSession& session : sessions) {
-    places.emplace_back(session.record(), config.tracking.place);
+    places.emplace_back(session.record(), config.tracking.loops.place);
   }
   std::vector<PairLinks> pairs;
   for (size_t a = 0; a < sessions.size(); ++a) {
@@ -103,9 +104,9 @@ void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSes
     if (result->pairs.size() > kPairsNamed) links += "; ...";
     throw InputError(fmt::format(
         "no session shares a verified place with the first, {} ({}), so nothing can be merged "
-        "(a pair is joined by merge.min_links={} agreeing links{}); were they recorded in the same "
-        "place?",
-        sessions[0].name, sessions[0].dir, options.min_links, links));
+        "(a pair is joined by {}={} agreeing links{}); were they recorded in the same place?",
+        sessions[0].name, sessions[0].dir, OptionKey(options, options.min_links), options.min_links,
+        links));
   }
   for (const std::string& name : left_out) {
     result->warnings.push_back(
@@ -302,8 +303,8 @@ std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeS
   std::vector<VoxelPoint> cloud = map.cloud.Points();
   if (cloud.size() < static_cast<size_t>(config.mapping.min_map_points)) {
     throw std::runtime_error(fmt::format(
-        "the merged map is nearly empty ({} points, fewer than mapping.min_map_points={})",
-        cloud.size(), config.mapping.min_map_points));
+        "the merged map is nearly empty ({} points, fewer than {}={})", cloud.size(),
+        OptionKey(config, config.mapping.min_map_points), config.mapping.min_map_points));
   }
   result->map_frame = FirstSessionFrame(sessions[0]);
   const Eigen::Vector3d start =
@@ -367,7 +368,7 @@ MergeResult RunMerge(const MergeRequest& request) {
   result.links_ms = MillisecondsSince(step);
   step = Clock::now();
   const JoinedSessions joined =
-      JoinSessions(sessions, pairs, request.config.merge, request.config.tracking.pose_graph);
+      JoinSessions(sessions, pairs, request.config.merge, request.config.tracking.loops.pose_graph);
   result.graph_ms = MillisecondsSince(step);
   result.graph_links = joined.links;
   result.graph_initial_cost = joined.initial_cost;

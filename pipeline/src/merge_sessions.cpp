@@ -1,10 +1,14 @@
 #include "merge_sessions.h"
 
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <set>
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/input_files.h"
+#include "stillmap/io/option_names.h"
+#include "stillmap/pipeline/config.h"
 
 namespace stillmap {
 namespace fs = std::filesystem;
@@ -68,10 +72,12 @@ std::vector<MergeSession> OpenSessions(const std::vector<std::string>& dirs) {
   for (MergeSession& session : sessions) {
     const std::string record = (fs::path(session.dir) / "session.bin").string();
     if (!PathExists(record)) {
-      throw InputError(record +
-                       ": missing; the folder is not the output of a tracked stillmap build "
-                       "with a session record (builds with --poses groundtruth or "
-                       "map.session_record=false write none); build the session again");
+      throw InputError(
+          record +
+          fmt::format(": missing; the folder is not the output of a tracked stillmap build "
+                      "with a session record (builds with --poses groundtruth or "
+                      "{}=false write none); build the session again",
+                      OptionKey(&BuildConfig::session_record)));
     }
     session.reader = std::make_unique<SessionRecordReader>(record);
     if (session.record().keyframes.empty()) {

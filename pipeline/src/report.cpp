@@ -8,6 +8,7 @@
 
 #include "report_parts.h"
 #include "report_timing.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/pipeline/build_request.h"
 
 namespace stillmap {
@@ -200,8 +201,10 @@ json GridJson(const OccupancyGrid& grid) {
             {"occupied_without_cloud_points_in_band", grid.unsupported_cells},
             {"start_cell_made_free", grid.start_made_free}}},
           {"frame",
-           "x, y in the floor plane, z up from the floor, origin on the floor under the first "
-           "camera, x along its view (the map frame itself when map.frame=floor)"},
+           fmt::format(
+               "x, y in the floor plane, z up from the floor, origin on the floor under the first "
+               "camera, x along its view (the map frame itself when {}=floor)",
+               OptionKey(&MapFrameOptions::frame))},
           {"world_from_map", RowMajor(grid.world_from_grid)},
           {"floor",
            {{"source", grid.floor.source},
@@ -212,7 +215,7 @@ json GridJson(const OccupancyGrid& grid) {
 namespace {
 
 json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {
-  if (!options.depth_self_calibration) return {{"enabled", false}};
+  if (!options.matching.depth_self_calibration) return {{"enabled", false}};
   const auto& p = t.depth_correction.coefficients;
   const DepthCorrectionFit& last = t.last_depth_calibration;
   return {{"enabled", true},
@@ -355,8 +358,11 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
     report["grid"] = GridJson(*result.grid);
   } else {
     report["grid"] = nullptr;
-    report["grid_note"] = config.grid.enabled ? "not written: the OctoMap is off (octomap.enabled)"
-                                              : "not written: grid.enabled=false";
+    report["grid_note"] =
+        config.grid.enabled
+            ? fmt::format("not written: the OctoMap is off ({})",
+                          OptionKey(&OccupancyMapOptions::enabled))
+            : fmt::format("not written: {}=false", OptionKey(&GridOptions::enabled));
   }
   if (result.tracking) report["tracking"] = TrackingJson(*result.tracking, config.tracking);
   report["warnings"] = result.warnings;

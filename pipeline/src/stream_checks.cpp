@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstring>
 
+#include "stillmap/io/option_names.h"
+
 namespace stillmap {
 
 void StreamChecks::Add(const Frame& frame) {
@@ -55,9 +57,9 @@ std::vector<std::string> StreamChecks::Warnings(double depth_factor) const {
     warnings.push_back(fmt::format(
         "the depth readings look {} than a room's: half nearer than {:.2f} m, 95 % nearer than "
         "{:.2f} m (indoor RGB-D recordings read a median below {:.0f} m and some readings beyond "
-        "{:.1f} m); check the depth scale, camera.depth_factor = {} per metre",
+        "{:.1f} m); check the depth scale, {} = {} per metre",
         median > kMaxMedianM ? "farther" : "nearer", median, far, kMaxMedianM, kMin95thPercentileM,
-        depth_factor));
+        OptionKey(&CameraOverrides::depth_factor), depth_factor));
   }
   return warnings;
 }

@@ -1,5 +1,8 @@
+#include <fmt/format.h>
+
 #include "keyframe_fuser.h"
 #include "pose_loops.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 namespace {
@@ -57,16 +60,17 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   PosedFrames posed{tracker.TrackedTrajectory(), fuser.fused_poses(), fuser.TakeSessionKeyframes(),
                     fuser.depth_unit_m()};
   if (posed.trajectory.empty()) {
-    throw std::runtime_error(
+    throw std::runtime_error(fmt::format(
         "no frame could be tracked (too few ORB features with depth: is the depth scale right? "
-        "see camera.depth_factor)");
+        "see {})",
+        OptionKey(&CameraOverrides::depth_factor)));
   }
   figures.statistics = tracker.statistics();
   figures.fuse_ms = fuser.fuse_ms();
   figures.refuse_ms = fuser.refuse_ms();
   figures.refused_keyframes_moved = moved;
   figures.refusion_store_mib = store_mib;
-  figures.bundle_adjustment_thread = options.tracking.background_bundle_adjustment;
+  figures.bundle_adjustment_thread = options.tracking.local_map.background_bundle_adjustment;
   result->tracking = std::move(figures);
   result->selection = fuser.figures();
   return posed;

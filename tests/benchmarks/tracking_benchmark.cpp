@@ -242,7 +242,7 @@ void BM_TrackSequence(benchmark::State& state) {  // NOLINT(readability-identifi
   const Input& in = GetInput();
   if (Skip(state, in)) return;
   TrackerOptions options;
-  options.background_bundle_adjustment = state.range(0) != 0;
+  options.local_map.background_bundle_adjustment = state.range(0) != 0;
   std::vector<double> extract, match, pose, keyframe;
   for (auto _ : state) {
     Tracker tracker(in.camera, options);

@@ -102,7 +102,7 @@ TEST(MapCleaningTest, ImpossibleOptionsAreRejectedByName) {
         try {
           options.Validate();
         } catch (const InputError& e) {
-          EXPECT_NE(std::string(e.what()).find("mapping.outlier_neighbors"), std::string::npos);
+          EXPECT_NE(std::string(e.what()).find("outlier_neighbors"), std::string::npos);
           throw;
         }
       },

@@ -51,9 +51,9 @@ class TrackerTest : public ::testing::Test {
   // is tested in bundle_adjustment_test.cpp with a realistic noise model.
   static TrackerOptions Deterministic() {
     TrackerOptions options;
-    options.background_bundle_adjustment = false;
-    options.sigma_inverse_depth = 0.0001;
-    options.depth_self_calibration = false;
+    options.local_map.background_bundle_adjustment = false;
+    options.matching.sigma_inverse_depth = 0.0001;
+    options.matching.depth_self_calibration = false;
     return options;
   }
   // The first `count` frames, the lens covered (black image, no depth) in frames 10-12.
@@ -136,9 +136,10 @@ TEST_F(TrackerTest, RelativePosesMatchTheRenderingPoses) {
 
 TEST_F(TrackerTest, EveryKeyframeBecomesFinalOnceInOrder) {
   TrackerOptions options = Deterministic();
-  options.max_keyframe_interval = 5;       // several keyframes in 40 frames
-  options.local_window = 3;                // and some leave the window before the end
-  options.redundant_keyframe_share = 1.0;  // the camera sways over one place: keep them all
+  options.local_map.max_keyframe_interval = 5;  // several keyframes in 40 frames
+  options.local_map.local_window = 3;           // and some leave the window before the end
+  options.local_map.redundant_keyframe_share =
+      1.0;  // the camera sways over one place: keep them all
   Tracker tracker(sequence_->camera(), options);
   std::vector<int> keyframes;
   std::vector<FinalKeyframe> finals;
@@ -166,7 +167,7 @@ TEST_F(TrackerTest, EveryKeyframeBecomesFinalOnceInOrder) {
 // off: no pose, then relocalization.
 TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
   TrackerOptions options = Deterministic();
-  options.max_predicted_frames = 0;
+  options.relocalization.max_predicted_frames = 0;
   Tracker tracker(sequence_->camera(), options);
   const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 20));
   EXPECT_EQ(statuses[10], TrackStatus::kLost);
@@ -220,9 +221,9 @@ TEST_F(TrackerTest, AnOccludedLensIsRiddenThroughByTheMotionModel) {
 // covered frames are too much.
 TEST_F(TrackerTest, ARelocalizationFarFromTheLastGoodPoseIsRefused) {
   TrackerOptions options = Deterministic();
-  options.max_predicted_frames = 0;
-  options.relocalization_max_distance_m = 1e-5;
-  options.relocalization_max_speed_mps = 0.0;
+  options.relocalization.max_predicted_frames = 0;
+  options.relocalization.relocalization_max_distance_m = 1e-5;
+  options.relocalization.relocalization_max_speed_mps = 0.0;
   Tracker tracker(sequence_->camera(), options);
   const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 16));
   EXPECT_EQ(statuses[13], TrackStatus::kLost);
@@ -232,7 +233,7 @@ TEST_F(TrackerTest, ARelocalizationFarFromTheLastGoodPoseIsRefused) {
 
 TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {
   TrackerOptions options = Deterministic();
-  options.new_map_after_lost = 1;
+  options.relocalization.new_map_after_lost = 1;
   Tracker tracker(sequence_->camera(), options);
   for (size_t i = 0; i < 5; ++i) {
     ASSERT_TRUE(tracker.Track(i, frames_[i].time, grays_[i], frames_[i].depth_m).tracked());
@@ -260,8 +261,8 @@ TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {
 // adjustment runs concurrently; results depend on timing, so the bounds are looser.
 TEST_F(TrackerTest, BackgroundBundleAdjustmentKeepsTrackingAccurate) {
   TrackerOptions options = Deterministic();
-  options.background_bundle_adjustment = true;
-  options.max_keyframe_interval = 5;  // adjustments while frames keep coming
+  options.local_map.background_bundle_adjustment = true;
+  options.local_map.max_keyframe_interval = 5;  // adjustments while frames keep coming
   Tracker tracker(sequence_->camera(), options);
   size_t finals = 0;
   for (size_t i = 0; i < frames_.size(); ++i) {
@@ -297,12 +298,13 @@ TEST_F(TrackerTest, IgnoredPixelsYieldNoFeatures) {
 
 TEST(TrackerOptionsTest, ImpossibleValuesAreNamed) {
   TrackerOptions options;
-  options.local_window = 1;
+  options.local_map.local_window = 1;
   try {
     options.Validate();
     FAIL() << "accepted local_window = 1";
   } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("tracking.local_window"), std::string::npos);
+    // On its own (no configuration registered its keys) the key is the field's own.
+    EXPECT_NE(std::string(e.what()).find("local_window"), std::string::npos);
   }
 }
 

@@ -1,4 +1,6 @@
 // Sequence::OpenBag: a recorded bag as a sequence (issue 28).
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,6 +9,7 @@
 
 #include "bag/bag_frames.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/sequence.h"
 
 namespace stillmap {
@@ -35,12 +38,13 @@ Camera CameraFromInfo(const RosCameraInfo& info, const std::string& where) {
   bool fits = plumb_bob ? info.d.size() <= 5 : rational;
   for (size_t i = 8; rational && i < info.d.size(); ++i) fits = fits && info.d[i] == 0.0;
   if (!fits) {
-    throw InputError(where + ": distortion model " + Quoted(info.distortion_model) + " with " +
-                     std::to_string(info.d.size()) +
-                     " coefficients is not read (plumb_bob k1 k2 p1 p2 k3, rational_polynomial "
-                     "k1 k2 p1 p2 k3 k4 k5 k6, librealsense's Brown Conrady forms); give the "
-                     "camera with --set camera.fx=... "
-                     "camera.fy=... camera.cx=... camera.cy=... camera.distortion=...");
+    throw InputError(fmt::format(
+        "{}: distortion model {} with {} coefficients is not read (plumb_bob k1 k2 p1 p2 k3, "
+        "rational_polynomial k1 k2 p1 p2 k3 k4 k5 k6, librealsense's Brown Conrady forms); give "
+        "the camera with --set {}=... {}=... {}=... {}=... {}=...",
+        where, Quoted(info.distortion_model), info.d.size(), OptionKey(&CameraOverrides::fx),
+        OptionKey(&CameraOverrides::fy), OptionKey(&CameraOverrides::cx),
+        OptionKey(&CameraOverrides::cy), OptionKey(&CameraOverrides::distortion)));
   }
   for (size_t i = 0; i < std::min<size_t>(5, info.d.size()); ++i) camera.distortion[i] = info.d[i];
   for (size_t i = 5; i < std::min<size_t>(8, info.d.size()); ++i)
@@ -53,20 +57,20 @@ Camera CameraFromInfo(const RosCameraInfo& info, const std::string& where) {
 Camera WithOverrides(Camera camera, const CameraOverrides& overrides,
                      std::vector<std::string>* notes) {
   std::string given;
-  auto take = [&](const auto& value, auto& field, const char* key) {
+  auto take = [&](const auto& value, auto& field, const std::string& key) {
     if (!value) return;
     field = *value;
     given += std::string(given.empty() ? "" : ", ") + key;
   };
-  take(overrides.width, camera.width, "camera.width");
-  take(overrides.height, camera.height, "camera.height");
-  take(overrides.fx, camera.fx, "camera.fx");
-  take(overrides.fy, camera.fy, "camera.fy");
-  take(overrides.cx, camera.cx, "camera.cx");
-  take(overrides.cy, camera.cy, "camera.cy");
-  take(overrides.distortion, camera.distortion, "camera.distortion");
+  take(overrides.width, camera.width, OptionKey(&CameraOverrides::width));
+  take(overrides.height, camera.height, OptionKey(&CameraOverrides::height));
+  take(overrides.fx, camera.fx, OptionKey(&CameraOverrides::fx));
+  take(overrides.fy, camera.fy, OptionKey(&CameraOverrides::fy));
+  take(overrides.cx, camera.cx, OptionKey(&CameraOverrides::cx));
+  take(overrides.cy, camera.cy, OptionKey(&CameraOverrides::cy));
+  take(overrides.distortion, camera.distortion, OptionKey(&CameraOverrides::distortion));
   if (overrides.distortion) camera.rational = {};  // the given k1..k3 model replaces the bag's
-  take(overrides.depth_factor, camera.depth_factor, "camera.depth_factor");
+  take(overrides.depth_factor, camera.depth_factor, OptionKey(&CameraOverrides::depth_factor));
   if (!given.empty()) notes->push_back(given + " given: used instead of the bag's CameraInfo");
   return camera;
 }
@@ -142,10 +146,10 @@ std::optional<double> RealSenseDepthUnits(const BagContents& contents, const Bag
   const auto units = contents.realsense.depth_units.find(sensor);
   if (sensor.empty() || units == contents.realsense.depth_units.end()) return std::nullopt;
   if (!(units->second > 0.0 && units->second < 1.0)) {
-    throw InputError(path + ": " + sensor + "/option/Depth Units/value says " +
-                     std::to_string(units->second) +
-                     " m per depth unit, which no depth camera records; give the scale with "
-                     "--set camera.depth_factor=UNITS_PER_METRE");
+    throw InputError(fmt::format(
+        "{}: {}/option/Depth Units/value says {} m per depth unit, which no depth camera "
+        "records; give the scale with --set {}=UNITS_PER_METRE",
+        path, sensor, std::to_string(units->second), OptionKey(&CameraOverrides::depth_factor)));
   }
   return units->second;
 }
@@ -218,7 +222,8 @@ Camera CameraOfBag(const BagStream* info, const CameraOverrides& overrides, cons
     camera = CameraPreset(overrides.preset);
     camera.depth_factor = 1000.0;
     notes->push_back(
-        "camera.preset=" + overrides.preset + " given: used " +
+        fmt::format("{}=", OptionKey(&CameraOverrides::preset)) + overrides.preset +
+        " given: used " +
         (info == nullptr ? "(the bag has no CameraInfo)" : "instead of the bag's CameraInfo"));
   } else if (info != nullptr) {
     camera = CameraFromInfo(info->info, path + ": " + info->name);
@@ -233,7 +238,8 @@ Camera CameraOfBag(const BagStream* info, const CameraOverrides& overrides, cons
 Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overrides,
                            const SequenceOptions& options) {
   if (!(options.max_pair_time_difference > 0.0)) {
-    throw InputError("sequence.max_pair_time_difference must be positive");
+    throw InputError(
+        fmt::format("{} must be positive", OptionKey(options, options.max_pair_time_difference)));
   }
   std::unique_ptr<BagReader> reader = stillmap::OpenBag(path);
   const BagContents contents = ScanBagContents(*reader);
@@ -288,12 +294,14 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
     char gap[64], window[32];
     std::snprintf(gap, sizeof(gap), "%.3f s", NearestGap(color.stamps, depth.stamps));
     std::snprintf(window, sizeof(window), "%g s", options.max_pair_time_difference);
-    throw WithWarnings(InputError(path + ": no colour message on " + color.name +
-                                  " has a depth message on " + depth.name + " within " + window +
-                                  " of its header stamp; the nearest are " + gap +
-                                  " apart (stamps on different clocks? widen the window with --set "
-                                  "sequence.max_pair_time_difference=SECONDS)"),
-                       contents.warnings);
+    throw WithWarnings(
+        InputError(fmt::format(
+            "{}: no colour message on {} has a depth message on {} within {} of its header "
+            "stamp; the nearest are {} apart (stamps on different clocks? widen the window with "
+            "--set {}=SECONDS)",
+            path, color.name, depth.name, window, gap,
+            OptionKey(&SequenceOptions::max_pair_time_difference))),
+        contents.warnings);
   }
   if (info == nullptr && overrides.preset.empty() && !overrides.width && color.width == 0) {
     cv::Mat first_color, first_depth;  // a compressed colour topic: its size is its first image's

@@ -1,5 +1,7 @@
 #include "bag/bag_streams.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -7,6 +9,8 @@
 
 #include "bag/image_judge.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
+#include "stillmap/io/sequence.h"
 
 namespace stillmap {
 namespace {
@@ -131,9 +135,10 @@ void ScanCameraInfo(const BagMessage& message, BagSerialization serialization,
                               " restated as the plumb_bob fitted to it (largest difference " +
                               worst + ")");
     if (fit_px > 0.1) {
-      contents->warnings.push_back(path + ": " + stream->name +
-                                   ": its distortion model is matched by plumb_bob only to " +
-                                   worst + "; give camera.distortion if that is too coarse");
+      contents->warnings.push_back(
+          path + ": " + stream->name + ": its distortion model is matched by plumb_bob only to " +
+          worst +
+          fmt::format("; give {} if that is too coarse", OptionKey(&CameraOverrides::distortion)));
     }
   }
   if (!stream->has_info) {
@@ -263,11 +268,15 @@ BagChoice ChooseBagStreams(const BagContents& contents, const BagTopicNames& nam
     }
     if (choice.camera_info == BagChoice::kNone && camera_given) return choice;
     if (choice.camera_info == BagChoice::kNone) {
-      throw InputError(path + ": no camera info beside the colour topic (" + wanted +
-                       "); name one with --topic camera_info=NAME, or give the camera with "
-                       "--set camera.preset=NAME or with camera.fx, camera.fy, camera.cx and "
-                       "camera.cy (the image size is then the colour images'); the bag holds:\n" +
-                       DescribeBagStreams(contents));
+      throw InputError(
+          path + ": no camera info beside the colour topic (" + wanted +
+          fmt::format("); name one with --topic camera_info=NAME, or give the camera with "
+                      "--set {}=NAME or with {}, {}, {} and "
+                      "{} (the image size is then the colour images'); the bag holds:\n",
+                      OptionKey(&CameraOverrides::preset), OptionKey(&CameraOverrides::fx),
+                      OptionKey(&CameraOverrides::fy), OptionKey(&CameraOverrides::cx),
+                      OptionKey(&CameraOverrides::cy)) +
+          DescribeBagStreams(contents));
     }
   }
   if (!contents.streams[choice.camera_info].has_info) {

@@ -10,7 +10,8 @@
 //
 // called with `Self` = the struct or its const version. Every field appears exactly once, in
 // declaration order, under its own name; the help text gives the unit and, for thresholds from a
-// paper, the paper. A visitor derives from OptionVisitor, which keeps the key path.
+// paper, the paper. A visitor derives from OptionVisitor, which keeps the key path; one that
+// needs the structs it passes through defines EnterStruct(options) and LeaveStruct().
 #pragma once
 
 #include <string>
@@ -33,6 +34,17 @@ class OptionVisitor {
     VisitUnder(std::string(section) + "." + prefix, options);
   }
 
+  // The fields of `options` as the top of the key path (the configuration itself).
+  template <typename Options>
+  void Root(Options& options) {
+    VisitUnder("", options);
+  }
+
+  // Called around the fields of each struct visited, innermost last (no-ops unless shadowed).
+  template <typename Options>
+  void EnterStruct(Options& /*options*/) {}
+  void LeaveStruct() {}
+
  protected:
   // The full key of a field named `name` where the visit is.
   std::string KeyOf(const char* name) const { return prefix_ + name; }
@@ -42,7 +54,10 @@ class OptionVisitor {
   template <typename Options>
   void VisitUnder(std::string prefix, Options& options) {
     prefix_.swap(prefix);
-    std::remove_const_t<Options>::VisitFields(options, static_cast<Derived&>(*this));
+    Derived& derived = static_cast<Derived&>(*this);
+    derived.EnterStruct(options);
+    std::remove_const_t<Options>::VisitFields(options, derived);
+    derived.LeaveStruct();
     prefix_.swap(prefix);
   }
 

@@ -14,9 +14,9 @@ struct BuildRequest {
   std::string sequence_dir;
   std::string output_dir;
   BuildConfig config;  // config.run: poses, detector, models folder, threads
-  // How config.run.models was found: "--models", "run.models", "$STILLMAP_MODELS", ...
-  // (model_search.h); for the report.
-  std::string models_found_by = "run.models";
+  // How config.run.models was found: "--models", "$STILLMAP_MODELS", ... (model_search.h); for
+  // the report. Empty: given by the configuration (run.models).
+  std::string models_found_by;
   bool show_progress = false;  // a progress line on stderr
   std::string command_line;    // as typed, for the report (empty: a library call)
 

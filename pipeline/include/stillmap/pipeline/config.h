@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "stillmap/io/evaluation.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/mapping/keyframe_selection.h"
 #include "stillmap/mapping/map_mesh.h"
@@ -130,6 +131,12 @@ struct BuildConfig {
     visit.Section("merge", self.merge);
   }
 };
+
+// Records every key of the configuration in the option registry (io/option_names.h), once, so
+// that the components' messages name their keys as the configuration has them. The build, the
+// merge and the configuration's own functions call it; a program that reads components' messages
+// before any of them (a command's help) calls it first.
+void RegisterConfigKeys();
 
 // One configurable key, for help texts.
 struct ConfigKeyInfo {

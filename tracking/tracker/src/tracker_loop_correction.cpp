@@ -5,49 +5,25 @@ namespace stillmap {
 void Tracker::Impl::RequestLoopCorrection(int keyframe_id, int candidate,
                                           const Eigen::Isometry3d& camera_from_world,
                                           const Association& association) {
-  // Every keyframe is a node, in id order; the oldest holds the gauge.
-  LoopCorrection loop;
-  PoseGraphProblem& problem = loop.problem;
-  std::map<int, int> node_of;
+  std::map<int, Eigen::Isometry3d> world_from_keyframe;
   for (const auto& [id, keyframe] : keyframes) {
-    node_of[id] = static_cast<int>(loop.ids.size());
-    loop.ids.push_back(id);
-    problem.world_from_node.push_back(keyframe.camera_from_world.inverse());
+    world_from_keyframe.emplace(id, keyframe.camera_from_world.inverse());
   }
-  problem.fixed.assign(loop.ids.size(), false);
-  problem.fixed[0] = true;
-  for (size_t n = 0; n + 1 < loop.ids.size(); ++n) {
-    problem.edges.push_back(EdgeBetween(static_cast<int>(n), static_cast<int>(n + 1),
-                                        problem.world_from_node[n],
-                                        problem.world_from_node[n + 1]));
-  }
-  AddCovisibilityEdges(node_of, &problem);
-  problem.edges.push_back(EdgeBetween(node_of.at(candidate), node_of.at(keyframe_id),
-                                      keyframes.at(candidate).camera_from_world.inverse(),
-                                      camera_from_world.inverse()));
-  loop.keyframe_id = keyframe_id;
+  LoopCorrection loop =
+      loops.PrepareCorrection(world_from_keyframe, CovisibilityPairs(), keyframe_id, candidate,
+                              camera_from_world.inverse());
   for (size_t f = 0; f < association.landmark.size(); ++f) {
     if (association.landmark[f] >= 0) loop.merges.emplace_back(f, association.landmark[f]);
   }
-  loop.handover_serial = frame_serial + static_cast<size_t>(options.loop_handover_frames);
+  loop.handover_serial = frame_serial + static_cast<size_t>(options.loops.loop_handover_frames);
   pending_loop = std::move(loop);
   if (worker.joinable()) {
     loop_requested = true;
     wake.notify_one();
   } else {
-    SolveLoop(pending_loop->problem, &*pending_loop);
+    loops.Solve(&*pending_loop);
     pending_loop->is_solved = true;
   }
-}
-
-void Tracker::Impl::SolveLoop(const PoseGraphProblem& problem, LoopCorrection* solved) const {
-  const Clock::time_point start = Clock::now();
-  try {
-    solved->result = SolvePoseGraph(problem, options.pose_graph);
-  } catch (...) {
-    solved->error = std::current_exception();
-  }
-  solved->ms = MillisecondsSince(start);
 }
 
 void Tracker::Impl::TakeLoopCorrection(std::unique_lock<std::mutex>& lock) {
@@ -66,18 +42,14 @@ void Tracker::Impl::TakeLoopCorrection(std::unique_lock<std::mutex>& lock) {
   ApplyLoopCorrection(loop);
   MergeLoopLandmarks(loop);
   ++stats.loops_accepted;
-  if (options.loop_global_bundle_adjustment) RequestAdjustment(true);
+  if (options.loops.loop_global_bundle_adjustment) RequestAdjustment(true);
   UpdateFinal();
 }
 
 void Tracker::Impl::ApplyLoopCorrection(const LoopCorrection& loop) {
   // world' = correction * world for each keyframe; keyframes made since the request move with
   // the loop's keyframe, and each landmark with the keyframe that made it.
-  std::map<int, Eigen::Isometry3d> correction;
-  for (size_t n = 0; n < loop.ids.size(); ++n) {
-    correction[loop.ids[n]] =
-        loop.result.world_from_node[n] * loop.problem.world_from_node[n].inverse();
-  }
+  const std::map<int, Eigen::Isometry3d> correction = LoopClosure::Corrections(loop);
   const Eigen::Isometry3d at_loop = correction.at(loop.keyframe_id);
   const int newest = loop.ids.back();
   auto correction_of = [&](int keyframe_id) -> const Eigen::Isometry3d* {

@@ -21,11 +21,11 @@ void Tracker::Impl::CalibrateDepth() {
     }
   }
   const DepthCorrectionFit fit =
-      FitDepthCorrection(pairs, image_outline, options.depth_calibration);
+      FitDepthCorrection(pairs, image_outline, options.matching.depth_calibration);
   if (fit.ok) {
     stats.depth_correction = fit.correction;
     ++stats.depth_calibrations;
-  } else if (fit.pairs_used >= options.depth_calibration.min_pairs) {
+  } else if (fit.pairs_used >= options.matching.depth_calibration.min_pairs) {
     ++stats.depth_calibrations_refused;
   }
   stats.last_depth_calibration = fit;

@@ -1,7 +1,10 @@
 // DynamicMaskOptions: the outline modes by name and the checks of every option.
+#include <fmt/format.h>
+
 #include <string>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 #include "stillmap/tracking/dynamic_mask.h"
 
 namespace stillmap {
@@ -10,7 +13,8 @@ OutlineMode ParseOutlineMode(const std::string& name) {
   if (name == "box") return OutlineMode::kBox;
   if (name == "depth") return OutlineMode::kDepth;
   if (name == "edges") return OutlineMode::kEdges;
-  throw InputError("masking.outline: '" + name + "' is not one of box, depth, edges");
+  throw InputError(fmt::format("{}: '", OptionKey(&DynamicMaskOptions::outline)) + name +
+                   "' is not one of box, depth, edges");
 }
 
 const char* OutlineModeName(OutlineMode mode) {

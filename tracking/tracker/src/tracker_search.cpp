@@ -13,7 +13,7 @@ void Tracker::Impl::SearchByProjection(const Eigen::Isometry3d& camera_from_worl
     Landmark* const landmark = entry.second;
     if (landmark->matched_stamp == match_serial) continue;
     const Eigen::Vector3d p = rotation * landmark->position + translation;
-    if (p.z() < options.min_landmark_depth) continue;
+    if (p.z() < options.matching.min_landmark_depth) continue;
     const double u = camera.fx * p.x() / p.z() + camera.cx;
     const double v = camera.fy * p.y() / p.z() + camera.cy;
     if (u < 0.0 || v < 0.0 || u >= camera.width || v >= camera.height) continue;
@@ -34,11 +34,11 @@ void Tracker::Impl::SearchByProjection(const Eigen::Isometry3d& camera_from_worl
         second_octave = octave;
       }
     });
-    if (best_index < 0 || best > options.max_descriptor_distance) continue;
+    if (best_index < 0 || best > options.matching.max_descriptor_distance) continue;
     // The ratio test only between candidates of one pyramid level: the same corner is often
     // detected at two levels with nearly the same descriptor (ORB-SLAM2 does the same).
     if (second_octave == best_octave && second != INT_MAX &&
-        static_cast<float>(best) > options.match_ratio * static_cast<float>(second)) {
+        static_cast<float>(best) > options.matching.match_ratio * static_cast<float>(second)) {
       continue;
     }
     const size_t feature = static_cast<size_t>(best_index);
@@ -84,7 +84,8 @@ Tracker::Impl::PoseEstimate Tracker::Impl::Refine(const Eigen::Isometry3d& initi
   for (size_t k = 0; k < points.size(); ++k) {
     if (!inlier[k]) Unmatch(feature_of[k], association);
   }
-  estimate.ok = refined.ok() && static_cast<int>(refined.inliers.size()) >= options.min_tracked;
+  estimate.ok = refined.ok() &&
+                static_cast<int>(refined.inliers.size()) >= options.relocalization.min_tracked;
   estimate.camera_from_world = refined.camera_from_world;
   estimate.inliers = static_cast<int>(refined.inliers.size());
   estimate.rmse_px = refined.reprojection_rmse * camera.fx;
@@ -110,8 +111,8 @@ Tracker::Impl::PoseEstimate Tracker::Impl::EstimatePose(const Eigen::Isometry3d&
   const PoseEstimate first =
       Refine(pnp.ok() ? pnp.camera_from_world : guess, frame, association, quick);
   if (!first.ok) return failed;
-  SearchByProjection(first.camera_from_world, local, options.refine_search_radius_px, frame,
-                     association);
+  SearchByProjection(first.camera_from_world, local, options.matching.refine_search_radius_px,
+                     frame, association);
   PoseEstimate estimate = Refine(first.camera_from_world, frame, association, options.refinement);
   estimate.matches = std::max(estimate.matches, failed.matches);
   return estimate;
@@ -129,20 +130,17 @@ Tracker::Impl::PoseEstimate Tracker::Impl::Relocalize(const FrameData& frame,
                                                       Association* association) {
   // The place index's best candidates first (the camera may be back at an earlier place), then
   // the most recent keyframes.
-  std::vector<int> tries;
-  for (const PlaceCandidate& candidate :
-       places.Query(frame.features().descriptors, static_cast<size_t>(options.place_candidates),
-                    [](int) { return false; })) {
-    if (candidate.votes >= options.place_min_votes) tries.push_back(candidate.keyframe_id);
-  }
+  std::vector<int> tries = loops.RelocalizationCandidates(frame.features().descriptors);
   const size_t count = map_keyframes.size();
-  for (size_t t = 0; t < std::min(count, static_cast<size_t>(options.relocalization_keyframes));
+  for (size_t t = 0;
+       t < std::min(count, static_cast<size_t>(options.relocalization.relocalization_keyframes));
        ++t) {
     const int id = map_keyframes[count - 1 - t];
     if (std::find(tries.begin(), tries.end(), id) == tries.end()) tries.push_back(id);
   }
   for (const int id : tries) {
-    PoseEstimate estimate = VerifyPlace(frame, id, options.min_relocalized, association);
+    PoseEstimate estimate =
+        VerifyPlace(frame, id, options.relocalization.min_relocalized, association);
     if (estimate.ok) return estimate;
   }
   *association = Association(frame.size());

@@ -1,28 +1,36 @@
 #include "stillmap/tracking/features.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
 void FeatureOptions::Validate() const {
   if (max_features < 50 || max_features > 100000) {
-    throw InputError("tracking.max_features must be between 50 and 100000");
+    throw InputError(
+        fmt::format("{} must be between 50 and 100000", OptionKey(*this, max_features)));
   }
   if (grid_columns < 1 || grid_columns > 64 || grid_rows < 1 || grid_rows > 64) {
-    throw InputError("tracking.grid_columns and tracking.grid_rows must be 1..64");
+    throw InputError(fmt::format("{} and {} must be 1..64", OptionKey(*this, grid_columns),
+                                 OptionKey(*this, grid_rows)));
   }
   if (pyramid_levels < 1 || pyramid_levels > 16 || !(scale_factor > 1.0f && scale_factor <= 4.0f)) {
-    throw InputError("tracking.pyramid_levels must be 1..16 and tracking.scale_factor in (1, 4]");
+    throw InputError(fmt::format("{} must be 1..16 and {} in (1, 4]",
+                                 OptionKey(*this, pyramid_levels), OptionKey(*this, scale_factor)));
   }
   if (fast_threshold < 1 || fast_threshold > 255) {
-    throw InputError("tracking.fast_threshold must be 1..255 (a gray-level difference)");
+    throw InputError(fmt::format("{} must be 1..255 (a gray-level difference)",
+                                 OptionKey(*this, fast_threshold)));
   }
-  if (!(max_depth_spread > 0.0)) throw InputError("tracking.max_depth_spread must be positive");
+  if (!(max_depth_spread > 0.0))
+    throw InputError(fmt::format("{} must be positive", OptionKey(*this, max_depth_spread)));
 }
 
 namespace {

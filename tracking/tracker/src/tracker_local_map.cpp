@@ -13,7 +13,7 @@ std::vector<int> Tracker::Impl::LocalKeyframes() const {
   };
   // The most recent keyframes of the current map, newest first.
   const size_t count = map_keyframes.size();
-  const size_t recent = std::min(count, static_cast<size_t>(options.local_map_keyframes));
+  const size_t recent = std::min(count, static_cast<size_t>(options.local_map.local_map_keyframes));
   for (size_t k = count; k-- > count - recent;) take(map_keyframes[k]);
   // Map reuse: keyframes that observe what the last frame matched (covisible), most shared first.
   // Keyframes near the predicted pose that are not covisible are left to the loop detection: a
@@ -30,7 +30,7 @@ std::vector<int> Tracker::Impl::LocalKeyframes() const {
   for (const auto& [id, n] : shared) ranked.emplace_back(-n, id);
   std::sort(ranked.begin(), ranked.end());
   size_t extra = 0;
-  const size_t max_extra = static_cast<size_t>(options.local_map_keyframes);
+  const size_t max_extra = static_cast<size_t>(options.local_map.local_map_keyframes);
   for (const auto& entry : ranked) {
     if (extra >= max_extra) break;
     if (keyframes.at(entry.second).descriptors.empty() || taken.count(entry.second) > 0) continue;
@@ -63,8 +63,8 @@ LocalSet Tracker::Impl::PlaceLandmarks(int keyframe_id) {
   std::sort(ranked.begin(), ranked.end());
   LocalSet local;
   const size_t stamp = ++collect_serial;
-  for (size_t k = 0; k < ranked.size() && k < static_cast<size_t>(options.local_map_keyframes);
-       ++k) {
+  for (size_t k = 0;
+       k < ranked.size() && k < static_cast<size_t>(options.local_map.local_map_keyframes); ++k) {
     for (const int id : keyframes.at(ranked[k].second).landmark_of_feature) {
       const auto it = id >= 0 ? landmarks.find(id) : landmarks.end();
       if (it == landmarks.end() || it->second.local_stamp == stamp) continue;
@@ -105,14 +105,15 @@ void Tracker::Impl::MergeDuplicates(const Eigen::Isometry3d& camera_from_world,
     const auto it = landmarks.find(other);
     if (it == landmarks.end() || it->second.matched_stamp == match_serial) continue;
     const Landmark& landmark = landmarks.at(kept);
-    if ((landmark.position - it->second.position).norm() > options.landmark_merge_distance_m) {
+    if ((landmark.position - it->second.position).norm() >
+        options.local_map.landmark_merge_distance_m) {
       continue;
     }
     const Eigen::Vector3d p = camera_from_world * it->second.position;
     if (p.z() <= 0.0) continue;
     const Eigen::Vector2d& seen = frame.features().normalized[duplicate.feature];
     const double sigma =
-        options.sigma_px * OctaveScale(frame.octave(duplicate.feature)) / camera.fx;
+        options.matching.sigma_px * OctaveScale(frame.octave(duplicate.feature)) / camera.fx;
     if ((p.head<2>() / p.z() - seen).squaredNorm() > kChi2 * sigma * sigma) continue;
     // The one observed by more keyframes stays (ORB-SLAM2), the older one on a tie.
     const size_t kept_seen = landmark.observations.size(),
@@ -157,12 +158,13 @@ void Tracker::Impl::CullRecentLandmarks(int current_keyframe) {
     const Landmark& landmark = it->second;
     const int age = current_keyframe - landmark.created_keyframe;
     const bool rarely_found =
-        landmark.visible >= options.cull_min_visible &&
-        landmark.found < options.cull_found_ratio * static_cast<double>(landmark.visible);
-    const bool seen_once = age >= options.cull_single_view_age && landmark.observations.size() < 2;
+        landmark.visible >= options.local_map.cull_min_visible &&
+        landmark.found < options.local_map.cull_found_ratio * static_cast<double>(landmark.visible);
+    const bool seen_once =
+        age >= options.local_map.cull_single_view_age && landmark.observations.size() < 2;
     if (rarely_found || seen_once) {
       EraseLandmark(id);
-    } else if (age < options.cull_recent_age) {
+    } else if (age < options.local_map.cull_recent_age) {
       kept.push_back(id);
     }
   }
@@ -189,7 +191,7 @@ void Tracker::Impl::StartMap(const Eigen::Isometry3d& camera_from_world, FrameDa
   UpdateFinal(true);
   for (int id : map_keyframes) {  // the old map's features are no longer needed
     Keyframe& keyframe = keyframes.at(id);
-    places.Remove(id);
+    loops.RemovePlace(id);
     keyframe.features = FrameFeatures();
     keyframe.descriptors.clear();
     keyframe.landmark_of_feature.clear();

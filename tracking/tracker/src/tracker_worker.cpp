@@ -12,10 +12,10 @@ void Tracker::Impl::WorkerLoop() {
     if (stopping) break;
     if (loop_requested) {
       loop_requested = false;
-      const PoseGraphProblem problem = pending_loop->problem;
-      lock.unlock();
       LoopCorrection solved;
-      SolveLoop(problem, &solved);
+      solved.problem = pending_loop->problem;
+      lock.unlock();
+      loops.Solve(&solved);
       lock.lock();
       stats.worker_cpu_ms = ThreadCpuMs();  // the thread's whole CPU time so far
       pending_loop->result = std::move(solved.result);
@@ -61,11 +61,12 @@ std::optional<Tracker::Impl::WindowAdjustment> Tracker::Impl::PrepareAdjustment(
   WindowAdjustment adjustment;
   BundleAdjustmentProblem& problem = adjustment.problem;
   adjustment.calibrating =
-      options.depth_self_calibration && options.depth_calibration_in_bundle_adjustment &&
-      count >= static_cast<size_t>(options.depth_calibration.joint_min_keyframes);
+      options.matching.depth_self_calibration &&
+      options.matching.depth_calibration_in_bundle_adjustment &&
+      count >= static_cast<size_t>(options.matching.depth_calibration.joint_min_keyframes);
   if (adjustment.calibrating) {
     problem.depth_correction = stats.depth_correction;
-    problem.depth_correction_sigma = options.depth_calibration.coefficient_sigma;
+    problem.depth_correction_sigma = options.matching.depth_calibration.coefficient_sigma;
   }
   std::unordered_map<int, int> keyframe_index, landmark_index;
   for (size_t k = window_first; k < count; ++k) {
@@ -113,13 +114,14 @@ bool Tracker::Impl::GlobalAdjustmentRunning() const {
 }
 
 void Tracker::Impl::RequestAdjustment(bool global) {
-  std::optional<WindowAdjustment> adjustment =
-      PrepareAdjustment(global ? map_keyframes.size() : static_cast<size_t>(options.local_window));
+  std::optional<WindowAdjustment> adjustment = PrepareAdjustment(
+      global ? map_keyframes.size() : static_cast<size_t>(options.local_map.local_window));
   if (!adjustment) return;
   adjustment->global = global;
   adjustment->handover_serial =
-      frame_serial + static_cast<size_t>(global ? options.global_bundle_adjustment_handover_frames
-                                                : options.bundle_adjustment_handover_frames);
+      frame_serial +
+      static_cast<size_t>(global ? options.loops.global_bundle_adjustment_handover_frames
+                                 : options.local_map.bundle_adjustment_handover_frames);
   running_window_first = adjustment->window_first;
   pending = std::move(adjustment);
   if (worker.joinable()) {
@@ -199,7 +201,7 @@ BundleAdjustmentResult Tracker::Impl::SolveWindow(BundleAdjustmentProblem proble
   // clearly (significant, every direction pinned down, within bounds). Otherwise the estimate
   // would mostly be pose error and noise bent into the depth: solved again without it.
   BundleAdjustmentResult joint = SolveBundleAdjustment(problem, options.bundle_adjustment);
-  const DepthCorrectionFitOptions& limits = options.depth_calibration;
+  const DepthCorrectionFitOptions& limits = options.matching.depth_calibration;
   if (joint.depth_correction_significance >= limits.joint_min_significance &&
       joint.depth_correction_weakest_sd <= limits.joint_max_weakest_sd &&
       joint.depth_correction->WithinBounds(image_outline, limits.max_delta)) {

@@ -33,7 +33,7 @@ const char* TrackStatusName(TrackStatus status) {
 }
 
 Tracker::Impl::Impl(const Camera& camera_in, const TrackerOptions& options_in)
-    : camera(camera_in), options(options_in), places(options_in.place, kPlaceIndexSeed) {
+    : camera(camera_in), options(options_in), loops(options_in.loops, kPlaceIndexSeed) {
   options.Validate();
   double scale = 1.0;
   for (int level = 0; level < options.features.pyramid_levels; ++level) {
@@ -46,7 +46,8 @@ Tracker::Impl::Impl(const Camera& camera_in, const TrackerOptions& options_in)
                                  (v * (camera.height - 1) - camera.cy) / camera.fy);
     }
   }
-  if (options.background_bundle_adjustment) worker = std::thread([this] { WorkerLoop(); });
+  if (options.local_map.background_bundle_adjustment)
+    worker = std::thread([this] { WorkerLoop(); });
 }
 
 Tracker::Impl::~Impl() {
@@ -70,11 +71,11 @@ RgbdObservation Tracker::Impl::Observation(const FrameFeatures& features, size_t
   observation.depth_m =
       features.depth_m[i] * (raw_depth ? 1.0 : DepthFactor(features.normalized[i]));
   observation.sigma_normalized =
-      options.sigma_px * OctaveScale(features.keypoints[i].octave) / camera.fx;
-  observation.sigma_inverse_depth = options.sigma_inverse_depth;
-  if (options.far_depth_power > 0.0 && observation.depth_m > options.far_depth) {
-    observation.sigma_inverse_depth *=
-        std::pow(observation.depth_m / options.far_depth, options.far_depth_power);
+      options.matching.sigma_px * OctaveScale(features.keypoints[i].octave) / camera.fx;
+  observation.sigma_inverse_depth = options.matching.sigma_inverse_depth;
+  if (options.matching.far_depth_power > 0.0 && observation.depth_m > options.matching.far_depth) {
+    observation.sigma_inverse_depth *= std::pow(observation.depth_m / options.matching.far_depth,
+                                                options.matching.far_depth_power);
   }
   return observation;
 }
@@ -84,7 +85,8 @@ double Tracker::Impl::DepthFactor(const Eigen::Vector2d& normalized) const {
 }
 
 bool Tracker::Impl::UsableDepth(float depth) const {
-  return depth >= options.min_landmark_depth && depth <= options.max_landmark_depth;
+  return depth >= options.matching.min_landmark_depth &&
+         depth <= options.matching.max_landmark_depth;
 }
 
 TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat& gray,
@@ -119,15 +121,16 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   const Eigen::Isometry3d predicted = have_velocity ? velocity * last : last;
   const LocalSet local = CollectLocalLandmarks();
   Association association(frame.size());
-  SearchByProjection(predicted, local, options.search_radius_px, frame, &association);
-  if (association.count() < options.min_matches) {
-    SearchByProjection(predicted, local, options.wide_search_radius_px, frame, &association);
+  SearchByProjection(predicted, local, options.matching.search_radius_px, frame, &association);
+  if (association.count() < options.matching.min_matches) {
+    SearchByProjection(predicted, local, options.matching.wide_search_radius_px, frame,
+                       &association);
   }
   result.timings.match_ms = MillisecondsSince(stage);
 
   stage = Clock::now();
   const PoseEstimate estimate = FindPose(predicted, local, frame, time, &association);
-  const bool occluded = result.static_depth_share < options.min_static_depth_share;
+  const bool occluded = result.static_depth_share < options.relocalization.min_static_depth_share;
   result.timings.pose_ms = MillisecondsSince(stage);
   result.matches = estimate.matches;
 
@@ -150,7 +153,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
 void Tracker::Impl::TrackWithoutMap(FrameData& frame, int with_depth, size_t frame_index,
                                     double time, std::unique_lock<std::mutex>& lock,
                                     TrackResult* result) {
-  if (with_depth < options.min_initial_points) {
+  if (with_depth < options.relocalization.min_initial_points) {
     ++stats.lost;
     return;
   }
@@ -166,7 +169,7 @@ Tracker::Impl::PoseEstimate Tracker::Impl::FindPose(const Eigen::Isometry3d& pre
                                                     const LocalSet& local, const FrameData& frame,
                                                     double time, Association* association) {
   PoseEstimate estimate;
-  if (association->count() >= options.min_matches) {
+  if (association->count() >= options.matching.min_matches) {
     estimate = EstimatePose(predicted, true, local, frame, association);
   }
   bool relocalizing = consecutive_lost > 0;
@@ -188,7 +191,7 @@ Tracker::Impl::PoseEstimate Tracker::Impl::FindPose(const Eigen::Isometry3d& pre
 void Tracker::Impl::TakePose(const PoseEstimate& estimate, const LocalSet& local,
                              const FrameData& frame, Association* association,
                              TrackResult* result) {
-  const bool occluded = result->static_depth_share < options.min_static_depth_share;
+  const bool occluded = result->static_depth_share < options.relocalization.min_static_depth_share;
   const bool was_lost = consecutive_lost > 0;
   result->status = occluded   ? TrackStatus::kOccluded
                    : was_lost ? TrackStatus::kRelocalized
@@ -206,8 +209,9 @@ void Tracker::Impl::TakePose(const PoseEstimate& estimate, const LocalSet& local
 void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameData& frame,
                                      int with_depth, size_t frame_index, double time,
                                      std::unique_lock<std::mutex>& lock, TrackResult* result) {
-  const bool occluded = result->static_depth_share < options.min_static_depth_share;
-  if (occluded && have_last && consecutive_predicted < options.max_predicted_frames) {
+  const bool occluded = result->static_depth_share < options.relocalization.min_static_depth_share;
+  if (occluded && have_last &&
+      consecutive_predicted < options.relocalization.max_predicted_frames) {
     // Nothing to track behind the occluder: the motion model carries the pose through.
     ++consecutive_predicted;
     ++stats.predicted;
@@ -219,7 +223,8 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameDa
   ++stats.lost;
   have_last = false;
   have_velocity = false;
-  if (consecutive_lost >= options.new_map_after_lost && with_depth >= options.min_initial_points) {
+  if (consecutive_lost >= options.relocalization.new_map_after_lost &&
+      with_depth >= options.relocalization.min_initial_points) {
     StartMap(last_good_camera_from_world, frame, frame_index, time, lock);
     ++stats.new_maps;
     --stats.lost;
@@ -233,7 +238,7 @@ void Tracker::Impl::CountVisibility(const Eigen::Isometry3d& camera_from_world,
                                     const LocalSet& local, const Association& association) {
   for (const auto& [id, landmark] : local) {
     const Eigen::Vector3d p = camera_from_world * landmark->position;
-    if (p.z() < options.min_landmark_depth) continue;
+    if (p.z() < options.matching.min_landmark_depth) continue;
     const double u = camera.fx * p.x() / p.z() + camera.cx;
     const double v = camera.fy * p.y() / p.z() + camera.cy;
     if (u >= 0.0 && v >= 0.0 && u < camera.width && v < camera.height) ++landmark->visible;
@@ -263,8 +268,8 @@ bool Tracker::Impl::NearLastGoodPose(const Eigen::Isometry3d& camera_from_world,
                            last_good_camera_from_world.inverse().translation())
                               .norm();
   const double elapsed_s = std::max(0.0, time - last_good_time);
-  return distance <=
-         options.relocalization_max_distance_m + options.relocalization_max_speed_mps * elapsed_s;
+  return distance <= options.relocalization.relocalization_max_distance_m +
+                         options.relocalization.relocalization_max_speed_mps * elapsed_s;
 }
 
 void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double time,
@@ -366,7 +371,7 @@ TrackerStatistics Tracker::statistics() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
   TrackerStatistics stats = impl_->stats;
   stats.landmarks = impl_->landmarks.size();
-  stats.place_index_mib = static_cast<double>(impl_->places.MemoryBytes()) / (1024.0 * 1024.0);
+  stats.place_index_mib = static_cast<double>(impl_->loops.MemoryBytes()) / (1024.0 * 1024.0);
   return stats;
 }
 

@@ -8,11 +8,11 @@ namespace stillmap {
 
 bool Tracker::Impl::NeedKeyframe(const FrameData& frame, const Association& association,
                                  int inliers) const {
-  if (inliers <= options.min_keyframe_inliers) return false;
-  if (frames_since_keyframe >= options.max_keyframe_interval) return true;
+  if (inliers <= options.local_map.min_keyframe_inliers) return false;
+  if (frames_since_keyframe >= options.local_map.max_keyframe_interval) return true;
   // Weak tracking asks for a keyframe at once; otherwise not within min_keyframe_interval.
-  const bool weak = inliers < options.weak_tracking_inliers;
-  if (!weak && frames_since_keyframe < options.min_keyframe_interval) return false;
+  const bool weak = inliers < options.local_map.weak_tracking_inliers;
+  if (!weak && frames_since_keyframe < options.local_map.min_keyframe_interval) return false;
   if (weak) return true;
   const Keyframe& reference = keyframes.at(map_keyframes.back());
   const size_t min_observations = map_keyframes.size() <= 2 ? 1 : 2;
@@ -27,12 +27,12 @@ bool Tracker::Impl::NeedKeyframe(const FrameData& frame, const Association& asso
   int tracked_close = 0, untracked_close = 0;
   for (size_t i = 0; i < frame.size(); ++i) {
     const float depth = frame.features().depth_m[i];
-    if (depth <= 0.0f || depth > options.close_depth) continue;
+    if (depth <= 0.0f || depth > options.local_map.close_depth) continue;
     (association.landmark[i] >= 0 ? tracked_close : untracked_close) += 1;
   }
-  const bool need_close =
-      tracked_close < options.close_tracked_max && untracked_close > options.close_untracked_min;
-  return inliers < options.keyframe_ratio * reference_tracked || need_close;
+  const bool need_close = tracked_close < options.local_map.close_tracked_max &&
+                          untracked_close > options.local_map.close_untracked_min;
+  return inliers < options.local_map.keyframe_ratio * reference_tracked || need_close;
 }
 
 cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_mask) const {
@@ -40,8 +40,9 @@ cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_m
   const int columns = (camera.width + kDepthCell - 1) / kDepthCell;
   cv::Mat seen(rows, columns, CV_32FC3, cv::Scalar::all(0.0));
   if (depth_m.empty()) return seen;
-  const cv::Mat cells = DepthCells(depth_m, ignore_mask, kDepthCell, options.min_landmark_depth,
-                                   options.max_landmark_depth);
+  const cv::Mat cells =
+      DepthCells(depth_m, ignore_mask, kDepthCell, options.matching.min_landmark_depth,
+                 options.matching.max_landmark_depth);
   for (int row = 0; row < std::min(rows, cells.rows); ++row) {
     for (int column = 0; column < std::min(columns, cells.cols); ++column) {
       const cv::Vec4f& cell = cells.at<cv::Vec4f>(row, column);
@@ -54,11 +55,11 @@ cv::Mat Tracker::Impl::SeenDepth(const cv::Mat& depth_m, const cv::Mat& ignore_m
 
 template <typename Use>
 double Tracker::Impl::CoveredShare(const Keyframe& keyframe, Use&& use) const {
-  const double max_ratio = options.redundant_scale_ratio;
-  const double min_cosine = std::cos(options.redundant_view_angle_deg * M_PI / 180.0);
+  const double max_ratio = options.local_map.redundant_scale_ratio;
+  const double min_cosine = std::cos(options.local_map.redundant_view_angle_deg * M_PI / 180.0);
   std::vector<const Keyframe*> near;
-  for (int id : NearbyKeyframes(keyframe.camera_from_world, options.redundant_radius_m,
-                                options.redundant_axis_angle_deg)) {
+  for (int id : NearbyKeyframes(keyframe.camera_from_world, options.local_map.redundant_radius_m,
+                                options.local_map.redundant_axis_angle_deg)) {
     if (use(id)) near.push_back(&keyframes.at(id));
   }
   const Eigen::Isometry3d world_from_camera = keyframe.camera_from_world.inverse();
@@ -110,21 +111,22 @@ bool Tracker::Impl::CullIfRedundant(size_t position) {
   const auto kept_before = [this, id](int other) {
     return other < id && !keyframes.at(other).retiring;
   };
-  if (CoveredShare(keyframe, kept_before) <= options.redundant_keyframe_share) return false;
+  if (CoveredShare(keyframe, kept_before) <= options.local_map.redundant_keyframe_share)
+    return false;
   FinalKeyframe done{
       id, keyframe.frame_index, keyframe.time, keyframe.camera_from_world.inverse(), {}, true, {}};
   for (int landmark : keyframe.landmark_of_feature) {
     if (landmark >= 0) done.landmarks.push_back(landmark);
   }
   final_queue.push_back(std::move(done));
-  places.Remove(id);
+  loops.RemovePlace(id);
   keyframe.retiring = true;
   ++stats.keyframes_culled;
   return true;
 }
 
 void Tracker::Impl::EraseRetired(bool all) {
-  const auto keep = static_cast<size_t>(options.redundant_retire_keyframes);
+  const auto keep = static_cast<size_t>(options.local_map.redundant_retire_keyframes);
   for (size_t position = 0; position < next_final;) {
     const int id = map_keyframes[position];
     const bool old_enough = all || position + keep < map_keyframes.size();
@@ -226,12 +228,14 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
   ++stats.keyframes;
   frames_since_keyframe = 0;
   CullRecentLandmarks(id);
-  if (options.depth_self_calibration && !options.depth_calibration_in_bundle_adjustment &&
-      options.depth_calibration_interval > 0 &&
-      map_keyframes.size() % static_cast<size_t>(options.depth_calibration_interval) == 0) {
+  if (options.matching.depth_self_calibration &&
+      !options.matching.depth_calibration_in_bundle_adjustment &&
+      options.matching.depth_calibration_interval > 0 &&
+      map_keyframes.size() % static_cast<size_t>(options.matching.depth_calibration_interval) ==
+          0) {
     CalibrateDepth();
   }
-  places.Add(id, keyframes.at(id).features.descriptors);
+  loops.AddPlace(id, keyframes.at(id).features.descriptors);
   if (!pending_loop) DetectLoop(id);
   if (!pending) RequestAdjustment();
   UpdateFinal();
@@ -240,13 +244,13 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
 
 void Tracker::Impl::UpdateFinal(bool all) {
   const size_t count = map_keyframes.size();
-  const size_t window_first = count > static_cast<size_t>(options.local_window)
-                                  ? count - static_cast<size_t>(options.local_window)
+  const size_t window_first = count > static_cast<size_t>(options.local_map.local_window)
+                                  ? count - static_cast<size_t>(options.local_map.local_window)
                                   : 0;
   int boundary = all ? INT_MAX : (count > 0 ? map_keyframes[window_first] : INT_MAX);
   boundary = std::min(boundary, all ? INT_MAX : running_window_first);
   while (next_final < map_keyframes.size() && map_keyframes[next_final] < boundary) {
-    if (options.redundant_keyframe_share < 1.0 && CullIfRedundant(next_final)) {
+    if (options.local_map.redundant_keyframe_share < 1.0 && CullIfRedundant(next_final)) {
       ++next_final;
       continue;
     }

@@ -1,5 +1,7 @@
 #include "stillmap/tracking/place_index.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cstring>
 #include <numeric>
@@ -7,14 +9,17 @@
 
 #include "hamming.h"
 #include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
 
 namespace stillmap {
 
 void PlaceIndexOptions::Validate() const {
-  if (tables < 1 || tables > 64) throw InputError("tracking.place_tables must be 1..64");
-  if (key_bits < 4 || key_bits > 32) throw InputError("tracking.place_key_bits must be 4..32");
+  if (tables < 1 || tables > 64)
+    throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, tables)));
+  if (key_bits < 4 || key_bits > 32)
+    throw InputError(fmt::format("{} must be 4..32", OptionKey(*this, key_bits)));
   if (max_distance < 0 || max_distance > 256) {
-    throw InputError("tracking.place_max_distance must be 0..256");
+    throw InputError(fmt::format("{} must be 0..256", OptionKey(*this, max_distance)));
   }
 }
 

@@ -3,7 +3,9 @@
 // one file per job: tracker.cpp (per frame), tracker_search.cpp (projection search, pose,
 // relocalization), tracker_local_map.cpp (local map, culling, new maps), tracker_keyframes.cpp
 // (keyframe policy, final keyframes), tracker_worker.cpp (local bundle adjustment and its
-// thread), tracker_depth_calibration.cpp (depth self-calibration).
+// thread), tracker_depth_calibration.cpp (depth self-calibration), tracker_loops.cpp and
+// tracker_loop_correction.cpp (what the loop closure component needs of the map: verification,
+// shared landmarks, applying a correction).
 #pragma once
 
 #include <algorithm>
@@ -26,6 +28,7 @@
 
 #include "hamming.h"
 #include "stillmap/io/timing.h"
+#include "stillmap/tracking/loop_closure.h"
 #include "stillmap/tracking/pose_graph.h"
 #include "stillmap/tracking/tracker.h"
 
@@ -193,7 +196,7 @@ struct Tracker::Impl {
   // Track's steps: the first map (while there is none); the frame's pose against the local map,
   // else by relocalization near the last good pose; the bookkeeping of a frame with a pose; and
   // of one without (carried by the motion model behind an occluder, else lost, a new map after
-  // options.new_map_after_lost frames).
+  // options.relocalization.new_map_after_lost frames).
   void TrackWithoutMap(FrameData& frame, int with_depth, size_t frame_index, double time,
                        std::unique_lock<std::mutex>& lock, TrackResult* result);
   PoseEstimate FindPose(const Eigen::Isometry3d& predicted, const LocalSet& local,
@@ -275,20 +278,9 @@ struct Tracker::Impl {
                       const Eigen::Isometry3d& camera_from_world) const;
   // Keyframes that share landmarks with `keyframe_id` (itself included), and how many.
   std::map<int, int> SharedLandmarks(int keyframe_id) const;
-  // A loop correction is solved on the worker like the bundle adjustment and taken at a point
-  // fixed by the data: before the frame loop_handover_frames after the loop was accepted, a new
-  // map or Finish. Keyframes made meanwhile move with the loop's keyframe.
-  struct LoopCorrection {
-    PoseGraphProblem problem;  // read by the solver; its initial poses give each correction
-    std::vector<int> ids;      // keyframe id per node, ascending
-    int keyframe_id = 0;
-    std::vector<std::pair<size_t, int>> merges;  // (feature of keyframe_id, earlier landmark)
-    size_t handover_serial = 0;
-    bool is_solved = false;
-    PoseGraphResult result;
-    std::exception_ptr error;
-    double ms = 0.0;
-  };
+  // A loop correction (loop_closure.h) is solved on the worker like the bundle adjustment and
+  // taken at a point fixed by the data: before the frame loop_handover_frames after the loop was
+  // accepted, a new map or Finish. Keyframes made meanwhile move with the loop's keyframe.
   // The pose graph with the loop edge (the keyframe at camera_from_world as verified against
   // `candidate`), handed to the worker (or solved at once without one).
   void RequestLoopCorrection(int keyframe_id, int candidate,
@@ -298,12 +290,10 @@ struct Tracker::Impl {
   // before it), moves keyframes and landmarks, merges the place's two copies and requests a
   // global bundle adjustment (loop_global_bundle_adjustment).
   void TakeLoopCorrection(std::unique_lock<std::mutex>& lock);
-  // Solves the pose graph into solved's result, error and ms (on the worker or inline).
-  void SolveLoop(const PoseGraphProblem& problem, LoopCorrection* solved) const;
   void ApplyLoopCorrection(const LoopCorrection& loop);
   void MergeLoopLandmarks(const LoopCorrection& loop);
-  // Pose-graph edges between keyframes sharing pose_graph_min_shared landmarks.
-  void AddCovisibilityEdges(const std::map<int, int>& node_of, PoseGraphProblem* problem) const;
+  // Landmarks shared by each pair of keyframes: (older, newer) id -> count.
+  std::map<std::pair<int, int>, int> CovisibilityPairs() const;
   void ClearMatches(Association& association);
 
   // ---- Keyframe policy and insertion, final keyframes (tracker_keyframes.cpp)
@@ -408,9 +398,7 @@ struct Tracker::Impl {
   };
   std::map<int, Culled> culled;
 
-  PlaceIndex places;
-  int loop_streak = 0;           // keyframes in a row that verified the same earlier place
-  int loop_last_candidate = -1;  // the place the last of them verified
+  LoopClosure loops;  // the place index and the loop's consistency (loop_closure.h)
   size_t frame_serial = 0;
   size_t match_serial = 0;  // a landmark matched under this serial is taken (Landmark)
   size_t collect_serial = 0;

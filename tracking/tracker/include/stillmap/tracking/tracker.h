@@ -1,0 +1,168 @@
+// The RGB-D camera tracker: ORB features matched by projection against a local map of landmarks
+// (constant-velocity prediction), PnP-RANSAC and Ceres motion-only refinement per frame,
+// keyframes in the spirit of ORB-SLAM2, and a local bundle adjustment over a sliding window of
+// keyframes that runs on its own thread so that it never stalls tracking.
+//
+// World frame: the first tracked camera frame. When tracking is lost and relocalization against
+// recent keyframes fails for a while, a new local map starts, chained to the last good pose (the
+// camera is assumed to be where it was last seen); the report counts these new maps.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/trajectory.h"
+#include "stillmap/tracking/bundle_adjustment.h"
+#include "stillmap/tracking/depth_correction.h"
+#include "stillmap/tracking/features.h"
+#include "stillmap/tracking/loop_closure.h"
+#include "stillmap/tracking/place_index.h"
+#include "stillmap/tracking/pose_estimation.h"
+#include "stillmap/tracking/pose_graph.h"
+#include "stillmap/tracking/pose_refinement.h"
+#include "stillmap/tracking/tracker_options.h"
+
+namespace stillmap {
+
+enum class TrackStatus {
+  kInitialized,  // first frame of the first local map (identity pose)
+  kTracked,
+  kRelocalized,  // tracked again after being lost, against a recent keyframe
+  kNewMap,       // a new local map chained to the last good pose
+  kOccluded,     // too little static depth: posed from what remains, no keyframe
+  kPredicted,    // too little static depth and nothing to track: the motion model's pose
+  kLost,         // no pose: nothing is written for this frame
+};
+const char* TrackStatusName(TrackStatus status);
+
+struct TrackTimings {
+  double extract_ms = 0.0;
+  double match_ms = 0.0;
+  double pose_ms = 0.0;
+  double keyframe_ms = 0.0;  // keyframe insertion, culling and (inline) bundle adjustment
+  double total_ms = 0.0;
+};
+
+struct TrackResult {
+  TrackStatus status = TrackStatus::kLost;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();  // valid when tracked()
+  int features = 0;
+  int matches = 0;
+  int inliers = 0;
+  double reprojection_rmse_px = 0.0;
+  int keyframe_id = -1;             // >= 0 when this frame became a keyframe
+  double static_depth_share = 0.0;  // pixels with depth outside the ignore mask
+  TrackTimings timings;
+  bool tracked() const { return status != TrackStatus::kLost; }
+};
+
+// A keyframe whose pose will not change any more (it left the bundle adjustment window).
+struct FinalKeyframe {
+  int id = 0;
+  size_t frame_index = 0;
+  double time = 0.0;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  std::vector<int> landmarks;  // ids of the landmarks it observes (for the map's redundancy test)
+  // Culled when it became final: keyframes kept before it saw its view
+  // (TrackerOptions::redundant_keyframe_share). Not for the map; its frames are posed through
+  // the keyframe it handed them to.
+  bool culled = false;
+  // Its ORB features (not for culled keyframes): what place recognition across sessions matches.
+  FrameFeatures features;
+};
+
+struct TrackerStatistics {
+  size_t frames = 0;
+  size_t tracked = 0;
+  size_t lost = 0;
+  size_t relocalized = 0;
+  size_t new_maps = 0;                 // local maps started after the first
+  size_t occluded = 0, predicted = 0;  // frames with too little static depth (TrackStatus)
+  size_t relocalizations_refused = 0;  // too far from the last good pose
+  size_t keyframes = 0;
+  size_t keyframes_culled = 0;  // keyframes culled when final: their view was covered
+  size_t landmarks = 0;         // alive now
+  size_t landmarks_merged = 0;  // second copies found again and merged
+  size_t landmarks_created = 0;
+  size_t landmarks_culled = 0;
+  // Place recognition and loop closure.
+  size_t loop_candidates = 0;      // keyframes the place index proposed and verification tried
+  size_t loops_verified = 0;       // candidates that passed the geometric verification
+  size_t loops_accepted = 0;       // loops corrected (verified loop_consistency times in a row)
+  size_t loops_rejected = 0;       // candidates that failed verification
+  size_t loops_implausible = 0;    // verified, but asking for more correction than drift explains
+  double loop_correction_m = 0.0;  // largest keyframe correction of an accepted loop
+  double loop_correction_deg = 0.0;
+  double loop_ms = 0.0;        // place queries and verification, on the tracking thread
+  double loop_solve_ms = 0.0;  // pose graphs, on whichever thread ran them
+  size_t global_bundle_adjustments = 0;
+  double global_bundle_adjustment_ms = 0.0;
+  double place_index_mib = 0.0;  // memory of the place index
+  size_t bundle_adjustments = 0;
+  double bundle_adjustment_ms = 0.0;  // total, on whichever thread ran them
+  // CPU time of the background thread so far (its adjustments and loop pose graphs) [ms].
+  double worker_cpu_ms = 0.0;
+  // Results the tracker had to wait for at their handover point, and the time it waited: a slow
+  // or busy machine shows here, not in the poses.
+  size_t bundle_adjustment_waits = 0;
+  double bundle_adjustment_wait_ms = 0.0;
+  size_t loop_waits = 0;  // the same for loop corrections
+  double loop_wait_ms = 0.0;
+  size_t observations_rejected = 0;  // by the bundle adjustment's chi-square test
+  // Depth self-calibration: the correction in use and the last fit.
+  DepthCorrection depth_correction;
+  size_t depth_calibrations = 0;  // fits accepted
+  size_t depth_calibrations_refused = 0;
+  DepthCorrectionFit last_depth_calibration;
+  double depth_calibration_ms = 0.0;  // total, on the tracking thread
+};
+
+class Tracker {
+ public:
+  Tracker(const Camera& camera, const TrackerOptions& options);
+  ~Tracker();
+  Tracker(const Tracker&) = delete;
+  Tracker& operator=(const Tracker&) = delete;
+
+  // Tracks one frame: gray is CV_8UC1, depth_m CV_32FC1 in metres (0 = none), ignore_mask
+  // (optional) CV_8UC1, non-zero where pixels must not be used (moving objects).
+  TrackResult Track(size_t frame_index, double time, const cv::Mat& gray, const cv::Mat& depth_m,
+                    const cv::Mat& ignore_mask = cv::Mat());
+
+  // The constant-velocity prediction of the next frame's pose (camera-to-world), or nothing when
+  // there is no map yet or the last frame was lost.
+  std::optional<Eigen::Isometry3d> PredictedPose() const;
+
+  // Keyframes whose pose became final since the last call, oldest first.
+  std::vector<FinalKeyframe> TakeFinalKeyframes();
+
+  // Waits for the bundle adjustment, runs a last one inline, and makes every keyframe final.
+  void Finish();
+
+  // Every tracked frame, camera-to-world, each expressed relative to its reference keyframe so
+  // that keyframe corrections carry over. Call after Finish() for the final trajectory.
+  Trajectory TrackedTrajectory() const;
+
+  // Loop corrections and global bundle adjustments taken so far: when it changes, keyframes
+  // moved (KeyframePoses).
+  size_t pose_corrections() const;
+  TrackerStatistics statistics() const;
+  // The depth sensor's correction as the self-calibration has it now (statistics() without the
+  // rest, cheap enough for every frame).
+  DepthCorrection depth_correction() const;
+
+  // Every keyframe's current pose (camera-to-world) by keyframe id: after Finish, the final
+  // ones, loop corrections included.
+  std::map<int, Eigen::Isometry3d> KeyframePoses() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,194 @@
+// The checks of the tracker's options, part by part (tracker_options.h, loop_closure.h), then
+// the solvers' and those across parts.
+#include <fmt/format.h>
+
+#include "stillmap/io/error.h"
+#include "stillmap/io/option_names.h"
+#include "stillmap/tracking/tracker.h"
+
+namespace stillmap {
+namespace {
+
+// Throws the message, its {} the keys given, when `ok` is false.
+template <typename... Keys>
+void Require(bool ok, fmt::format_string<Keys...> message, Keys&&... keys) {
+  if (!ok) throw InputError(fmt::format(message, std::forward<Keys>(keys)...));
+}
+
+}  // namespace
+
+void MatchingOptions::Validate() const {
+  const OptionKeys key(*this);
+  Require(search_radius_px > 0.0 && wide_search_radius_px >= search_radius_px &&
+              refine_search_radius_px > 0.0,
+          "{} and {} must be positive, "
+          "{} at most {}",
+          key(search_radius_px), key(refine_search_radius_px), key(search_radius_px),
+          key(wide_search_radius_px));
+  // The projection search visits the feature-grid cells the radius covers: bounded work.
+  Require(wide_search_radius_px <= 1000.0 && refine_search_radius_px <= 1000.0,
+          "{} and {} must be at most "
+          "1000",
+          key(wide_search_radius_px), key(refine_search_radius_px));
+  Require(max_descriptor_distance > 0 && max_descriptor_distance <= 256, "{} must lie in 1..256",
+          key(max_descriptor_distance));
+  Require(match_ratio > 0.0f && match_ratio <= 1.0f, "{} must lie in (0, 1]", key(match_ratio));
+  Require(min_matches >= 6, "{} must be at least 6", key(min_matches));
+  Require(sigma_px > 0.0 && sigma_inverse_depth > 0.0, "{} and {} must be positive", key(sigma_px),
+          key(sigma_inverse_depth));
+  Require(depth_calibration_interval > 0, "{} must be a positive number of keyframes",
+          key(depth_calibration_interval));
+  const DepthCorrectionFitOptions& fit = depth_calibration;
+  Require(fit.min_pairs > 0 && fit.max_residual_m > 0.0 && fit.max_delta > 0.0,
+          "{}, {} and "
+          "{} must be positive",
+          key(depth_calibration.min_pairs), key(depth_calibration.max_residual_m),
+          key(depth_calibration.max_delta));
+  Require(fit.coefficient_sigma > 0.0 && fit.residual_sigma_m > 0.0,
+          "{} and "
+          "{} must be positive",
+          key(depth_calibration.coefficient_sigma), key(depth_calibration.residual_sigma_m));
+  Require(fit.min_spread_reduction >= 0.0 && fit.min_spread_reduction_m >= 0.0,
+          "{} and "
+          "{} must not be negative",
+          key(depth_calibration.min_spread_reduction),
+          key(depth_calibration.min_spread_reduction_m));
+  Require(fit.joint_min_keyframes >= 2 && fit.joint_min_significance >= 0.0 &&
+              fit.joint_max_weakest_sd > 0.0,
+          "{} must be at least 2, "
+          "{} not negative and "
+          "{} positive",
+          key(depth_calibration.joint_min_keyframes), key(depth_calibration.joint_min_significance),
+          key(depth_calibration.joint_max_weakest_sd));
+  Require(far_depth > 0.0 && far_depth_power >= 0.0, "{} must be positive and {} not negative",
+          key(far_depth), key(far_depth_power));
+  Require(min_landmark_depth > 0.0 && max_landmark_depth > min_landmark_depth,
+          "{} must exceed {} (> 0)", key(max_landmark_depth), key(min_landmark_depth));
+}
+
+void LocalMapOptions::Validate() const {
+  const OptionKeys key(*this);
+  Require(keyframe_ratio > 0.0 && keyframe_ratio <= 1.0, "{} must lie in (0, 1]",
+          key(keyframe_ratio));
+  Require(max_keyframe_interval >= 1 && min_keyframe_interval >= 1 &&
+              min_keyframe_interval <= max_keyframe_interval,
+          "{} must lie in 1..{}", key(min_keyframe_interval), key(max_keyframe_interval));
+  Require(min_keyframe_inliers >= 0 && close_tracked_max >= 0 && close_untracked_min >= 0,
+          "{}, {} and "
+          "{} must not be negative",
+          key(min_keyframe_inliers), key(close_tracked_max), key(close_untracked_min));
+  Require(cull_found_ratio >= 0.0 && cull_found_ratio <= 1.0 && cull_min_visible >= 1 &&
+              cull_single_view_age >= 1 && cull_recent_age >= cull_single_view_age,
+          "{} must lie in [0, 1], {} and "
+          "{} be at least 1, {} at least "
+          "{}",
+          key(cull_found_ratio), key(cull_min_visible), key(cull_single_view_age),
+          key(cull_recent_age), key(cull_single_view_age));
+  Require(local_window >= 2 && local_map_keyframes >= 1, "{} must be at least 2 and {} at least 1",
+          key(local_window), key(local_map_keyframes));
+  Require(bundle_adjustment_handover_frames >= 0 && bundle_adjustment_handover_frames <= 1000,
+          "{} must be 0..1000", key(bundle_adjustment_handover_frames));
+  Require(weak_tracking_inliers >= 0, "{} must not be negative", key(weak_tracking_inliers));
+  Require(close_depth > 0.0, "{} must be positive", key(close_depth));
+  Require(redundant_radius_m >= 0.0 && redundant_axis_angle_deg >= 0.0 &&
+              redundant_axis_angle_deg <= 180.0,
+          "{} must not be negative and {} "
+          "lie in 0..180",
+          key(redundant_radius_m), key(redundant_axis_angle_deg));
+  Require(redundant_keyframe_share > 0.0 && redundant_keyframe_share <= 1.0 &&
+              redundant_view_angle_deg >= 0.0 && redundant_view_angle_deg <= 180.0 &&
+              redundant_scale_ratio >= 1.0,
+          "{} must lie in (0, 1], "
+          "{} in 0..180 and {} be at "
+          "least 1",
+          key(redundant_keyframe_share), key(redundant_view_angle_deg), key(redundant_scale_ratio));
+  Require(redundant_retire_keyframes >= local_window && redundant_retire_keyframes <= 10000,
+          "{} must be {}..10000", key(redundant_retire_keyframes), key(local_window));
+  Require(landmark_merge_distance_m >= 0.0, "{} must not be negative",
+          key(landmark_merge_distance_m));
+}
+
+void RelocalizationOptions::Validate() const {
+  const OptionKeys key(*this);
+  Require(min_tracked >= 6 && min_relocalized >= min_tracked,
+          "{} must be at least 6 and at most {}", key(min_tracked), key(min_relocalized));
+  Require(relocalization_keyframes >= 1, "{} must be at least 1", key(relocalization_keyframes));
+  Require(new_map_after_lost >= 1, "{} must be at least 1", key(new_map_after_lost));
+  Require(min_initial_points >= 20, "{} must be at least 20", key(min_initial_points));
+  Require(
+      min_static_depth_share >= 0.0 && min_static_depth_share <= 1.0 && max_predicted_frames >= 0,
+      "{} must lie in [0, 1] and {} "
+      "not be negative",
+      key(min_static_depth_share), key(max_predicted_frames));
+  // Across the parts: a loop is verified with at least a tracked frame's inliers.
+  Require(relocalization_max_distance_m > 0.0 && relocalization_max_speed_mps >= 0.0,
+          "{} must be positive and "
+          "{} not negative",
+          key(relocalization_max_distance_m), key(relocalization_max_speed_mps));
+}
+
+void LoopClosureOptions::Validate() const {
+  const OptionKeys key(*this);
+  place.Validate();
+  Require(place_candidates >= 1 && place_min_votes >= 1, "{} and {} must be at least 1",
+          key(place_candidates), key(place_min_votes));
+  Require(loop_consistency >= 1 && loop_min_separation >= 1, "{} and {} must be at least 1",
+          key(loop_consistency), key(loop_min_separation));
+  Require(loop_max_drift_m >= 0.0 && loop_max_drift_share >= 0.0 && loop_max_drift_deg >= 0.0 &&
+              loop_max_drift_deg_per_m >= 0.0,
+          "{}, {}, {} and {} must not be negative", key(loop_max_drift_m),
+          key(loop_max_drift_share), key(loop_max_drift_deg), key(loop_max_drift_deg_per_m));
+  Require(pose_graph_min_shared >= 1 && pose_graph.iterations >= 1 &&
+              pose_graph.iterations <= 1000 && pose_graph.translation_sigma_m > 0.0 &&
+              pose_graph.rotation_sigma_rad > 0.0,
+          "{} must be at least 1, {} "
+          "1..1000 and the pose graph's sigmas positive",
+          key(pose_graph_min_shared), key(pose_graph.iterations));
+  Require(loop_handover_frames >= 0 && loop_handover_frames <= 1000 &&
+              global_bundle_adjustment_handover_frames >= 0 &&
+              global_bundle_adjustment_handover_frames <= 1000,
+          "{} and "
+          "{} must be 0..1000",
+          key(loop_handover_frames), key(global_bundle_adjustment_handover_frames));
+}
+
+void TrackerOptions::Validate() const {
+  features.Validate();
+  matching.Validate();
+  local_map.Validate();
+  const OptionKeys key(*this);
+  Require(pnp.max_reprojection_error > 0.0 && pnp.refine_reprojection_error > 0.0,
+          "{} and {} must "
+          "be positive",
+          key(pnp.max_reprojection_error), key(pnp.refine_reprojection_error));
+  Require(pnp.iterations >= 1 && pnp.iterations <= 100000, "{} must be 1..100000",
+          key(pnp.iterations));
+  Require(pnp.confidence > 0.0 && pnp.confidence < 1.0, "{} must be in (0, 1)",
+          key(pnp.confidence));
+  Require(pnp.min_inliers >= 4, "{} must be at least 4", key(pnp.min_inliers));
+  Require(refinement.rounds >= 1 && refinement.rounds <= 20 &&
+              refinement.iterations_per_round >= 1 && refinement.iterations_per_round <= 1000,
+          "{} must be 1..20 and {} "
+          "1..1000",
+          key(refinement.rounds), key(refinement.iterations_per_round));
+  Require(refinement.chi2_without_depth > 0.0 && refinement.chi2_with_depth > 0.0,
+          "{} and {} must "
+          "be positive",
+          key(refinement.chi2_without_depth), key(refinement.chi2_with_depth));
+  Require(refinement.min_inliers >= 4, "{} must be at least 4", key(refinement.min_inliers));
+  Require(bundle_adjustment.iterations_first >= 1 && bundle_adjustment.iterations_first <= 1000 &&
+              bundle_adjustment.iterations_second >= 1 &&
+              bundle_adjustment.iterations_second <= 1000,
+          "{} and {} must be 1..1000", key(bundle_adjustment.iterations_first),
+          key(bundle_adjustment.iterations_second));
+  Require(bundle_adjustment.chi2_without_depth > 0.0 && bundle_adjustment.chi2_with_depth > 0.0,
+          "{} and {} must be positive", key(bundle_adjustment.chi2_without_depth),
+          key(bundle_adjustment.chi2_with_depth));
+  relocalization.Validate();
+  loops.Validate();
+  // Across the parts: a loop is verified with at least a tracked frame's inliers.
+  Require(loops.loop_min_inliers >= relocalization.min_tracked, "{} must be at least {}",
+          key(loops.loop_min_inliers), key(relocalization.min_tracked));
+}
+
+}  // namespace stillmap
