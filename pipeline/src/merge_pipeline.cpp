@@ -9,6 +9,8 @@
 #include <numeric>
 
 #include "map_outputs.h"
+#include "merge_evaluation.h"
+#include "merge_fusion.h"
 #include "merge_graph.h"
 #include "merge_links.h"
 #include "merge_sessions.h"
@@ -115,74 +117,6 @@ void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSes
   }
 }
 
-// The order sessions are fused in: by the recording's time of their first keyframe (a later
-// session's observation wins), the first given first among equals.
-std::vector<size_t> FusionOrder(const std::vector<MergeSession>& sessions,
-                                const JoinedSessions& joined) {
-  std::vector<size_t> order;
-  for (size_t s = 0; s < sessions.size(); ++s) {
-    if (joined.included[s]) order.push_back(s);
-  }
-  std::stable_sort(order.begin(), order.end(), [&sessions](size_t a, size_t b) {
-    return sessions[a].record().keyframes.front().time <
-           sessions[b].record().keyframes.front().time;
-  });
-  return order;
-}
-
-// Fuses every joined session's keyframes at their merged poses. Within and across sessions, the
-// depth cells an earlier visit saw are left out (RevisitCells): a place seen by two sessions is
-// not laid twice a few millimetres apart.
-FinishedMap FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessions& joined,
-                         const MergeRequest& request, MergeResult* result) {
-  const BuildConfig& config = request.config;
-  const Camera& camera = sessions[FusionOrder(sessions, joined).front()].record().camera;
-  MapperOptions mapper_options = config.mapping;
-  mapper_options.in_background = mapper_options.in_background && request.threads() > 1;
-  Mapper mapper(camera, mapper_options);
-  RevisitCells revisits(camera, config.selection.revisit, config.mapping.back_projection.min_depth,
-                        config.mapping.back_projection.max_depth);
-  const std::vector<size_t> order = FusionOrder(sessions, joined);
-  size_t total = 0;
-  for (const size_t s : order) total += sessions[s].record().keyframes.size();
-  ProgressLine progress("stillmap merge", total, request.show_progress);
-  size_t done = 0;
-  // Keyframe ids across sessions: each session's own ids, shifted past the one before by the
-  // revisit distance, so that another session's keyframes always count as an earlier visit.
-  int id_base = 0;
-  for (size_t rank = 0; rank < order.size(); ++rank) {
-    MergeSession& session = sessions[order[rank]];
-    result->sessions[order[rank]].fusion_order = static_cast<int>(rank);
-    const Camera& session_camera = session.record().camera;
-    if (rank > 0) mapper.BeginLaterSession(session_camera);
-    revisits.SetCamera(session_camera);
-    const std::vector<SessionKeyframe>& keyframes = session.record().keyframes;
-    int last_id = 0;
-    for (size_t k = 0; k < keyframes.size(); ++k) {
-      SessionImages images = session.reader->ReadImages(k);
-      MapperFrame frame{keyframes[k].time, images.color, images.depth_m, cv::Mat(),
-                        joined.first_from_keyframe[order[rank]][k]};
-      CellView view = revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
-                                        frame.world_from_camera);
-      frame.mask = revisits.SeenBefore(view);
-      const double seen_share = RevisitCells::SeenShare(view, frame.mask);
-      revisits.Remember(std::move(view));
-      if (seen_share > config.merge.max_seen_share) {  // redundant (MergeOptions)
-        ++result->sessions[order[rank]].keyframes_redundant;
-      } else {
-        mapper.Integrate(frame);
-        ++result->sessions[order[rank]].keyframes_fused;
-      }
-      last_id = std::max(last_id, keyframes[k].id);
-      progress.Update(++done);
-    }
-    id_base += last_id + config.selection.revisit.keyframes_apart + 1;
-  }
-  progress.Finish();
-  result->revisit_cells_left_out = revisits.cells_left_out();
-  return mapper.Finish();
-}
-
 // trajectory_<session>.txt of every joined session, in the merged frame; returns them (empty
 // for sessions left out).
 std::vector<Trajectory> WriteTrajectories(const std::vector<MergeSession>& sessions,
@@ -208,74 +142,30 @@ std::vector<Trajectory> WriteTrajectories(const std::vector<MergeSession>& sessi
   return trajectories;
 }
 
-// Each joined session's trajectory against its sequence's groundtruth.txt (when the sequence
-// folder has one), on its own and all together under one rigid alignment.
-void EvaluateSessions(const std::vector<MergeSession>& sessions,
-                      const std::vector<Trajectory>& trajectories, const BuildConfig& config,
-                      MergeResult* result) {
-  std::vector<Eigen::Vector3d> estimates, truths;
-  for (size_t s = 0; s < sessions.size(); ++s) {
-    MergeSessionFigures& figures = result->sessions[s];
-    if (!figures.joined) continue;
-    const fs::path truth_path = fs::path(figures.sequence) / "groundtruth.txt";
-    if (!fs::is_regular_file(truth_path)) {
-      figures.ate_note = "no " + truth_path.string();
-      continue;
-    }
-    try {
-      Trajectory truth = Trajectory::ReadTum(truth_path.string());
-      const Camera& camera = sessions[s].record().camera;
-      if (camera.groundtruth_body_from_camera) {
-        truth = truth.RightMultiplied(*camera.groundtruth_body_from_camera);
-      }
-      figures.ate = ComputeAte(truth, trajectories[s], config.ate);
-      const Eigen::Isometry3d estimate_from_truth =
-          figures.ate->groundtruth_from_estimate.inverse();
-      for (size_t i = 0; i < figures.ate->aligned_positions.size(); ++i) {
-        estimates.push_back(estimate_from_truth * figures.ate->aligned_positions[i]);
-        truths.push_back(figures.ate->groundtruth_positions[i]);
-      }
-    } catch (const InputError& e) {
-      figures.ate_note = e.what();
-    }
-  }
-  if (estimates.size() < 3) return;
-  Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(estimates.size()));
-  Eigen::Matrix3Xd to(3, from.cols());
-  for (size_t i = 0; i < estimates.size(); ++i) {
-    from.col(static_cast<Eigen::Index>(i)) = estimates[i];
-    to.col(static_cast<Eigen::Index>(i)) = truths[i];
-  }
-  const Eigen::Isometry3d align(Eigen::umeyama(from, to, false));
-  std::vector<double> errors;
-  for (size_t i = 0; i < estimates.size(); ++i) {
-    errors.push_back((align * estimates[i] - truths[i]).norm());
-  }
-  result->ate_joint = ComputeStatistics(std::move(errors));
+MergeFusionOptions FusionOptionsOf(const MergeRequest& request) {
+  const BuildConfig& config = request.config;
+  MergeFusionOptions options{config.mapping, config.selection.revisit, config.merge.max_seen_share,
+                             request.show_progress};
+  options.mapping.in_background = options.mapping.in_background && request.threads() > 1;
+  return options;
 }
 
-// The merged map against the first session's static ground truth (synthetic sequences), in the
-// truth's frame: anchored at the ground-truth pose of the first session's first keyframe.
-void EvaluateMergedMap(const std::vector<MergeSession>& sessions,
-                       const std::vector<VoxelPoint>& cloud, MergeResult* result) {
-  const SessionRecord& first = sessions[0].record();
-  const fs::path folder(first.sequence);
-  if (!fs::is_regular_file(folder / "static_gt.ply") ||
-      !fs::is_regular_file(folder / "groundtruth.txt")) {
-    return;
+void TakeFusionFigures(const MergeFusion& fusion, MergeResult* result) {
+  for (size_t s = 0; s < result->sessions.size(); ++s) {
+    result->sessions[s].fusion_order = fusion.fusion_order[s];
+    result->sessions[s].keyframes_fused = fusion.keyframes_fused[s];
+    result->sessions[s].keyframes_redundant = fusion.keyframes_redundant[s];
   }
-  Trajectory truth = Trajectory::ReadTum((folder / "groundtruth.txt").string());
-  if (first.camera.groundtruth_body_from_camera) {
-    truth = truth.RightMultiplied(*first.camera.groundtruth_body_from_camera);
+  result->revisit_cells_left_out = fusion.revisit_cells_left_out;
+}
+
+void TakeEvaluation(MergeEvaluation evaluation, MergeResult* result) {
+  for (size_t s = 0; s < result->sessions.size(); ++s) {
+    result->sessions[s].ate = std::move(evaluation.ate[s]);
+    if (!evaluation.ate_notes[s].empty()) result->sessions[s].ate_note = evaluation.ate_notes[s];
   }
-  const SessionKeyframe& anchor = first.keyframes.front();
-  const std::optional<Eigen::Isometry3d> truth_from_camera = truth.Interpolate(anchor.time, 0.1);
-  if (!truth_from_camera) return;
-  const Eigen::Isometry3f truth_from_map =
-      (*truth_from_camera * anchor.map_from_camera.inverse()).cast<float>();
-  std::vector<VoxelPoint> points = cloud;
-  for (VoxelPoint& point : points) point.position = truth_from_map * point.position;
-  result->map_quality = EvaluateMap(points, ReadCloud((folder / "static_gt.ply").string()));
+  result->ate_joint = evaluation.ate_joint;
+  result->map_quality = std::move(evaluation.map_quality);
 }
 
 // The merged map's frame: the first session's, with its floor.
@@ -338,10 +228,10 @@ void WriteMergeRenders(std::vector<VoxelPoint> cloud, const std::vector<MergeSes
   }
 }
 
-void WriteText(const std::string& path, const std::string& text) {
+void WriteText(const std::string& path, const std::string& text, const char* name) {
   std::ofstream out(path);
   out << text;
-  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the file"));
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, name));
 }
 
 }  // namespace
@@ -387,27 +277,28 @@ MergeResult RunMerge(const MergeRequest& request) {
   if (!outputs.recovery_note().empty()) result.warnings.push_back(outputs.recovery_note());
 
   step = Clock::now();
-  FinishedMap map = FuseSessions(sessions, joined, request, &result);
+  MergeFusion fusion = FuseSessions(sessions, joined, FusionOptionsOf(request));
   result.fuse_ms = MillisecondsSince(step);
+  TakeFusionFigures(fusion, &result);
+  FinishedMap map = std::move(fusion.map);
   step = Clock::now();
   std::vector<VoxelPoint> cloud =
       WriteMergedMap(std::move(map), sessions, request, outputs, &result);
   const std::vector<Trajectory> trajectories =
       WriteTrajectories(sessions, joined, result.map_frame, outputs, &result);
-  std::ofstream(outputs.TemporaryPath("config.yaml")) << ConfigToYaml(request.config);
+  WriteText(outputs.TemporaryPath("config.yaml"), ConfigToYaml(request.config), "config.yaml");
   result.timings.write_ms = MillisecondsSince(step);
   result.wall_time_s = SecondsSince(start);
   result.peak_memory_mib = PeakMemoryMib();
 
-  EvaluateSessions(sessions, trajectories, request.config, &result);
-  EvaluateMergedMap(sessions, cloud, &result);
+  TakeEvaluation(EvaluateMerge(sessions, joined, trajectories, cloud, request.config.ate), &result);
   WriteMergeRenders(std::move(cloud), sessions, joined, request, outputs, &result);
   for (std::string& warning : outputs.SetAsideWarnings({"report.json", "report.html"})) {
     result.warnings.push_back(std::move(warning));
   }
   const nlohmann::json report = MergeReportJson(result, request);
-  WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n");
-  WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report));
+  WriteText(outputs.TemporaryPath("report.json"), report.dump(2) + "\n", "report.json");
+  WriteText(outputs.TemporaryPath("report.html"), ReportHtml(report), "report.html");
   outputs.Commit();
   return result;
 }

@@ -26,7 +26,7 @@ struct ErrorStatistics {
 ErrorStatistics ComputeStatistics(std::vector<double> errors);
 
 struct AteOptions {
-  double max_time_difference = 0.02;  // association window [s] (evaluate_ate.py --max_difference)
+  double max_time_difference = 0.02;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>

@@ -72,8 +72,8 @@ class OptionKeys {
 // The same from a member pointer, where no instance is at hand.
 template <typename Options, typename Field>
 std::string OptionKey(Field Options::*member) {
-  static const Options probe{};
-  return OptionKey(probe, probe.*member);
+  static const Options kProbe{};
+  return OptionKey(kProbe, kProbe.*member);
 }
 
 }  // namespace stillmap

@@ -22,7 +22,7 @@ struct CameraOverrides {
   std::optional<int> width, height;                 // [px]
   std::optional<double> fx, fy, cx, cy;             // [px]
   std::optional<std::array<double, 5>> distortion;  // k1 k2 p1 p2 k3
-  std::optional<double> depth_factor;               // depth PNG value per metre
+  std::optional<double> depth_factor;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -50,8 +50,8 @@ Camera ResolveCamera(const std::string& sequence_dir, const CameraOverrides& ove
 std::string SequenceName(const std::string& sequence_dir);
 
 struct SequenceOptions {
-  double max_pair_time_difference = 0.02;  // color/depth association window [s] (TUM associate.py)
-  double max_groundtruth_gap = 0.1;  // widest ground-truth gap a pose is interpolated across [s]
+  double max_pair_time_difference = 0.02;
+  double max_groundtruth_gap = 0.1;
   // A ground-truth trajectory (TUM format) instead of the folder's groundtruth.txt; a bag has
   // none of its own.
   std::string groundtruth;

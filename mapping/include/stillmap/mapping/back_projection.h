@@ -12,10 +12,10 @@
 namespace stillmap {
 
 struct BackProjectionOptions {
-  double min_depth = 0.1;  // readings nearer than this are ignored [m]
+  double min_depth = 0.1;
   double max_depth = 4.0;  // readings farther than this are ignored [m] (Kinect-class noise grows
                            // with the square of depth; beyond 4 m it exceeds a 1 cm voxel)
-  int pixel_stride = 1;    // back-project every n-th pixel along u and v (1 = all)
+  int pixel_stride = 1;
   // Edge-preserving depth smoothing before back-projection: each reading is replaced by the mean
   // (in inverse depth: exact on planes) of the readings within this many pixels that lie within
   // 3 sigma(z) of it, sigma(z) = 1.2 mm +

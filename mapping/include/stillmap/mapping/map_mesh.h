@@ -1,11 +1,8 @@
 // The static map as a colored triangle mesh for other tools (Blender, MeshLab, glTF viewers):
 // the exposed faces of the occupied voxels of the voxel cloud at a coarser edge, colored by the
 // voxels, written through assimp as glTF binary (.glb), OBJ or PLY.
-// Chosen over surface reconstruction for how it scales. Measured on bonn_crowd_a's cloud
-// (1.34 M points, 2 cores, a scratch program on PCL 1.13): 3 cm exposed faces 0.45 s, 207 k
-// triangles; PCL greedy projection on the cloud voxelized at 3 cm 5.2 s with normals (145 k
-// triangles), at 1 cm 123 s (1.7 M); Poisson (depth 8) at 3 cm a further 8.9 s (259 k, closed
-// over the holes the people left). How they look was not compared.
+// Chosen over PCL's surface reconstruction, which measured 10 to 300 times slower on
+// bonn_crowd_a's cloud (docs/figures.md, "Measurements moved from comments").
 #pragma once
 
 #include <Eigen/Core>
@@ -19,9 +16,9 @@ namespace stillmap {
 
 struct MapMeshOptions {
   bool enabled = true;
-  std::string format = "glb";  // glb | obj | ply
-  double voxel = 0.03;         // edge of the mesh's voxels [m]
-  int min_points = 2;          // map points a voxel needs (isolated specks are left out)
+  std::string format = "glb";
+  double voxel = 0.03;
+  int min_points = 2;  // map points a voxel needs (isolated specks are left out)
 
   // Throws InputError naming the first impossible value.
   void Validate() const;

@@ -32,10 +32,8 @@ struct GridOptions {
   // (grid.floor "a b c d"); otherwise fitted to the map.
   std::optional<Eigen::Vector4d> floor;
   // A voxel blocks its cell when its occupancy probability exceeds this (OctoMap's own
-  // threshold is 0.5: one hit in a fresh voxel gives 0.7, a second 0.84). Measured on synthetic
-  // walking_xyz (tracked): 0.5 leaves 31 cells occupied by remnants of a person and misses no
-  // true obstacle; 0.75 removes those 31 but turns 66 truly occupied cells free. A missed
-  // obstacle is the worse error for a planner, so the default stays at 0.5.
+  // threshold is 0.5: one hit in a fresh voxel gives 0.7, a second 0.84). Higher removes
+  // remnants of people but frees true obstacles, the worse error for a planner.
   double occupied_probability = 0.5;
   // Hysteresis: occupied cells stay occupied only when connected to a cell whose voxels exceed
   // this (hit at least twice more than missed); the others become unknown. <= occupied_probability:

@@ -25,8 +25,8 @@ namespace stillmap {
 // the run (`--config OUT/config.yaml`); --poses, --detector, --models and --threads override it.
 struct RunSettings {
   std::string poses = "tracking";  // tracking | groundtruth
-  std::string detector = "auto";   // auto | none | yolo-fastest | yolox | deeplab | both
-  std::string models;              // "" = $STILLMAP_MODELS, else ../shared/models when present
+  std::string detector = "auto";
+  std::string models;  // "" = $STILLMAP_MODELS, else ../shared/models when present
   int threads = 2;
 
   // Every field under its configuration key (io/option_fields.h).

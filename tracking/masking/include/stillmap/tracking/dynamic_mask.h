@@ -40,12 +40,8 @@ enum class OutlineMode { kBox, kDepth, kEdges };
 OutlineMode ParseOutlineMode(const std::string& name);
 const char* OutlineModeName(OutlineMode mode);
 
-// The flow check's corners when none are set. With a detector, 400 -> 300 measured on every figure
-// (docs/figures.md, ninth session): bonn_crowd_a 18.1 -> 17.8 mm, teddy 4.3 both, synthetic
-// precision within -0.002..+0.09, recall unchanged; robustness clips median 14.0 -> 13.9 mm, worst
-// 21.6 -> 21.2; lens_pass recall 0.768 -> 0.758; CPU -0.5 %. Without a detector the flow carries
-// more of the masks, and at 300 walking_xyz's grid (150 frames) has 5 cells occupied on the
-// people's paths against 0 at 400 (BuildTest's bar: 0).
+// The flow check's corners when none are set: fewer with a detector, which carries the masks;
+// without one the flow carries more of them (docs/figures.md, ninth session).
 constexpr int kFlowPointsWithDetector = 300;
 constexpr int kFlowPointsGeometryOnly = 400;
 
@@ -57,7 +53,7 @@ inline int ResolvedFlowPoints(int flow_points, bool with_detector) {
 }
 
 struct DynamicMaskOptions {
-  bool semantics = true;    // use the detector's detections (when one runs)
+  bool semantics = true;
   bool depth_check = true;  // paper 002's multi-view depth check
   bool flow_check = true;   // paper 004's flow / epipolar clustering
   DepthCheckOptions depth;  // tau_d = 0.4 m and 30 degrees of parallax (paper 002): seeds
@@ -67,49 +63,38 @@ struct DynamicMaskOptions {
   // geometry-only count).
   int flow_points = 0;
 
-  int reference_keyframes = 3;       // the last keyframe and older ones, spread in time
-  double reference_spacing_s = 0.7;  // older references at least this far apart
+  int reference_keyframes = 3;  // the last keyframe and older ones, spread in time
+  double reference_spacing_s = 0.7;
   // Current pixels are judged in blocks of stride x stride: one verdict for the readings
-  // continuous with the block's centre, the others (object edges) each on their own. Measured,
-  // YOLOX, 300 frames, 2 -> 4, precision / recall: walking_xyz 0.942/0.977 -> 0.941/0.977,
-  // walking_static 0.937/0.980 -> 0.938/0.980, crowd_start 0.930/0.950 -> 0.931/0.950, same
-  // ghosts and ATE; 70 k -> 27 k verdicts per reference on bonn_crowd_a.
+  // continuous with the block's centre, the others (object edges) each on their own.
   int depth_check_stride = 4;
   double grow_depth_difference_m = 0.1;  // hysteresis: grown pixels nearer than the static
                                          // depth by this plus 6 sigma of Kinect noise
-  double continuity = 0.03;              // neighbours within 1 cm + 3 % of depth are one surface
+  double continuity = 0.03;
   // The growth's noise margin: grow_depth_difference_m + this many sigmas of Kinect depth noise.
   double grow_noise_sigmas = 6.0;
   // A seed must lie nearer than the reference by more than this many growth margins too: beyond
-  // about 3.4 m twice the margin exceeds tau_d (TUM teddy, static, masked share 2.51 -> 2.38 %).
+  // about 3.4 m twice the margin exceeds tau_d.
   double seed_noise_factor = 2.0;
   // A reading shares its depth-check block's verdict when within 1 cm + this share of depth of
   // the block's centre reading.
   double block_continuity = 0.01;
   // Growth through pixels no reference saw [px]: a person whose place the references never saw
-  // free is covered only this far from the seeds. Measured (geometry only, 300 frames,
-  // precision / recall): 30 -> 45 -> 60 px: walking_xyz 0.945/0.949 -> 0.937/0.961 ->
-  // 0.928/0.966, walking_static 0.947/0.955 -> 0.940/0.965, walking_halfsphere 0.949/0.944 ->
-  // 0.943/0.960, walking_rpy 0.919/0.876 -> 0.896/0.908 -> 0.870/0.927 (120 px: 0.72/0.96, into
-  // the floor); TUM teddy (static) masked share 1.9 -> 2.5 %.
+  // free is covered only this far from the seeds (farther, it runs into the floor).
   int max_unknown_steps = 45;
 
   OutlineMode outline = OutlineMode::kDepth;  // box detections: how the object is cut out
   // kDepth: readings in the foreground's depth band anywhere in the box seed the outline, not
   // only those in its centre, unless the depth check confirms them static (arms and a far leg
-  // parted from the torso by background). Measured with YOLOX, 300 frames, precision / recall,
-  // off -> on: walking_rpy 0.921/0.949 -> 0.912/0.953, walking_xyz 0.951/0.972 -> 0.947/0.975,
-  // walking_static 0.948/0.976 -> 0.946/0.978 (ghosts 0.33 -> 0.19 %), walking_halfsphere
-  // 0.954/0.966 -> 0.951/0.969. Unconfirmed seeds everywhere in the box: rpy 0.901/0.959 (desks
-  // and the floor at the feet join).
+  // parted from the torso by background); unconfirmed seeds everywhere in the box would take
+  // in desks and the floor at the feet.
   bool outline_whole_box = true;
   double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
   // A high-level object that geometry has never seen move, and whose outline the depth check
   // confirms static for at least this share of it, is left unmasked: a still object the detector
   // takes for a person (a teddy bear). A person who walked and stopped stays masked.
   double high_static_share = 0.5;
-  // The detector runs every n-th frame; boxes are carried between by the flow of their points
-  // (walking_xyz, YOLOX: 1 and 2 give precision 0.942/0.943, recall 0.967/0.967; 11.7 -> 15.8 fps).
+  // The detector runs every n-th frame; boxes are carried between by the flow of their points.
   int detector_interval = 2;
   // The detector runs on its own thread, off the tracking path, its detections used
   // detector_interval frames later, carried there by flow (issue 17; needs --threads >= 2).
@@ -117,14 +102,11 @@ struct DynamicMaskOptions {
   // A person (high level) the detector found in two runs in a row is kept, carried by flow,
   // through this many later runs that miss it while the middle of its box still holds something
   // at the depth it was seen at (a missed detection is not a person leaving, and one who stands
-  // still is found by semantics only). Measured, YOLOX, 300 frames, 0 -> 2: stop_and_go recall
-  // while the person stands 0.834 -> 0.892 (3 and 4 runs: 0.893); TUM teddy ATE 4.89 -> 4.86 mm.
-  // Without the two-runs rule: 0.917, but teddy 5.40 mm (YOLOX finds a "person" in the teddy
-  // now and then, scores above 0.5, and the memory kept those).
+  // still is found by semantics only). The two-runs rule keeps out one-off detections (YOLOX
+  // now and then takes the teddy bear for a person).
   int detection_memory_runs = 2;
-  int margin_px = 1;  // safety margin around the mask (walking_xyz: 4 px gave precision 0.82, 1 px
-                      // 0.94, same ghosts)
-  int min_region_px = 150;  // geometric regions smaller than this are dropped
+  int margin_px = 1;
+  int min_region_px = 150;
 
   // How far back references are kept: long enough to pick reference_keyframes of them spread
   // reference_spacing_s apart [s].

@@ -28,20 +28,15 @@ inline int ResolvedKltWindow(int klt_window, bool with_detector) {
 
 struct FlowCheckOptions {
   // DBSCAN in the (d_v, d_l) plane [px]. Paper 004 gives no values; these were chosen on the
-  // synthetic walking sequences, frames 3 apart (flow_check_test.cpp: recall 0.80 on people,
-  // 6.9 % of static points flagged; 1 px: 0.58 and 4.6 %).
+  // synthetic walking sequences, frames 3 apart (flow_check_test.cpp).
   double dbscan_epsilon_px = 0.5;
   int dbscan_min_points = 6;
   // Outside the largest cluster and at least this far from the epipolar line [px]: with depth
   // parallax, static points spread along the flow-length axis and form clusters of their own,
-  // but stay on their epipolar lines. Measured, whole build, geometry only, 0 -> 1 -> 2 px:
-  // TUM teddy (static) masked share 2.4 -> 0.8 -> 0.5 %, ATE 5.2 -> 4.1 -> 4.1 mm; synthetic
-  // 300 frames precision / recall: walking_xyz 0.937/0.961 -> 0.947/0.957 -> 0.954/0.956,
-  // walking_rpy 0.896/0.908 -> 0.915/0.907 -> 0.935/0.903, walking_static 0.940/0.965 -> (2 px)
-  // 0.957/0.958, walking_halfsphere 0.943/0.960 -> (2 px) 0.954/0.956.
+  // but stay on their epipolar lines.
   double min_epipolar_distance_px = 2.0;
-  double ransac_threshold_px = 1.0;      // fundamental matrix inliers
-  double max_forward_backward_px = 0.5;  // KLT tracks failing the round trip are dropped
+  double ransac_threshold_px = 1.0;
+  double max_forward_backward_px = 0.5;
   // KLT window edge [px]; 0: by the detector (ResolvedKltWindow; MaskStage resolves it, and the
   // checks called directly take the geometry-only window).
   int klt_window = 0;

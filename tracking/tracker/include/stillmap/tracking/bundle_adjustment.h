@@ -14,7 +14,7 @@
 namespace stillmap {
 
 struct BundleAdjustmentOptions {
-  int iterations_first = 5;    // Levenberg-Marquardt iterations before outliers are removed
+  int iterations_first = 5;
   int iterations_second = 10;  // and after (ORB-SLAM2's local BA: 5 + 10)
   // Chi-square thresholds at 95 % for whitened residuals (2 dof without depth, 3 with).
   double chi2_without_depth = 5.991;

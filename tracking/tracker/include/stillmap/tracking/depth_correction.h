@@ -81,34 +81,27 @@ struct DepthPair {
 };
 
 struct DepthCorrectionFitOptions {
-  size_t min_pairs = 2000;         // fewer: no fit
-  double max_residual_m = 0.15;    // pairs disagreeing by more are not the same static point
-  double max_delta = 0.15;         // a fit reaching beyond this anywhere in the image is refused
+  size_t min_pairs = 2000;  // fewer: no fit
+  double max_residual_m = 0.15;
+  double max_delta = 0.15;
   double coefficient_sigma = 0.1;  // prior on each coefficient (keeps weak directions at zero)
-  double residual_sigma_m = 0.03;  // depth disagreement of a pair, for the prior's weight
+  double residual_sigma_m = 0.03;
   // A fit must shrink the robust spread (1.4826 x MAD) of all the pairs' disagreements by at
-  // least this share. Otherwise it is refused: what it would remove is then mostly pose error,
-  // and feeding that back into the depth makes the poses drift (synthetic static room, ideal
-  // depth: ATE 4.4 -> 9.1 mm when every fit was taken).
+  // least this share; else what it would remove is mostly pose error, and the poses drift.
   double min_spread_reduction = 0.1;
   // ... and by at least this much [m]: where the pairs already agree to a few millimetres there
-  // is no sensor error to find, and a fit then mostly bends depth to the pose errors (noise-free
-  // rendered room: spread 0.6 -> 0.3 mm with a 5 % tilt "found", camera errors 0.2 -> 178 mm).
-  // Bonn crowd's fits remove 9 mm.
+  // is no sensor error to find, and a fit would bend depth to the pose errors.
   double min_spread_reduction_m = 0.002;
   // Joint estimation in the local bundle adjustment (tracking.depth_calibration_in_bundle_
   // adjustment). It starts once this many keyframes exist: with fewer, the baseline is short and
-  // the correction trades with the poses (bonn_crowd_a frames 150-449: 2 -> 593 mm largest error,
-  // 5 and 8 -> 37 and 53 mm, 12 and 20 -> 15.9, 29.1 mm RMSE).
+  // the correction trades with the poses.
   int joint_min_keyframes = 8;
   // Taken only when p' I p (its significance against "no error", chi-square with 5 dof without
-  // one) reaches this. Measured per window: sensors without error (synthetic rooms, ideal depth)
-  // 4-103; the Bonn Xtion from 426 on its first window; TUM teddy's Kinect 12-199 over its first
-  // 17 keyframes, then 400-2700.
+  // one) reaches this: above what sensors without error give, below what real ones do.
   double joint_min_significance = 200.0;
   // ... and when its standard deviation along the least-seen direction is at most this: a camera
   // that barely moves sees every point from one place, where a depth error looks like a moved
-  // point (synthetic walking_static: 0.2-0.36; moving cameras 0.006-0.046).
+  // point.
   double joint_max_weakest_sd = 0.05;
 
   // Every field under its configuration key (io/option_fields.h).

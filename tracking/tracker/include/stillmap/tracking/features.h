@@ -14,9 +14,9 @@ struct FeatureOptions {
   int max_features = 1200;  // per frame (ORB-SLAM2's RGB-D setting for 640x480 is 1000)
   int grid_columns = 16;    // the image is cut into cells; each keeps its strongest corners
   int grid_rows = 12;
-  int pyramid_levels = 8;  // ORB scale pyramid
+  int pyramid_levels = 8;
   float scale_factor = 1.2f;
-  int fast_threshold = 12;  // FAST corner threshold (lower finds corners in low texture)
+  int fast_threshold = 12;
   // A keypoint gets no depth when its 4x4 depth neighbourhood spreads more than this share of the
   // depth (a depth edge) or has a missing reading.
   double max_depth_spread = 0.03;

@@ -12,9 +12,9 @@ struct PnpOptions {
   // refine_reprojection_error (about 1.6 px).
   double max_reprojection_error = 0.006;
   double refine_reprojection_error = 0.003;
-  int iterations = 200;  // RANSAC iterations
+  int iterations = 200;
   double confidence = 0.999;
-  int min_inliers = 12;  // fewer: the pose is not trusted
+  int min_inliers = 12;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>

@@ -10,12 +10,12 @@
 namespace stillmap {
 
 struct RefinementOptions {
-  int rounds = 4;                 // solve, reject outliers, solve again (ORB-SLAM2: 4 rounds)
-  int iterations_per_round = 10;  // Levenberg-Marquardt iterations
+  int rounds = 4;  // solve, reject outliers, solve again (ORB-SLAM2: 4 rounds)
+  int iterations_per_round = 10;
   // Chi-square thresholds at 95 % for whitened residuals: 2 dof (no depth), 3 dof (with depth).
   double chi2_without_depth = 5.991;
   double chi2_with_depth = 7.815;
-  int min_inliers = 12;  // fewer: the refined pose is not trusted
+  int min_inliers = 12;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>

@@ -21,8 +21,8 @@ struct MatchingOptions {
   double wide_search_radius_px = 50.0;   // second try when the first finds too few matches
   double refine_search_radius_px = 4.0;  // after the first pose, for landmarks not matched yet
   int max_descriptor_distance = 80;      // Hamming, of 256 bits
-  float match_ratio = 0.9f;              // best / second-best distance within the search window
-  int min_matches = 30;                  // fewer after the wide search: relocalize
+  float match_ratio = 0.9f;
+  int min_matches = 30;
 
   // Observation noise for the RGB-D residual (pixels are scaled by the keypoint's octave).
   double sigma_px = 1.0;
@@ -115,7 +115,7 @@ struct LocalMapOptions {
   int cull_single_view_age = 2;
   int cull_recent_age = 3;
 
-  int local_map_keyframes = 25;  // keyframes whose landmarks are searched for in each frame
+  int local_map_keyframes = 25;
   // Map reuse (issue 27): besides the local_map_keyframes most recent keyframes, up to as many
   // keyframes covisible with the last frame's matches join the local map, so that a camera
   // coming back over its path tracks against what the map holds of the place.
@@ -141,7 +141,7 @@ struct LocalMapOptions {
   // observe. 0 = off, the default (it moved the motion model's predictions on the noise-free
   // synthetic room); the loop closure merges the two copies of a place it joins in any case.
   double landmark_merge_distance_m = 0.0;
-  int local_window = 8;                      // keyframes optimized by the local bundle adjustment
+  int local_window = 8;
   bool background_bundle_adjustment = true;  // false: solve it inline (same result, slower)
   // Frames after its request when a local bundle adjustment's result is taken (sooner at the
   // next keyframe): a point fixed by the data, so runs repeat exactly.
@@ -205,10 +205,10 @@ struct LocalMapOptions {
 // Tracked, occluded, lost: relocalization near the last good pose, a new local map after a long
 // loss, and the first map.
 struct RelocalizationOptions {
-  int min_tracked = 20;      // inliers for a frame to count as tracked
-  int min_relocalized = 30;  // inliers for a relocalization to be accepted
+  int min_tracked = 20;
+  int min_relocalized = 30;
   int relocalization_keyframes = 5;
-  int new_map_after_lost = 15;  // consecutive lost frames before a new local map is started
+  int new_map_after_lost = 15;
   // Occlusion (issue 17: a person passing the lens): a frame whose share of pixels with a depth
   // reading outside the moving mask is below this makes no keyframe and no landmarks; it is
   // posed from what remains ("occluded") or, when that fails, by the constant-velocity model
@@ -220,7 +220,7 @@ struct RelocalizationOptions {
   // view elsewhere would put a jump in the trajectory.
   double relocalization_max_distance_m = 0.3;
   double relocalization_max_speed_mps = 1.5;
-  int min_initial_points = 100;  // features with depth needed to start a map
+  int min_initial_points = 100;
 
   // Throws InputError naming the first impossible value (tracker_options.cpp).
   void Validate() const;
