@@ -2,7 +2,7 @@
 
 #include <filesystem>
 
-#include "stillmap/pipeline/report.h"
+#include "stillmap/pipeline/merge_report.h"
 
 namespace stillmap_app {
 

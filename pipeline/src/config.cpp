@@ -198,13 +198,13 @@ void MergeOptions::Validate() const {
 }
 
 void RegisterConfigKeys() {
-  static const bool registered = [] {
+  static const bool kRegistered = [] {
     const BuildConfig config;
     KeyRecorder recorder;
     recorder.Root(config);
     return true;
   }();
-  static_cast<void>(registered);
+  static_cast<void>(kRegistered);
 }
 
 void BuildConfig::Validate() const {

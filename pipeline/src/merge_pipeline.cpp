@@ -23,6 +23,7 @@
 #include "stillmap/io/timing.h"
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/revisit_cells.h"
+#include "stillmap/pipeline/merge_report.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/pipeline/report_html.h"
 #include "stillmap/viewer/renders.h"
@@ -165,7 +166,7 @@ void TakeEvaluation(MergeEvaluation evaluation, MergeResult* result) {
     if (!evaluation.ate_notes[s].empty()) result->sessions[s].ate_note = evaluation.ate_notes[s];
   }
   result->ate_joint = evaluation.ate_joint;
-  result->map_quality = std::move(evaluation.map_quality);
+  result->map_quality = evaluation.map_quality;
 }
 
 // The merged map's frame: the first session's, with its floor.

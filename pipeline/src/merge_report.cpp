@@ -1,10 +1,11 @@
 // report.json and the terminal summary of `stillmap merge`.
+#include "stillmap/pipeline/merge_report.h"
+
 #include <fmt/format.h>
 
 #include <filesystem>
 
 #include "report_parts.h"
-#include "stillmap/pipeline/merge_pipeline.h"
 
 namespace stillmap {
 namespace {
