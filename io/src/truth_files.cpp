@@ -28,7 +28,7 @@ cv::Mat TruthMasks::Get(double time) const {
   if (times_.empty()) return cv::Mat();
   const size_t i = FindClosestIndex(times_, time);
   if (std::abs(times_[i] - time) > 1e-3) return cv::Mat();
-  const cv::Mat mask = ReadImageAsStored(paths_[i]);
+  cv::Mat mask = ReadImageAsStored(paths_[i]);
   if (mask.type() != CV_8UC1) {
     throw InputError(paths_[i] + ": not a readable 8-bit mask PNG (listed in masks.txt)");
   }
