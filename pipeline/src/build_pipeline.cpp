@@ -174,12 +174,6 @@ void TakeLoopFigures(LoopResult loop, BuildResult* result) {
   Append(std::move(loop.warnings), &result->warnings);
 }
 
-void WriteText(const std::string& path, const std::string& text, const char* name) {
-  std::ofstream out(path);
-  out << text;
-  if (!out.flush()) throw std::runtime_error(WriteFailure(path, name));
-}
-
 // An earlier run's outputs restored, and files stillmap did not write, said as warnings.
 void AddOutputFolderWarnings(const OutputSet& outputs, std::vector<std::string>* warnings) {
   if (!outputs.recovery_note().empty()) warnings->push_back(outputs.recovery_note());

@@ -71,14 +71,13 @@ void WriteTrajectoryFiles(const PosedFrames& posed, bool tracking, const std::st
                     in_frame);
 }
 
-void WriteConfig(const BuildConfig& config, OutputSet& outputs) {
-  const std::string path = outputs.TemporaryPath("config.yaml");
-  std::ofstream out(path);
-  out << ConfigToYaml(config);
-  if (!out.flush()) throw std::runtime_error(WriteFailure(path, "config.yaml"));
-}
-
 }  // namespace
+
+void WriteText(const std::string& path, const std::string& text, const char* name) {
+  std::ofstream out(path);
+  out << text;
+  if (!out.flush()) throw std::runtime_error(WriteFailure(path, name));
+}
 
 std::optional<MeshFigures> WriteMapFiles(const FinishedMap& map, std::vector<VoxelPoint>* cloud,
                                          const MapFrameFigures& frame,
@@ -121,7 +120,7 @@ void WriteBuildFiles(PosedFrames* posed, const MapFrameFigures& frame, const Bui
   }
   *posed = PosesInMap(*posed, frame.poses_from_map.inverse());
   WriteTrajectoryFiles(*posed, tracked, frame.name, outputs);
-  WriteConfig(config, outputs);
+  WriteText(outputs.TemporaryPath("config.yaml"), ConfigToYaml(config), "config.yaml");
 }
 
 std::vector<std::string> WriteRenders(std::vector<VoxelPoint> cloud, const RenderSources& sources,

@@ -41,6 +41,10 @@ void WriteBuildFiles(PosedFrames* posed, const MapFrameFigures& frame, const Bui
                      const BuildConfig& config, const std::string& sequence_dir, bool tracked,
                      OutputSet& outputs);
 
+// Writes `text` to `path`; a failed write throws std::runtime_error saying why, naming the
+// output `name` (report.json, config.yaml, ...).
+void WriteText(const std::string& path, const std::string& text, const char* name);
+
 // What the renders show besides the cloud.
 struct RenderSources {
   const std::optional<OccupancyGrid>* grid = nullptr;

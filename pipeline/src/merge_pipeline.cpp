@@ -229,12 +229,6 @@ void WriteMergeRenders(std::vector<VoxelPoint> cloud, const std::vector<MergeSes
   }
 }
 
-void WriteText(const std::string& path, const std::string& text, const char* name) {
-  std::ofstream out(path);
-  out << text;
-  if (!out.flush()) throw std::runtime_error(WriteFailure(path, name));
-}
-
 }  // namespace
 
 const std::vector<std::string>& MergeOutputNames() {
