@@ -63,11 +63,14 @@ void BuildCommand::AddRunOptions() {
       ->check(CLI::IsMember({"groundtruth", "tracking"}));
   command
       ->add_option("--detector", detector,
-                   "semantic prior for dynamic rejection: auto (the default: yolo-fastest when "
-                   "its model is found, else yolox when its model is, else none), none "
-                   "(geometry only), yolo-fastest (boxes, the fastest), yolox (boxes), deeplab "
-                   "(per-pixel), both (yolox and deeplab)")
-      ->check(CLI::IsMember({"auto", "none", "yolo-fastest", "yolox", "deeplab", "both"}));
+                   "semantic prior for dynamic rejection: auto (the default: "
+                   "yolo-fastest+yolox when both models are found, else the one found, else "
+                   "none), none (geometry only), yolo-fastest (boxes, the fastest), yolox "
+                   "(boxes), yolo-fastest+yolox (yolo-fastest, with yolox as a second opinion "
+                   "on a share of its runs: where people come near the lens, move at the border "
+                   "unboxed or are lost), deeplab (per-pixel), both (yolox and deeplab)")
+      ->check(CLI::IsMember(
+          {"auto", "none", "yolo-fastest", "yolox", "yolo-fastest+yolox", "deeplab", "both"}));
   command->add_option("--models", models,
                       "folder holding yolo_fastest_1.1/, yolox_nano/ and deeplabv3_mnv2_voc/ "
                       "(default: the first "

@@ -214,11 +214,12 @@ void BuildConfig::Validate() const {
         fmt::format("{} must be tracking or groundtruth, not '", OptionKey(*this, run.poses)) +
         run.poses + "'");
   }
-  const std::vector<std::string> detectors = {"auto",  "none",    "yolo-fastest",
-                                              "yolox", "deeplab", "both"};
+  const std::vector<std::string> detectors = {
+      "auto", "none", "yolo-fastest", "yolox", "yolo-fastest+yolox", "deeplab", "both"};
   if (std::find(detectors.begin(), detectors.end(), run.detector) == detectors.end()) {
     throw InputError(
-        fmt::format("{} must be auto, none, yolo-fastest, yolox, deeplab or both, not '",
+        fmt::format("{} must be auto, none, yolo-fastest, yolox, yolo-fastest+yolox, deeplab or "
+                    "both, not '",
                     OptionKey(*this, run.detector)) +
         run.detector + "'");
   }

@@ -83,6 +83,10 @@ json MaskingJson(const MaskingFigures& masking) {
   out["outline"] = OutlineModeName(options.outline);
   out["detector_interval"] = options.detector_interval;
   out["detector_in_background"] = s.detector_in_background;
+  if (masking.semantics) {
+    out["detector_runs"] = s.detector_runs;
+    out["second_opinion_runs"] = s.second_opinion_runs;
+  }
   out["frames"] = s.frames;
   out["frames_with_moving_pixels"] = s.frames_with_mask;
   out["mean_masked_share"] = s.MeanShare();

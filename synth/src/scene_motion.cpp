@@ -119,8 +119,9 @@ Eigen::Isometry3f CameraPose(const std::string& scenario, double time) {
                                 0.004f * std::sin(1.3f * t));
     target += Eigen::Vector3f(0.02f * std::sin(0.9f * t), 0.0f, 0.015f * std::sin(1.1f * t));
   } else if (scenario == "walking_xyz" || scenario == "sitting" || scenario == "crowd_start" ||
-             scenario == "lens_pass" || scenario == "stop_and_go") {
-    const float a = scenario == "sitting" || scenario == "lens_pass" ? 0.5f : 1.0f;
+             scenario == "lens_pass" || scenario == "stop_and_go" || scenario == "busy_office") {
+    const bool near_lens = scenario == "lens_pass" || scenario == "busy_office";
+    const float a = scenario == "sitting" || near_lens ? 0.5f : 1.0f;
     position += a * Eigen::Vector3f(0.35f * std::sin(1.05f * t), 0.25f * std::sin(0.7f * t),
                                     0.15f * std::sin(1.3f * t));
     target += a * Eigen::Vector3f(0.35f * std::sin(1.05f * t), 0.0f, 0.15f * std::sin(1.3f * t));

@@ -190,7 +190,7 @@ void SynthOptions::Validate() const {
 std::vector<std::string> SynthScenarioNames() {
   return {"static",  "walking_static", "walking_xyz", "walking_rpy", "walking_halfsphere",
           "sitting", "carried_object", "crowd_start", "lens_pass",   "stop_and_go",
-          "loop",    "look_alike"};
+          "loop",    "look_alike",     "busy_office"};
 }
 
 Camera SynthCamera() {

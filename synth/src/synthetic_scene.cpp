@@ -398,6 +398,16 @@ void AddPeople(const std::string& scenario, cv::RNG& rng, Scene* scene) {
     MovingObject& person = add.Walker({-3.2f, 1.3f}, {-0.2f, 1.3f}, 1.0f);
     person.motion = Motion::kStopAndGo;
     person.stand_s = 4.0f;
+  } else if (scenario == "busy_office") {
+    // What a busy office recording holds at once (issue 51): two people crossing the view from
+    // the first frame, one crossing 0.4-0.7 m before the lens (at about 5 s) and one walking in
+    // to stand still for 4 s, in front of the far wall.
+    add.Walker({-1.9f, 1.0f}, {1.0f, 1.0f}, 1.0f, 1.2f);
+    add.Walker({1.0f, 1.6f}, {-1.6f, 1.6f}, 0.8f, 0.9f);
+    add.Walker({-6.0f, -0.35f}, {4.5f, -0.35f}, 1.2f);
+    MovingObject& standing = add.Walker({-3.2f, 2.1f}, {-0.9f, 2.1f}, 1.0f);
+    standing.motion = Motion::kStopAndGo;
+    standing.stand_s = 4.0f;
   } else if (scenario == "sitting") {
     add.Sitter({0.3f, 1.93f, 0.5f}, 0.0f);
     add.Sitter({1.43f, 1.2f, 0.5f}, -kPi / 2, 2.0f);

@@ -74,7 +74,7 @@ TEST_F(FetchModelsTest, InstallsIntoTheUserDataFolderWhereInfoFindsIt) {
                                  "env -u STILLMAP_MODELS XDG_DATA_HOME=" + data),
             0)
       << output;
-  EXPECT_NE(output.find("detector:   yolo-fastest (models in " + data +
+  EXPECT_NE(output.find("detector:   yolo-fastest+yolox (models in " + data +
                         "/stillmap/models, found through user data folder)"),
             std::string::npos)
       << output;

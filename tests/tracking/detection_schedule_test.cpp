@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -100,6 +101,57 @@ TEST(DetectionScheduleTest, WithoutFlowBackgroundDetectionsAreUsedUncarried) {
   const std::vector<float> expected = {0, -1, -1, -1, 2};
   EXPECT_EQ(box_x, expected);
   EXPECT_EQ(calls.load(), 3);  // frames 0, 2 and 4
+}
+
+// A detector with a second opinion that records the frames (first pixel value) it was asked on.
+class AskedFramesDetector : public Detector {
+ public:
+  explicit AskedFramesDetector(std::vector<int>* asked) : asked_(asked) {}
+  std::vector<Detection> Detect(const cv::Mat&) override { return {}; }
+  std::string name() const override { return "asked-frames"; }
+  bool has_second_opinion() const override { return true; }
+  std::vector<Detection> DetectWithSecondOpinion(const cv::Mat& bgr) override {
+    asked_->push_back(bgr.at<cv::Vec3b>(0, 0)[0]);
+    return {};
+  }
+
+ private:
+  std::vector<int>* asked_;
+};
+
+// The frames asked while wanted: as many as the share allows, counted over the runs so far (at
+// 0.25: the 4th, 8th, 12th, 16th and 20th run). In the background the same runs, whatever the
+// timing.
+std::vector<int> AskedFrames(int interval, bool background, bool wanted, size_t* second_runs) {
+  std::vector<int> asked;
+  {
+    DetectionSchedule schedule(std::make_unique<AskedFramesDetector>(&asked), interval,
+                               background, true, 0.25);
+    // In the background one frame more, for the last run's result to be taken.
+    const int frames = 20 * interval + (background ? 1 : 0);
+    for (int frame = 0; frame < frames; ++frame) {
+      schedule.Next(FrameImage(frame), nullptr, wanted);
+    }
+    EXPECT_EQ(schedule.runs(), background ? 21u : 20u);
+    *second_runs = schedule.second_opinion_runs();
+  }  // waits for the run in flight
+  std::sort(asked.begin(), asked.end());
+  return asked;
+}
+
+TEST(DetectionScheduleTest, SecondOpinionWhereWantedWithinItsShare) {
+  size_t second_runs = 0;
+  EXPECT_EQ(AskedFrames(1, false, true, &second_runs), (std::vector<int>{3, 7, 11, 15, 19}));
+  EXPECT_EQ(second_runs, 5u);
+  EXPECT_EQ(AskedFrames(2, true, true, &second_runs), (std::vector<int>{6, 14, 22, 30, 38}));
+  EXPECT_EQ(second_runs, 5u);
+  EXPECT_EQ(AskedFrames(1, false, false, &second_runs), (std::vector<int>{}));
+  EXPECT_EQ(second_runs, 0u);
+  // A detector without a second opinion is never asked.
+  std::atomic<int> calls{0};
+  DetectionSchedule plain(std::make_unique<FrameNumberDetector>(&calls), 1, false, true, 1.0);
+  for (int frame = 0; frame < 4; ++frame) plain.Next(FrameImage(frame), nullptr, true);
+  EXPECT_EQ(plain.second_opinion_runs(), 0u);
 }
 
 // masking.flow_klt_window 0 (the default) is resolved by the mask stage: 15 px with a detector,

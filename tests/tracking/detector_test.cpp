@@ -181,8 +181,9 @@ TEST(FastestDetectorTest, CoarsePassFindsPeopleNearTheLens) {
   EXPECT_GE(covered_both, covered_fine + frames / 4);
 }
 
-// auto: Yolo-Fastest when its three files are there, else YOLOX-Nano, else none.
-TEST(DetectorChoiceTest, AutoPrefersYoloFastestThenYolox) {
+// auto: Yolo-Fastest with YOLOX-Nano as its second opinion when both are there, else the one
+// that is, else none.
+TEST(DetectorChoiceTest, AutoPrefersYoloFastestWithYoloxThenEither) {
   testing::TempDir dir;
   EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "none");
   std::filesystem::create_directories(dir / "yolox_nano");
@@ -194,8 +195,69 @@ TEST(DetectorChoiceTest, AutoPrefersYoloFastestThenYolox) {
   testing::WriteText(dir / "yolo_fastest_1.1/coco.names", "person\n");
   EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolox");  // no weights yet
   testing::WriteText(dir / "yolo_fastest_1.1/yolo-fastest-1.1.weights", "x");
-  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolo-fastest");
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolo-fastest+yolox");
   EXPECT_EQ(ResolveDetectorName("yolox", dir.path()), "yolox");
+  std::filesystem::remove_all(dir / "yolox_nano");
+  EXPECT_EQ(ResolveDetectorName("auto", dir.path()), "yolo-fastest");
+}
+
+// Fixed detections, counting the runs.
+class FixedDetector : public Detector {
+ public:
+  FixedDetector(std::string name, std::vector<Detection> detections)
+      : name_(std::move(name)), detections_(std::move(detections)) {}
+  std::vector<Detection> Detect(const cv::Mat&) override {
+    ++runs;
+    return detections_;
+  }
+  std::string name() const override { return name_; }
+  int runs = 0;
+
+ private:
+  std::string name_;
+  std::vector<Detection> detections_;
+};
+
+Detection Box(const std::string& name, MotionLevel level, float x, float y, float w, float h) {
+  Detection detection;
+  detection.box = cv::Rect2f(x, y, w, h);
+  detection.name = name;
+  detection.class_id = name == "person" ? 0 : 56;
+  detection.level = level;
+  return detection;
+}
+
+// Asked, the second detector's people join the first's: one both found takes the box holding
+// both (the first's held only part of them), one only the second found is added; the second's
+// other classes are not. Not asked, only the first runs.
+TEST(SecondOpinionTest, PeopleOfTheSecondDetectorJoinTheFirstOnes) {
+  const Detection part = Box("person", MotionLevel::kHigh, 100, 100, 40, 60);
+  const Detection chair = Box("chair", MotionLevel::kMedium, 300, 200, 50, 50);
+  auto first = std::make_unique<FixedDetector>("fast", std::vector<Detection>{part, chair});
+  auto second = std::make_unique<FixedDetector>(
+      "strong", std::vector<Detection>{Box("person", MotionLevel::kHigh, 90, 40, 70, 200),
+                                       Box("person", MotionLevel::kHigh, 0, 20, 60, 300),
+                                       Box("chair", MotionLevel::kMedium, 500, 200, 50, 50)});
+  FixedDetector* first_runs = first.get();
+  FixedDetector* second_runs = second.get();
+  const auto detector = MakeSecondOpinionDetector(std::move(first), std::move(second));
+  EXPECT_EQ(detector->name(), "fast+strong");
+  EXPECT_TRUE(detector->has_second_opinion());
+  const cv::Mat image(480, 640, CV_8UC3, cv::Scalar(0, 0, 0));
+
+  const std::vector<Detection> alone = detector->Detect(image);
+  ASSERT_EQ(alone.size(), 2u);
+  EXPECT_EQ(alone[0].box, part.box);
+  EXPECT_EQ(second_runs->runs, 0);
+
+  const std::vector<Detection> both = detector->DetectWithSecondOpinion(image);
+  EXPECT_EQ(first_runs->runs, 2);
+  EXPECT_EQ(second_runs->runs, 1);
+  ASSERT_EQ(both.size(), 3u);
+  EXPECT_EQ(both[0].box, cv::Rect2f(90, 40, 70, 200));  // holds the part (100..140, 100..160)
+  EXPECT_EQ(both[1].box, chair.box);
+  EXPECT_EQ(both[2].box, cv::Rect2f(0, 20, 60, 300));
+  EXPECT_EQ(both[2].level, MotionLevel::kHigh);
 }
 
 // The rewritten YOLOX-Nano (yolox_net.h, onnx_graph.h) on the shared model: both rewrites taken

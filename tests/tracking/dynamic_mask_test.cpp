@@ -325,5 +325,45 @@ TEST(DynamicMaskerTest, ReposedReferencesUseTheirKeyframesCorrectedPoses) {
   EXPECT_EQ(cv::countNonZero(masker.Compute(gray, reference.depth_m, here, nullptr).mask), 0);
 }
 
+// Where a fast detector misses people, the masker asks for the detector's second opinion: moving
+// pixels outside every box (1 % of the image at its left or right tenth, 2 % anywhere), a person
+// box over a third of the image, a person lost at the border; not for a person it has boxed.
+TEST(DynamicMaskerTest, AsksForASecondOpinionWhereAFastDetectorMissesPeople) {
+  const Camera camera = testing::SmallCamera(160, 120);  // 19200 px: 1 % is 192 px
+  DynamicMaskOptions options;
+  options.margin_px = 0;
+  options.min_region_px = 0;
+  options.flow_check = false;
+  const cv::Mat gray(camera.height, camera.width, CV_8UC1, cv::Scalar(128));
+  const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  // A masker whose reference saw the wall everywhere; then a frame with `object` at 1.5 m.
+  auto asks = [&](const cv::Rect& object, const std::vector<Detection>& detections) {
+    DynamicMasker masker(camera, options);
+    masker.AddReference(WallReference(camera));
+    cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+    depth(object).setTo(1.5f);
+    masker.Compute(gray, depth, pose, &detections);
+    return masker.WantsSecondOpinion();
+  };
+  const cv::Rect nothing(0, 0, 0, 0);
+  const cv::Rect middle(60, 30, 30, 60), small_middle(70, 50, 10, 30), small_side(2, 50, 10, 30);
+  EXPECT_TRUE(asks(middle, {}));  // 1800 px, nobody boxed it
+  EXPECT_FALSE(asks(small_middle, {}));  // 300 px: below 2 %
+  EXPECT_TRUE(asks(small_side, {}));     // the same at the left border
+  Detection person;
+  person.box = cv::Rect2f(52, 24, 46, 72);
+  person.level = MotionLevel::kHigh;
+  EXPECT_FALSE(asks(middle, {person}));
+  EXPECT_FALSE(asks(nothing, {person}));
+  Detection near_lens = person;
+  near_lens.box = cv::Rect2f(20, 0, 70, 120);  // 8400 px of 19200
+  EXPECT_TRUE(asks(nothing, {near_lens}));
+  Detection at_border = person;
+  at_border.box = cv::Rect2f(0, 20, 30, 80);
+  EXPECT_FALSE(asks(nothing, {at_border}));
+  at_border.missed_runs = 1;  // kept from memory: the detector lost them
+  EXPECT_TRUE(asks(nothing, {at_border}));
+}
+
 }  // namespace
 }  // namespace stillmap

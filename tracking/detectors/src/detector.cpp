@@ -302,8 +302,10 @@ bool HoldsYolox(const std::string& models_dir) {
 std::string ResolveDetectorName(const std::string& name, const std::string& models_dir) {
   if (name != "auto") return name;
   if (models_dir.empty()) return "none";
-  if (HoldsFastest(models_dir)) return "yolo-fastest";
-  return HoldsYolox(models_dir) ? "yolox" : "none";
+  const bool fastest = HoldsFastest(models_dir), yolox = HoldsYolox(models_dir);
+  if (fastest && yolox) return "yolo-fastest+yolox";
+  if (fastest) return "yolo-fastest";
+  return yolox ? "yolox" : "none";
 }
 
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,
@@ -321,13 +323,17 @@ std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::strin
   }
   if (name == "yolo-fastest") return MakeFastestDetector(models_dir, levels, options.fastest);
   if (name == "yolox") return MakeYoloxDetector(models_dir, levels, options.yolox);
+  if (name == "yolo-fastest+yolox") {
+    return MakeSecondOpinionDetector(MakeFastestDetector(models_dir, levels, options.fastest),
+                                     MakeYoloxDetector(models_dir, levels, options.yolox));
+  }
   if (name == "deeplab") return MakeDeeplabDetector(models_dir, levels, options.deeplab);
   if (name == "both") {
     return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, options.yolox),
                                 MakeDeeplabDetector(models_dir, levels, options.deeplab));
   }
   throw InputError("--detector " + name +
-                   ": expected auto, none, yolo-fastest, yolox, deeplab or both");
+                   ": expected auto, none, yolo-fastest, yolox, yolo-fastest+yolox, deeplab or both");
 }
 
 }  // namespace stillmap

@@ -9,11 +9,11 @@
 namespace stillmap {
 namespace {
 
-DetectorRun Run(Detector& detector, const cv::Mat& bgr) {
+DetectorRun Run(Detector& detector, const cv::Mat& bgr, bool second_opinion) {
   const auto start = std::chrono::steady_clock::now();
   const double cpu = ThreadCpuMs();
   DetectorRun run;
-  run.detections = detector.Detect(bgr);
+  run.detections = second_opinion ? detector.DetectWithSecondOpinion(bgr) : detector.Detect(bgr);
   run.ms = MillisecondsSince(start);
   run.cpu_ms = ThreadCpuMs() - cpu;
   return run;
@@ -22,18 +22,33 @@ DetectorRun Run(Detector& detector, const cv::Mat& bgr) {
 }  // namespace
 
 DetectionSchedule::DetectionSchedule(std::unique_ptr<Detector> detector, int interval,
-                                     bool background, bool own_thread)
-    : detector_(std::move(detector)), interval_(interval), background_(background) {
+                                     bool background, bool own_thread, double second_opinion_share)
+    : detector_(std::move(detector)),
+      interval_(interval),
+      background_(background),
+      second_opinion_share_(second_opinion_share) {
   CV_Assert(detector_ != nullptr && interval_ >= 1);
   if (background_ && own_thread) worker_ = std::make_unique<SerialWorker>();
 }
 
-std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const FlowStep* flow) {
+bool DetectionSchedule::AskSecondOpinion(bool wanted) {
+  ++runs_;
+  if (!detector_->has_second_opinion()) return false;
+  // Counted from the first run, so a quiet stretch leaves room for a busy one after it.
+  const bool allowed = static_cast<double>(second_runs_ + 1) <=
+                       second_opinion_share_ * static_cast<double>(runs_);
+  if (!(wanted && allowed)) return false;
+  ++second_runs_;
+  return true;
+}
+
+std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const FlowStep* flow,
+                                                   bool wants_second_opinion) {
   const size_t frame = frame_++;
   const bool detect_here = frame % static_cast<size_t>(interval_) == 0;
   if (!background_ || frame == 0) {
     if (!detect_here) return std::nullopt;
-    return Run(*detector_, bgr);
+    return Run(*detector_, bgr, AskSecondOpinion(wants_second_opinion));
   }
 
   std::optional<DetectorRun> due;
@@ -49,7 +64,8 @@ std::optional<DetectorRun> DetectionSchedule::Next(const cv::Mat& bgr, const Flo
   }
   if (detect_here) {
     // The image is copied: the caller's frame goes on to the mapper while the detector reads it.
-    auto task = [this, image = bgr.clone()] { return Run(*detector_, image); };
+    const bool second = AskSecondOpinion(wants_second_opinion);
+    auto task = [this, image = bgr.clone(), second] { return Run(*detector_, image, second); };
     run_ = worker_ ? worker_->Submit(std::move(task)) : std::async(std::launch::deferred, task);
     run_frame_ = frame;
   }

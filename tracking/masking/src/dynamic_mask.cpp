@@ -271,6 +271,42 @@ int GeometricOnlyRegions(const cv::Mat& geometric, const cv::Mat& claimed) {
   return regions;
 }
 
+// DynamicMasker::WantsSecondOpinion's rule over a frame's carried detections and the moving
+// pixels no detection's outline claims.
+bool AskForSecondOpinion(const std::vector<Detection>& carried, const cv::Mat& geometric) {
+  const cv::Size size = geometric.size();
+  const float image_area = static_cast<float>(size.area());
+  for (const Detection& detection : carried) {
+    if (detection.level != MotionLevel::kHigh) continue;
+    const cv::Rect2f& box = detection.box;
+    const bool at_border = box.x <= 2.0f || box.y <= 2.0f ||
+                           box.x + box.width >= static_cast<float>(size.width) - 2.0f ||
+                           box.y + box.height >= static_cast<float>(size.height) - 2.0f;
+    const bool near_lens = box.area() >= image_area / 3.0f;
+    if (near_lens || (at_border && detection.missed_runs > 0)) return true;
+  }
+  // Moving pixels outside every detection's box: a person the detector does not see, coming in
+  // at the image's left or right side (where Yolo-Fastest misses people cut by the border that
+  // YOLOX finds: 11 of 310 runs on bonn_crowd_a, all at the border) or anywhere.
+  cv::Mat unexplained = geometric.clone();
+  for (const Detection& detection : carried) {
+    const cv::Rect box = cv::Rect(detection.box) + cv::Size(16, 16) - cv::Point(8, 8);
+    unexplained(box & cv::Rect(cv::Point(0, 0), size)).setTo(0);
+  }
+  if (cv::countNonZero(unexplained) < 0.01 * image_area) return false;
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(unexplained, labels, stats, centroids, 8);
+  const int side = size.width / 10;
+  for (int k = 1; k < count; ++k) {
+    const int area = stats.at<int>(k, cv::CC_STAT_AREA);
+    const int left = stats.at<int>(k, cv::CC_STAT_LEFT);
+    const int right = left + stats.at<int>(k, cv::CC_STAT_WIDTH);
+    const bool at_side = left < side || right > size.width - side;
+    if (static_cast<float>(area) >= (at_side ? 0.01f : 0.02f) * image_area) return true;
+  }
+  return false;
+}
+
 // Closes small holes (missing readings inside people), then adds the safety margin.
 void CloseAndAddMargin(int margin_px, cv::Mat* mask) {
   if (cv::countNonZero(*mask) > 0) {
@@ -436,6 +472,7 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   }
   result.geometric_pixels = cv::countNonZero(geometric);
   result.geometric_only_regions = GeometricOnlyRegions(geometric, claimed);
+  wants_second_opinion_ = options_.semantics && AskForSecondOpinion(carried_, geometric);
   // Close small holes (missing readings inside people), then the safety margin.
   CloseAndAddMargin(options_.margin_px, &mask);
   result.mask = mask;

@@ -64,6 +64,8 @@ void DynamicMaskOptions::Validate() const {
         "medium_min_moving_share must be in (0, 1]");
   check(high_static_share > 0.0 && high_static_share <= 1.0, "high_static_share must be in (0, 1]");
   check(detector_interval >= 1, "detector_interval must be >= 1");
+  check(second_opinion_share >= 0.0 && second_opinion_share <= 1.0,
+        "second_opinion_share must lie in 0..1");
   check(detection_memory_runs >= 0 && detection_memory_runs <= 100,
         "detection_memory_runs must lie in 0..100");
   check(margin_px >= 0 && margin_px <= 50, "margin_px must be 0..50");

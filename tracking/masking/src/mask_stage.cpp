@@ -44,7 +44,8 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
   if (truth_.available()) still_frames_us_ = StillFrames(sequence_dir);
   if (detector != nullptr && options_.semantics) {
     detections_ = std::make_unique<DetectionSchedule>(
-        std::move(detector), options_.detector_interval, detector_in_background, detector_thread);
+        std::move(detector), options_.detector_interval, detector_in_background, detector_thread,
+        options_.second_opinion_share);
     statistics_.detector_in_background = detector_in_background && detector_thread;
   }
   options_.flow.klt_window = ResolvedKltWindow(options_.flow.klt_window, detections_ != nullptr);
@@ -58,8 +59,10 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   MaskingStatistics& s = statistics_;
   std::optional<DetectorRun> run;
   if (detections_) {
-    run = detections_->Next(frame.color, flow);
+    run = detections_->Next(frame.color, flow, masker_->WantsSecondOpinion());
     s.detector_wait_ms = detections_->wait_ms();
+    s.detector_runs = detections_->runs();
+    s.second_opinion_runs = detections_->second_opinion_runs();
   }
   if (run) {
     s.detector_ms.push_back(run->ms);

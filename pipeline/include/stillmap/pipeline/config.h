@@ -35,7 +35,7 @@ struct RunSettings {
     visit("poses", self.poses,
           "tracking, or groundtruth: map from the ground-truth poses (--poses)");
     visit("detector", self.detector,
-          "auto, none, yolo-fastest, yolox, deeplab or both (--detector)");
+          "auto, none, yolo-fastest, yolox, yolo-fastest+yolox, deeplab or both (--detector)");
     visit("models", self.models,
           "folder holding yolo_fastest_1.1/, yolox_nano/ and deeplabv3_mnv2_voc/ (--models)");
     visit("threads", self.threads, "threads, 1..64 (--threads)");

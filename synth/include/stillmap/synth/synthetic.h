@@ -28,7 +28,9 @@ struct SynthOptions {
 
 // static, walking_static, walking_xyz, walking_rpy, walking_halfsphere, sitting, carried_object,
 // crowd_start (three people in view from the first frame), lens_pass (a person crossing 0.4-0.7 m
-// before the lens), stop_and_go (a person walks in, stands 4 s, walks out).
+// before the lens), stop_and_go (a person walks in, stands 4 s, walks out), busy_office (the
+// three at once: two people in view from the first frame, one crossing before the lens, one
+// standing still for 4 s).
 std::vector<std::string> SynthScenarioNames();
 
 // The camera of every synthetic sequence: 640x480, fx = fy = 525, cx = 319.5, cy = 239.5, no

@@ -56,6 +56,10 @@ class Detector {
   // Objects in a BGR (CV_8UC3) image.
   virtual std::vector<Detection> Detect(const cv::Mat& bgr) = 0;
   virtual std::string name() const = 0;
+  // A detector with a second, stronger opinion (MakeSecondOpinionDetector) looks again where the
+  // caller asks it to; the others give what Detect gives.
+  virtual bool has_second_opinion() const { return false; }
+  virtual std::vector<Detection> DetectWithSecondOpinion(const cv::Mat& bgr) { return Detect(bgr); }
 };
 
 struct YoloxOptions {
@@ -145,12 +149,20 @@ std::unique_ptr<Detector> MakeDeeplabDetector(const std::string& models_dir,
 std::unique_ptr<Detector> MakeCombinedDetector(std::unique_ptr<Detector> first,
                                                std::unique_ptr<Detector> second);
 
+// `first` on every run; on the runs the caller asks for a second opinion (DetectionSchedule),
+// `second` too, whose people (high motion level) that no detection of `first` lies on are added
+// to `first`'s detections (issue 51: YOLOX-Nano where Yolo-Fastest is weak, people near the lens
+// and at the image border, at a fraction of YOLOX's cost). Only people are added: the stronger
+// detector's other classes would mask still furniture the first one leaves alone.
+std::unique_ptr<Detector> MakeSecondOpinionDetector(std::unique_ptr<Detector> first,
+                                                    std::unique_ptr<Detector> second);
+
 // Whether MODELS_DIR holds Yolo-Fastest's three files, and YOLOX-Nano's two.
 bool HoldsFastest(const std::string& models_dir);
 bool HoldsYolox(const std::string& models_dir);
 
-// "auto" (the default) is "yolo-fastest" when MODELS_DIR holds it, else "yolox" when it holds
-// YOLOX-Nano, else "none"; other names are returned as they are.
+// "auto" (the default) is "yolo-fastest+yolox" when MODELS_DIR holds both, else "yolo-fastest"
+// or "yolox", whichever it holds, else "none"; other names are returned as they are.
 std::string ResolveDetectorName(const std::string& name, const std::string& models_dir);
 
 // Every detector's options.
@@ -161,7 +173,8 @@ struct DetectorOptions {
 };
 
 // The detector named on the command line: "auto" (see ResolveDetectorName), "none" (or empty:
-// nullptr), "yolo-fastest", "yolox", "deeplab" or "both" (YOLOX and DeepLab), with its models from
+// nullptr), "yolo-fastest", "yolox", "yolo-fastest+yolox" (Yolo-Fastest with YOLOX as its second
+// opinion), "deeplab" or "both" (YOLOX and DeepLab), with its models from
 // MODELS_DIR. Throws InputError for an unknown name, a missing models folder or a missing model
 // file.
 std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::string& models_dir,

@@ -30,8 +30,10 @@ class DetectionSchedule {
   // are used `interval` frames later, the run on its own thread when `own_thread` (else when its
   // result is due, on the caller's thread: the same detections, so one thread repeats many);
   // otherwise in place.
+  // `second_opinion_share`: for a detector with a second opinion, the most of its runs that may
+  // ask for it.
   DetectionSchedule(std::unique_ptr<Detector> detector, int interval, bool background,
-                    bool own_thread = true);
+                    bool own_thread = true, double second_opinion_share = 0.0);
   DetectionSchedule(const DetectionSchedule&) = delete;
   DetectionSchedule& operator=(const DetectionSchedule&) = delete;
   // The worker ends after the run in flight (a deferred run is dropped unrun).
@@ -40,17 +42,23 @@ class DetectionSchedule {
   // Frames in order, one call each: the colour image (CV_8UC3) and the flow step from the previous
   // frame (null when flow is not tracked: background detections are then used uncarried). Returns
   // the detections that hold for this frame when a run's result is due now, else nothing (the
-  // caller carries the last ones by flow).
-  std::optional<DetectorRun> Next(const cv::Mat& bgr, const FlowStep* flow);
+  // caller carries the last ones by flow). `wants_second_opinion`: a run started on this frame
+  // asks the detector's second opinion, when it has one and the share allows.
+  std::optional<DetectorRun> Next(const cv::Mat& bgr, const FlowStep* flow,
+                                  bool wants_second_opinion = false);
 
   const Detector& detector() const { return *detector_; }
   // Time the caller spent waiting for background runs [ms].
   double wait_ms() const { return wait_ms_; }
+  // Detector runs started, and those of them that asked the second opinion.
+  size_t runs() const { return runs_; }
+  size_t second_opinion_runs() const { return second_runs_; }
 
  private:
   std::unique_ptr<Detector> detector_;
   int interval_;
   bool background_;
+  double second_opinion_share_;
   // The thread of the background runs, one for all of them (declared after the detector it
   // uses: it ends first).
   std::unique_ptr<SerialWorker> worker_;
@@ -59,6 +67,10 @@ class DetectionSchedule {
   size_t run_frame_ = 0;          // the frame it runs on
   std::vector<FlowStep> steps_;   // flow steps since that frame, to carry its detections
   double wait_ms_ = 0.0;
+  size_t runs_ = 0, second_runs_ = 0;
+
+  // Whether the run about to start asks the second opinion (and counts it).
+  bool AskSecondOpinion(bool wanted);
 };
 
 }  // namespace stillmap

@@ -99,6 +99,10 @@ struct DynamicMaskOptions {
   // The detector runs on its own thread, off the tracking path, its detections used
   // detector_interval frames later, carried there by flow (issue 17; needs --threads >= 2).
   bool detector_in_background = true;
+  // A detector with a second opinion (yolo-fastest+yolox) asks it where the first one is weak
+  // (DynamicMasker::WantsSecondOpinion), on at most this share of its runs, counted from the
+  // first (issue 51: YOLOX adds about 40 ms of CPU to a run).
+  double second_opinion_share = 0.25;
   // A person (high level) the detector found in two runs in a row is kept, carried by flow,
   // through this many later runs that miss it while the middle of its box still holds something
   // at the depth it was seen at (a missed detection is not a person leaving, and one who stands
@@ -159,6 +163,8 @@ struct DynamicMaskOptions {
           "share of it static");
     visit("detector_interval", self.detector_interval,
           "run the detector every n-th frame (boxes carried between by flow)");
+    visit("second_opinion_share", self.second_opinion_share,
+          "yolo-fastest+yolox: at most this share of detector runs also ask yolox (0..1)");
     visit("detection_memory_runs", self.detection_memory_runs,
           "a person is kept through this many detector runs that miss it");
     visit("detector_in_background", self.detector_in_background,
@@ -256,6 +262,12 @@ class DynamicMasker {
   std::vector<const MaskReference*> References() const;
   const GeometricMasker& geometry() const { return geometry_; }
 
+  // Whether the detector's next run should ask its second opinion, from the last frame: a person
+  // near the lens (a box over a third of the image), one lost at the image border (kept from
+  // memory), or moving pixels outside every box (a region of 1 % of the image at its left or
+  // right tenth, or of 2 % anywhere): where a fast detector misses people.
+  bool WantsSecondOpinion() const { return wants_second_opinion_; }
+
  private:
   std::vector<cv::Point> FlowSeeds(const FlowStep& flow, const cv::Mat& depth_m,
                                    std::vector<cv::Point2f>* moved_from,
@@ -267,6 +279,7 @@ class DynamicMasker {
   std::deque<MaskReference> references_;  // newest first
   FlowTracker flow_tracker_;              // used when Compute is given no flow step
   std::vector<Detection> carried_;
+  bool wants_second_opinion_ = false;
 };
 
 // Pixel precision, recall and IoU of `mask` against `truth` (both CV_8UC1, non-zero = moving),

@@ -32,6 +32,8 @@ struct MaskingStatistics {
   std::vector<double> detector_ms, mask_ms;           // per detector run, per frame
   bool detector_in_background = false;                // the detector ran on its own thread
   double detector_wait_ms = 0.0;  // the frame loop waiting for background detector runs
+  // Detector runs started, and those that asked the detector's second opinion.
+  size_t detector_runs = 0, second_opinion_runs = 0;
   // CPU time of the detector runs, on whichever thread ran them, and of the masks [ms].
   double detector_cpu_ms = 0.0, mask_cpu_ms = 0.0;
   std::optional<MaskScore> score;  // against masks.txt, when it has frames
