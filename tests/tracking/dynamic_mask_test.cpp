@@ -327,7 +327,8 @@ TEST(DynamicMaskerTest, ReposedReferencesUseTheirKeyframesCorrectedPoses) {
 
 // Where a fast detector misses people, the masker asks for the detector's second opinion: moving
 // pixels outside every box (1 % of the image at its left or right tenth, 2 % anywhere), a person
-// box over a third of the image, a person lost at the border; not for a person it has boxed.
+// box over a third of the image, a person lost at the border; not for a person it has boxed, nor
+// for a still thing it left unmasked.
 TEST(DynamicMaskerTest, AsksForASecondOpinionWhereAFastDetectorMissesPeople) {
   const Camera camera = testing::SmallCamera(160, 120);  // 19200 px: 1 % is 192 px
   DynamicMaskOptions options;
@@ -356,13 +357,24 @@ TEST(DynamicMaskerTest, AsksForASecondOpinionWhereAFastDetectorMissesPeople) {
   EXPECT_FALSE(asks(middle, {person}));
   EXPECT_FALSE(asks(nothing, {person}));
   Detection near_lens = person;
-  near_lens.box = cv::Rect2f(20, 0, 70, 120);  // 8400 px of 19200
-  EXPECT_TRUE(asks(nothing, {near_lens}));
+  near_lens.box = cv::Rect2f(20, 0, 110, 120);  // 13200 px of 19200, centred on `middle`
+  EXPECT_TRUE(asks(middle, {near_lens}));
   Detection at_border = person;
   at_border.box = cv::Rect2f(0, 20, 30, 80);
-  EXPECT_FALSE(asks(nothing, {at_border}));
+  const cv::Rect border_object(0, 30, 20, 60);
+  EXPECT_FALSE(asks(border_object, {at_border}));
   at_border.missed_runs = 1;  // kept from memory: the detector lost them
-  EXPECT_TRUE(asks(nothing, {at_border}));
+  EXPECT_TRUE(asks(border_object, {at_border}));
+
+  // A still thing taken for a person, left unmasked (the reference saw it there), is no reason.
+  DynamicMasker still(camera, options);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  depth(cv::Rect(45, 5, 60, 110)).setTo(1.5f);
+  const cv::Mat no_mask(depth.size(), CV_8UC1, cv::Scalar(0));
+  still.AddReference({1.0, depth.clone(), no_mask, pose, cv::Mat()});
+  const std::vector<Detection> bear = {near_lens};
+  EXPECT_EQ(still.Compute(gray, depth, pose, &bear).high_static, 1);
+  EXPECT_FALSE(still.WantsSecondOpinion());
 }
 
 }  // namespace

@@ -236,8 +236,10 @@ void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray, con
     (*claimed)(box).setTo(255, outline);
     detection.seen_moving =
         detection.seen_moving || moving >= options.medium_min_moving_share * area;
-    if (detection.level == MotionLevel::kHigh && !detection.seen_moving && !consistent.empty() &&
-        cv::countNonZero(consistent(box) & outline) >= options.high_static_share * area) {
+    detection.left_static =
+        detection.level == MotionLevel::kHigh && !detection.seen_moving && !consistent.empty() &&
+        cv::countNonZero(consistent(box) & outline) >= options.high_static_share * area;
+    if (detection.left_static) {
       ++result->high_static;
     } else if (detection.level == MotionLevel::kHigh) {
       ++result->high_regions;
@@ -277,7 +279,8 @@ bool AskForSecondOpinion(const std::vector<Detection>& carried, const cv::Mat& g
   const cv::Size size = geometric.size();
   const float image_area = static_cast<float>(size.area());
   for (const Detection& detection : carried) {
-    if (detection.level != MotionLevel::kHigh) continue;
+    // A still thing taken for a person (a teddy bear), left unmasked, is no reason to ask.
+    if (detection.level != MotionLevel::kHigh || detection.left_static) continue;
     const cv::Rect2f& box = detection.box;
     const bool at_border = box.x <= 2.0f || box.y <= 2.0f ||
                            box.x + box.width >= static_cast<float>(size.width) - 2.0f ||

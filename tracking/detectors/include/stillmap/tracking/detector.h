@@ -44,6 +44,7 @@ struct Detection {
   float centre_depth_m = 0.0f;
   int hits = 1;              // detector runs in a row that found it
   bool seen_moving = false;  // geometry has seen part of its outline move, in any run so far
+  bool left_static = false;  // a person never seen moving whose outline the depth check confirms
   // Found only by a second, coarser pass (Yolo-Fastest's): masked once a run after it finds it
   // again (hits >= 2), as a still object taken for a person in the very first frame would
   // otherwise never enter a keyframe to be confirmed static against.
