@@ -102,7 +102,7 @@ struct DynamicMaskOptions {
   // A detector with a second opinion (yolo-fastest+yolox) asks it where the first one is weak
   // (DynamicMasker::WantsSecondOpinion), on at most this share of its runs, counted from the
   // first (issue 51: YOLOX adds about 40 ms of CPU to a run).
-  double second_opinion_share = 0.25;
+  double second_opinion_share = 0.15;
   // A person (high level) the detector found in two runs in a row is kept, carried by flow,
   // through this many later runs that miss it while the middle of its box still holds something
   // at the depth it was seen at (a missed detection is not a person leaving, and one who stands
