@@ -125,8 +125,8 @@ class AskedFramesDetector : public Detector {
 std::vector<int> AskedFrames(int interval, bool background, bool wanted, size_t* second_runs) {
   std::vector<int> asked;
   {
-    DetectionSchedule schedule(std::make_unique<AskedFramesDetector>(&asked), interval,
-                               background, true, 0.25);
+    DetectionSchedule schedule(std::make_unique<AskedFramesDetector>(&asked), interval, background,
+                               true, 0.25);
     // In the background one frame more, for the last run's result to be taken.
     const int frames = 20 * interval + (background ? 1 : 0);
     for (int frame = 0; frame < frames; ++frame) {

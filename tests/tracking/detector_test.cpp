@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -258,6 +259,95 @@ TEST(SecondOpinionTest, PeopleOfTheSecondDetectorJoinTheFirstOnes) {
   EXPECT_EQ(both[1].box, chair.box);
   EXPECT_EQ(both[2].box, cv::Rect2f(0, 20, 60, 300));
   EXPECT_EQ(both[2].level, MotionLevel::kHigh);
+}
+
+// The share of the moving pixels that person boxes hold (tentative ones left out, as the masker
+// leaves them out on their first run), summed over frames.
+double PersonBoxCoverage(const std::vector<Detection>& detections, const cv::Mat& truth) {
+  cv::Mat boxes(truth.size(), CV_8UC1, cv::Scalar(0));
+  for (const Detection& detection : detections) {
+    if (detection.level != MotionLevel::kHigh || detection.tentative) continue;
+    boxes(cv::Rect(detection.box) & cv::Rect(cv::Point(0, 0), truth.size())).setTo(255);
+  }
+  return cv::countNonZero(boxes & truth) / static_cast<double>(cv::countNonZero(truth));
+}
+
+// Issue 51: the two detectors miss different people, so the default's second opinion holds more
+// of them than either alone. busy_office's frames in which people cover a fifth of the image or
+// more as one of them comes up to the lens (4.3-5.7 s), against the exact masks. Measured: boxes
+// hold 0.36 of the moving pixels with Yolo-Fastest, 0.40 with YOLOX, 0.56 with both (18 frames;
+// over the whole sequence 0.58, 0.55 and 0.73: docs/figures.md).
+TEST(SecondOpinionTest, BothDetectorsHoldMoreOfThePeopleNearTheLensThanEither) {
+  const auto models = testing::SharedModels("yolo_fastest_1.1");
+  if (!models || !HoldsYolox(*models)) GTEST_SKIP() << "yolo_fastest_1.1 or yolox_nano not found";
+  testing::TempDir dir;
+  const Sequence sequence = testing::RenderSequence(dir / "seq", "busy_office", 170);
+  const auto fastest = MakeFastestDetector(*models, MotionLevelTable::Default());
+  const auto yolox = MakeYoloxDetector(*models, MotionLevelTable::Default());
+  const auto both = MakeDetector("yolo-fastest+yolox", *models, MotionLevelTable::Default(), {});
+  double fastest_sum = 0.0, yolox_sum = 0.0, both_sum = 0.0;
+  int frames = 0;
+  for (size_t i = 130; i < sequence.frames().size(); i += 2) {
+    const cv::Mat truth = testing::MovingObjectMask(dir / "seq", sequence, i);
+    if (cv::countNonZero(truth) < 0.2 * static_cast<double>(truth.total())) continue;
+    const cv::Mat image = cv::imread(sequence.frames()[i].color_path);
+    fastest_sum += PersonBoxCoverage(fastest->Detect(image), truth);
+    yolox_sum += PersonBoxCoverage(yolox->Detect(image), truth);
+    both_sum += PersonBoxCoverage(both->DetectWithSecondOpinion(image), truth);
+    ++frames;
+  }
+  std::cout << frames << " frames with people near the lens: person boxes hold "
+            << fastest_sum / frames << " of them with Yolo-Fastest, " << yolox_sum / frames
+            << " with YOLOX, " << both_sum / frames << " with both\n";
+  ASSERT_GE(frames, 10);
+  EXPECT_GE(both_sum, fastest_sum + 0.05 * frames);
+  EXPECT_GE(both_sum, yolox_sum + 0.05 * frames);
+}
+
+// Where Yolo-Fastest misses people on real frames and YOLOX does not (the second opinion's
+// reason, issue 51): every second frame of bonn_crowd_a, each detector's person boxes against the
+// other's (the same person when half of the smaller box or more is shared). Measured: 424 boxes
+// each; 11 only YOLOX found, all at the left or right border, in 11 frames.
+TEST(SecondOpinionTest, PeopleOnlyYoloxFindsInTheCrowdAreAtTheBorder) {
+  const auto models = testing::SharedModels("yolo_fastest_1.1");
+  const auto bonn = testing::SharedSequence("bonn_crowd_a");
+  if (!models || !HoldsYolox(*models) || !bonn) {
+    GTEST_SKIP() << "yolo_fastest_1.1, yolox_nano or bonn_crowd_a not found";
+  }
+  const auto fastest = MakeFastestDetector(*models, MotionLevelTable::Default());
+  const auto yolox = MakeYoloxDetector(*models, MotionLevelTable::Default());
+  const Sequence sequence = Sequence::Open(*bonn, ResolveCamera(*bonn, {}));
+  auto people = [](Detector* detector, const cv::Mat& image) {
+    std::vector<Detection> found;
+    for (Detection& detection : detector->Detect(image)) {
+      if (detection.level == MotionLevel::kHigh) found.push_back(std::move(detection));
+    }
+    return found;
+  };
+  auto lies_on_any = [](const Detection& person, const std::vector<Detection>& others) {
+    return std::any_of(others.begin(), others.end(), [&person](const Detection& other) {
+      const float shared = (other.box & person.box).area();
+      return shared >= 0.5f * std::min(other.box.area(), person.box.area());
+    });
+  };
+  int yolox_boxes = 0, yolox_only = 0, yolox_only_at_border = 0;
+  for (size_t i = 0; i < sequence.frames().size(); i += 2) {
+    const cv::Mat image = cv::imread(sequence.frames()[i].color_path);
+    const std::vector<Detection> fast = people(fastest.get(), image);
+    for (const Detection& person : people(yolox.get(), image)) {
+      ++yolox_boxes;
+      if (lies_on_any(person, fast)) continue;
+      ++yolox_only;
+      const cv::Rect2f& box = person.box;
+      yolox_only_at_border += box.x <= 2.0f || box.x + box.width >= image.cols - 2.0f;
+    }
+  }
+  std::cout << "bonn_crowd_a, every second frame: " << yolox_boxes << " YOLOX person boxes, "
+            << yolox_only << " that Yolo-Fastest has not, " << yolox_only_at_border
+            << " of them at the left or right border\n";
+  ASSERT_GE(yolox_boxes, 300);
+  EXPECT_GE(yolox_only, 5);
+  EXPECT_GE(yolox_only_at_border, 0.8 * yolox_only);
 }
 
 // The rewritten YOLOX-Nano (yolox_net.h, onnx_graph.h) on the shared model: both rewrites taken

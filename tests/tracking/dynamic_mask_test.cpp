@@ -348,7 +348,7 @@ TEST(DynamicMaskerTest, AsksForASecondOpinionWhereAFastDetectorMissesPeople) {
   };
   const cv::Rect nothing(0, 0, 0, 0);
   const cv::Rect middle(60, 30, 30, 60), small_middle(70, 50, 10, 30), small_side(2, 50, 10, 30);
-  EXPECT_TRUE(asks(middle, {}));  // 1800 px, nobody boxed it
+  EXPECT_TRUE(asks(middle, {}));         // 1800 px, nobody boxed it
   EXPECT_FALSE(asks(small_middle, {}));  // 300 px: below 2 %
   EXPECT_TRUE(asks(small_side, {}));     // the same at the left border
   Detection person;

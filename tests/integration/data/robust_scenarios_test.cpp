@@ -22,8 +22,10 @@ struct ScenarioRun {
   std::string sequence_dir;
 };
 
+// `octomap`: with the OctoMap, whose cleaning removes the voxels the cameras saw through (off
+// for speed where the scenario's ghosts stay within the target without it).
 ScenarioRun TrackScenario(const testing::TempDir& dir, const std::string& scenario,
-                          const std::string& models) {
+                          const std::string& models, bool octomap = false) {
   SynthOptions options;
   options.scenario = scenario;
   options.frames = 300;
@@ -34,7 +36,7 @@ ScenarioRun TrackScenario(const testing::TempDir& dir, const std::string& scenar
   request.config.run.detector = "auto";
   request.config.run.models = models;
   ApplySetArgument(&request.config, "tracking.background_bundle_adjustment=false");
-  ApplySetArgument(&request.config, "octomap.enabled=false");
+  if (!octomap) ApplySetArgument(&request.config, "octomap.enabled=false");
   ScenarioRun run{RunBuild(request), dir / "seq"};
   const BuildResult& result = run.result;
   std::cout << scenario << ": detector " << result.masking.detector << ", ATE RMSE "
@@ -100,10 +102,11 @@ TEST_F(RobustScenariosTest, APersonCrossingBeforeTheLens) {
 }
 
 // All three at once (issue 51's unseen office recording holds them): the default detector asks
-// YOLOX's second opinion where Yolo-Fastest is weak, within its share.
+// YOLOX's second opinion where Yolo-Fastest is weak, within its share. With the OctoMap: without
+// its cleaning the ghosts are 0.70 % (Yolo-Fastest alone 0.71 %, YOLOX 0.57 %), with it 0.29 %.
 TEST_F(RobustScenariosTest, ABusyOffice) {
   testing::TempDir dir;
-  const ScenarioRun run = TrackScenario(dir, "busy_office", models_);
+  const ScenarioRun run = TrackScenario(dir, "busy_office", models_, true);
   ExpectTargets(run.result);
   const MaskingStatistics& masking = run.result.masking.statistics;
   std::cout << "busy_office: " << masking.second_opinion_runs << " of " << masking.detector_runs

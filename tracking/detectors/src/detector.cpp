@@ -332,8 +332,9 @@ std::unique_ptr<Detector> MakeDetector(const std::string& name, const std::strin
     return MakeCombinedDetector(MakeYoloxDetector(models_dir, levels, options.yolox),
                                 MakeDeeplabDetector(models_dir, levels, options.deeplab));
   }
-  throw InputError("--detector " + name +
-                   ": expected auto, none, yolo-fastest, yolox, yolo-fastest+yolox, deeplab or both");
+  throw InputError(
+      "--detector " + name +
+      ": expected auto, none, yolo-fastest, yolox, yolo-fastest+yolox, deeplab or both");
 }
 
 }  // namespace stillmap

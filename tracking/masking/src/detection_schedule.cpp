@@ -35,8 +35,8 @@ bool DetectionSchedule::AskSecondOpinion(bool wanted) {
   ++runs_;
   if (!detector_->has_second_opinion()) return false;
   // Counted from the first run, so a quiet stretch leaves room for a busy one after it.
-  const bool allowed = static_cast<double>(second_runs_ + 1) <=
-                       second_opinion_share_ * static_cast<double>(runs_);
+  const bool allowed =
+      static_cast<double>(second_runs_ + 1) <= second_opinion_share_ * static_cast<double>(runs_);
   if (!(wanted && allowed)) return false;
   ++second_runs_;
   return true;
