@@ -44,7 +44,8 @@ class RepeatabilityTest : public ::testing::Test {
     const std::optional<std::string> sequence = testing::SharedSequence("tum_fr3_teddy_200");
     if (!sequence) GTEST_SKIP() << "tum_fr3_teddy_200 not in ../shared/data";
     sequence_ = *sequence;
-    // The default detector (YOLOX, in the background) when the models are here.
+    // The default detector (Yolo-Fastest with YOLOX's second opinion, in the background) when
+    // the models are here.
     const std::optional<std::string> models = testing::SharedModels("yolox_nano");
     if (models) models_ = " --models " + *models;
   }
