@@ -475,7 +475,10 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
   }
   result.geometric_pixels = cv::countNonZero(geometric);
   result.geometric_only_regions = GeometricOnlyRegions(geometric, claimed);
-  wants_second_opinion_ = options_.semantics && AskForSecondOpinion(carried_, geometric);
+  // Looked for only where a second opinion can be asked (a share above 0): the check walks the
+  // whole image.
+  wants_second_opinion_ = options_.semantics && options_.second_opinion_share > 0.0 &&
+                          AskForSecondOpinion(carried_, geometric);
   // Close small holes (missing readings inside people), then the safety margin.
   CloseAndAddMargin(options_.margin_px, &mask);
   result.mask = mask;

@@ -50,7 +50,12 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
   }
   options_.flow.klt_window = ResolvedKltWindow(options_.flow.klt_window, detections_ != nullptr);
   options_.flow_points = ResolvedFlowPoints(options_.flow_points, detections_ != nullptr);
-  masker_ = std::make_unique<DynamicMasker>(camera, options_);
+  // Only a detector with a second opinion needs the masker to say where to ask it.
+  DynamicMaskOptions masker_options = options_;
+  if (!detections_ || !detections_->detector().has_second_opinion()) {
+    masker_options.second_opinion_share = 0.0;
+  }
+  masker_ = std::make_unique<DynamicMasker>(camera, masker_options);
 }
 
 cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowStep* flow,
