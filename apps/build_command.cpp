@@ -56,11 +56,15 @@ void BuildCommand::Add(CLI::App& app) {
 }
 
 void BuildCommand::AddRunOptions() {
-  command
-      ->add_option("--poses", poses,
-                   "'groundtruth': map from the sequence's ground-truth poses instead of tracking "
-                   "('tracking', the default)")
-      ->check(CLI::IsMember({"groundtruth", "tracking"}));
+  command->add_option("--poses", poses,
+                      "where the camera poses come from: tracking (the default), groundtruth (the "
+                      "sequence's ground truth), FILE.txt (a TUM trajectory, world_from_body, with "
+                      "poses.body_from_camera), tf:FRAME (a bag's /tf and /tf_static, from FRAME, "
+                      "e.g. odom or map, to the colour image's frame_id) or odom:TOPIC (a bag's "
+                      "nav_msgs/Odometry, joined to the camera through /tf_static). Given poses "
+                      "are used as they are (poses.use=map: no visual tracking) or as the "
+                      "tracker's prior (poses.use=prior); map.frame=poses puts the outputs in "
+                      "their world");
   command
       ->add_option("--detector", detector,
                    "semantic prior for dynamic rejection: auto (the default: "

@@ -19,6 +19,8 @@ packages=(
   # are written with ROS's own Python writer
   python3 python3-numpy python3-opencv python3-yaml python3-rosbag python3-roslz4
   python3-sensor-msgs python3-geometry-msgs python3-std-msgs python3-diagnostic-msgs
+  # tests: bags with a robot's poses (make-bags --poses: /tf, /tf_static, /odom)
+  python3-tf2-msgs python3-nav-msgs
   # tests: the view window runs under xvfb-run, which needs xauth (not a dependency of xvfb)
   xvfb xauth
   # tests: scripts/slurm/fleet.sh on a one-node Slurm cluster the test starts (no systemd)

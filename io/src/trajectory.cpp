@@ -107,13 +107,17 @@ std::optional<Eigen::Isometry3d> Trajectory::Interpolate(double time, double max
   const StampedPose& a = *(upper - 1);
   const StampedPose& b = *upper;
   if (b.time - a.time > max_gap) return std::nullopt;
-  const double s = (time - a.time) / (b.time - a.time);
-  const Eigen::Quaterniond qa(a.world_from_camera.rotation());
-  const Eigen::Quaterniond qb(b.world_from_camera.rotation());
+  return InterpolatePose(a.world_from_camera, b.world_from_camera,
+                         (time - a.time) / (b.time - a.time));
+}
+
+Eigen::Isometry3d InterpolatePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b,
+                                  double s) {
+  const Eigen::Quaterniond qa(a.rotation());
+  const Eigen::Quaterniond qb(b.rotation());
   Eigen::Isometry3d result = Eigen::Isometry3d::Identity();
   result.linear() = qa.slerp(s, qb).toRotationMatrix();
-  result.translation() =
-      (1.0 - s) * a.world_from_camera.translation() + s * b.world_from_camera.translation();
+  result.translation() = (1.0 - s) * a.translation() + s * b.translation();
   return result;
 }
 

@@ -94,6 +94,7 @@ InputOptions InputOptionsOf(const BuildRequest& request) {
   const BuildConfig& config = request.config;
   const MapperOptions& mapping = config.mapping;
   return {request.sequence_dir,   request.poses(),
+          request.given_poses(),  config.poses,
           config.map.frame,       config.camera,
           config.sequence,        config.first_frame,
           config.max_frames,      mapping.back_projection.max_depth,
@@ -200,7 +201,7 @@ void WriteOutputs(const BuildRequest& request, const BuildInputs& inputs,
   result->mesh = WriteMapFiles(finished->map, &finished->cloud, finished->frame, result->grid,
                                MapFileOptionsOf(request), outputs, &result->timings);
   WriteBuildFiles(posed, finished->frame, inputs, request.config, request.sequence_dir,
-                  result->tracked(), outputs);
+                  result->poses, outputs);
   result->frames.fused = result->map.statistics.frames;
   result->frames.tracked = posed->trajectory.size();
   const size_t new_maps = result->tracking ? result->tracking->statistics.new_maps : 0;
@@ -235,6 +236,7 @@ BuildResult RunBuild(const BuildRequest& request) {
   OpenedInputs opened = OpenInputs(InputOptionsOf(request));
   const BuildInputs& inputs = opened.inputs;
   result.frames = opened.frames;
+  result.given_poses = opened.given;
   Append(std::move(opened.warnings), &result.warnings);
   result.camera = inputs.camera;
   MaskSetup masks = SetUpMasks(MaskOptionsOf(request), inputs.camera);

@@ -209,11 +209,8 @@ void RegisterConfigKeys() {
 
 void BuildConfig::Validate() const {
   RegisterConfigKeys();
-  if (run.poses != "tracking" && run.poses != "groundtruth") {
-    throw InputError(
-        fmt::format("{} must be tracking or groundtruth, not '", OptionKey(*this, run.poses)) +
-        run.poses + "'");
-  }
+  ParseGivenPoseSource(run.poses, OptionKey(*this, run.poses));  // throws for "tf:" alone
+  poses.Validate();
   const std::vector<std::string> detectors = {
       "auto", "none", "yolo-fastest", "yolox", "yolo-fastest+yolox", "deeplab", "both"};
   if (std::find(detectors.begin(), detectors.end(), run.detector) == detectors.end()) {
@@ -225,10 +222,18 @@ void BuildConfig::Validate() const {
   }
   if (run.threads < 1 || run.threads > 64)
     throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, run.threads)));
-  if (map.frame != "floor" && map.frame != "camera" && map.frame != "groundtruth") {
-    throw InputError(
-        fmt::format("{} must be floor, camera or groundtruth, not '", OptionKey(*this, map.frame)) +
-        map.frame + "'");
+  if (map.frame != "floor" && map.frame != "camera" && map.frame != "groundtruth" &&
+      map.frame != "poses") {
+    throw InputError(fmt::format("{} must be floor, camera, groundtruth or poses, not '",
+                                 OptionKey(*this, map.frame)) +
+                     map.frame + "'");
+  }
+  if (map.frame == "poses" && (run.poses == "tracking" || run.poses == "groundtruth")) {
+    throw InputError(fmt::format(
+        "{}=poses puts the map in the given poses' world, but {} is {}; give the poses (a "
+        "trajectory file, tf:FRAME or odom:TOPIC), or use {}=groundtruth",
+        OptionKey(*this, map.frame), OptionKey(*this, run.poses), run.poses,
+        OptionKey(*this, map.frame)));
   }
   // Association looks at every pair within the window: beyond a second it pairs wrong frames and
   // its candidates grow with the square of the frame rate.

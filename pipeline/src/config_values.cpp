@@ -94,6 +94,16 @@ void ParseValue(const ConfigSetting& setting, std::array<double, 5>* value) {
   for (size_t i = 0; i < fields.size(); ++i) (*value)[i] = ToDouble(setting, fields[i]);
 }
 
+void ParseValue(const ConfigSetting& setting, std::array<double, 16>* value) {
+  std::string text = setting.text;
+  for (char& c : text) {
+    if (c == '[' || c == ']') c = ' ';
+  }
+  const std::vector<std::string> fields = SplitFields(text);
+  if (fields.size() != value->size()) BadValue(setting, "16 numbers, a 4x4 matrix row by row");
+  for (size_t i = 0; i < fields.size(); ++i) (*value)[i] = ToDouble(setting, fields[i]);
+}
+
 void ParseValue(const ConfigSetting& setting, std::optional<Eigen::Vector4d>* value) {
   if (setting.text == "auto") {
     value->reset();
@@ -140,6 +150,12 @@ std::optional<std::string> FormatValue(OutlineMode value) { return OutlineModeNa
 
 std::optional<std::string> FormatValue(const std::array<double, 5>& value) {
   return fmt::format("[{}, {}, {}, {}, {}]", value[0], value[1], value[2], value[3], value[4]);
+}
+
+std::optional<std::string> FormatValue(const std::array<double, 16>& value) {
+  std::string text;
+  for (const double v : value) text += (text.empty() ? "" : ", ") + Number(v);
+  return "[" + text + "]";
 }
 
 std::optional<std::string> FormatValue(const std::optional<Eigen::Vector4d>& value) {

@@ -29,7 +29,8 @@ void ParseValue(const ConfigSetting& setting, size_t* value);
 void ParseValue(const ConfigSetting& setting, bool* value);
 void ParseValue(const ConfigSetting& setting, std::string* value);
 void ParseValue(const ConfigSetting& setting, OutlineMode* value);
-void ParseValue(const ConfigSetting& setting, std::array<double, 5>* value);  // "k1,k2,p1,p2,k3"
+void ParseValue(const ConfigSetting& setting, std::array<double, 5>* value);   // "k1,k2,p1,p2,k3"
+void ParseValue(const ConfigSetting& setting, std::array<double, 16>* value);  // 4x4, row-major
 void ParseValue(const ConfigSetting& setting,
                 std::optional<Eigen::Vector4d>* value);  // auto|a b c d
 
@@ -49,6 +50,7 @@ std::optional<std::string> FormatValue(bool value);
 std::optional<std::string> FormatValue(const std::string& value);  // quoted
 std::optional<std::string> FormatValue(OutlineMode value);
 std::optional<std::string> FormatValue(const std::array<double, 5>& value);
+std::optional<std::string> FormatValue(const std::array<double, 16>& value);
 std::optional<std::string> FormatValue(const std::optional<Eigen::Vector4d>& value);
 
 template <typename T>

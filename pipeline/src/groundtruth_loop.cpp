@@ -8,14 +8,14 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, int reference_interval
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     const PreparedFrame prepared = stages.reader.Get(k);
     const Frame& frame = prepared.frame;
-    const Eigen::Isometry3d& pose = inputs.groundtruth_poses[k].world_from_camera;
+    const Eigen::Isometry3d& pose = inputs.known_poses[k].world_from_camera;
     const cv::Mat mask =
         stages.masks.Compute(frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, pose);
     if (k % reference_every == 0) stages.masks.AddReference(frame, mask, pose, -1);
     stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
     stages.progress.Update(k + 1);
   }
-  return {Trajectory(inputs.groundtruth_poses), inputs.groundtruth_poses, {}, 0.0};
+  return {Trajectory(inputs.known_poses), inputs.known_poses, {}, 0.0};
 }
 
 }  // namespace stillmap

@@ -23,18 +23,35 @@ std::string FloorDescription(const FloorPlane& floor) {
          axes;
 }
 
+// `world_from_camera_at(time)`'s world in the frame of `posed`, anchored at the first posed
+// frame that has a pose there.
+template <typename Lookup>
+std::optional<Eigen::Isometry3d> AnchorOf(const PosedFrames& posed, Lookup&& world_from_camera_at) {
+  for (const StampedPose& tracked : posed.trajectory.poses()) {
+    const std::optional<Eigen::Isometry3d> world_from_camera = world_from_camera_at(tracked.time);
+    if (world_from_camera) return *world_from_camera * tracked.world_from_camera.inverse();
+  }
+  return std::nullopt;
+}
+
+// The given poses' world in the frame of `posed` (identity when they are the poses).
+std::optional<Eigen::Isometry3d> GivenFromPoses(const BuildInputs& inputs,
+                                                const MapFrameChoice& choice,
+                                                const PosedFrames& posed) {
+  if (choice.poses == PoseSource::kGiven) return Eigen::Isometry3d::Identity();
+  if (!inputs.given) return std::nullopt;
+  return AnchorOf(posed, [&](double time) { return inputs.given->At(time, nullptr); });
+}
+
 }  // namespace
 
 std::optional<Eigen::Isometry3d> GroundTruthFromPoses(const BuildInputs& inputs, double max_gap_s,
                                                       const PosedFrames& posed) {
   if (!inputs.sequence.groundtruth()) return std::nullopt;
   // The first tracked frame with a ground-truth pose (the motion capture may start late).
-  for (const StampedPose& tracked : posed.trajectory.poses()) {
-    const std::optional<Eigen::Isometry3d> world_from_camera =
-        inputs.sequence.groundtruth()->Interpolate(tracked.time, max_gap_s);
-    if (world_from_camera) return *world_from_camera * tracked.world_from_camera.inverse();
-  }
-  return std::nullopt;
+  return AnchorOf(posed, [&](double time) {
+    return inputs.sequence.groundtruth()->Interpolate(time, max_gap_s);
+  });
 }
 
 MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& inputs,
@@ -52,6 +69,19 @@ MapFrameFigures ChooseMapFrame(const FloorPlane& floor, const BuildInputs& input
   } else if (frame.name == "camera") {
     frame.poses_from_map = first_camera;
     frame.description = "camera: the first camera's optical frame (x right, y down, z forward)";
+  } else if (frame.name == "poses") {
+    const std::optional<Eigen::Isometry3d> given_from_poses = GivenFromPoses(inputs, choice, posed);
+    if (!given_from_poses) {
+      throw std::runtime_error(
+          fmt::format("{}=poses: no tracked frame has a given pose to anchor the map; use {}=floor",
+                      OptionKey(&MapFrameOptions::frame), OptionKey(&MapFrameOptions::frame)));
+    }
+    frame.poses_from_map = given_from_poses->inverse();
+    frame.description = fmt::format(
+        "poses: the given poses' world frame ({}){}", inputs.given->world_frame(),
+        choice.poses == PoseSource::kGiven ? ""
+                                           : ", the tracked map anchored at the given pose of the "
+                                             "first tracked frame that has one");
   } else {
     const std::optional<Eigen::Isometry3d> groundtruth_from_poses =
         choice.poses == PoseSource::kGroundTruth

@@ -57,13 +57,16 @@ MeshFigures WriteMesh(const std::vector<VoxelPoint>& cloud, const MapMeshOptions
   return {options.FileName(), mesh.voxels, mesh.vertices.size(), mesh.faces.size()};
 }
 
-void WriteTrajectoryFiles(const PosedFrames& posed, bool tracking, const std::string& frame,
+void WriteTrajectoryFiles(const PosedFrames& posed, PoseSource poses, const std::string& frame,
                           OutputSet& outputs) {
   const std::string in_frame = "; map frame " + frame;
-  posed.trajectory.WriteTum(outputs.TemporaryPath("trajectory.txt"),
-                            (tracking ? "stillmap trajectory (camera-to-map, every tracked frame)"
-                                      : "stillmap trajectory (camera-to-map, ground-truth poses)") +
-                                in_frame);
+  const bool tracking = poses == PoseSource::kTracking;
+  const char* what = tracking                            ? "every tracked frame"
+                     : poses == PoseSource::kGroundTruth ? "ground-truth poses"
+                                                         : "given poses";
+  posed.trajectory.WriteTum(
+      outputs.TemporaryPath("trajectory.txt"),
+      fmt::format("stillmap trajectory (camera-to-map, {})", what) + in_frame);
   Trajectory(posed.fused_poses)
       .WriteTum(outputs.TemporaryPath("keyframes.txt"),
                 (tracking ? "stillmap keyframes fused into the map (camera-to-map, final poses)"
@@ -112,14 +115,14 @@ std::optional<MeshFigures> WriteMapFiles(const FinishedMap& map, std::vector<Vox
 }
 
 void WriteBuildFiles(PosedFrames* posed, const MapFrameFigures& frame, const BuildInputs& inputs,
-                     const BuildConfig& config, const std::string& sequence_dir, bool tracked,
+                     const BuildConfig& config, const std::string& sequence_dir, PoseSource poses,
                      OutputSet& outputs) {
   if (!posed->session_keyframes.empty()) {
     WriteSessionFile(std::move(posed->session_keyframes), posed->session_depth_unit_m, frame,
                      inputs, sequence_dir, outputs.TemporaryPath("session.bin"));
   }
   *posed = PosesInMap(*posed, frame.poses_from_map.inverse());
-  WriteTrajectoryFiles(*posed, tracked, frame.name, outputs);
+  WriteTrajectoryFiles(*posed, poses, frame.name, outputs);
   WriteText(outputs.TemporaryPath("config.yaml"), ConfigToYaml(config), "config.yaml");
 }
 

@@ -38,7 +38,7 @@ std::optional<MeshFigures> WriteMapFiles(const FinishedMap& map, std::vector<Vox
 // takes), trajectory.txt and keyframes.txt (`posed` is moved into the map frame `frame` first)
 // and config.yaml (`config`, so that `--config OUT/config.yaml` repeats the run).
 void WriteBuildFiles(PosedFrames* posed, const MapFrameFigures& frame, const BuildInputs& inputs,
-                     const BuildConfig& config, const std::string& sequence_dir, bool tracked,
+                     const BuildConfig& config, const std::string& sequence_dir, PoseSource poses,
                      OutputSet& outputs);
 
 // Writes `text` to `path`; a failed write throws std::runtime_error saying why, naming the

@@ -166,15 +166,64 @@ json FloorJson(const FloorPlane& floor) {
 
 namespace {
 
-json MapFrameJson(const MapFrameFigures& frame, bool tracked) {
+const char* PoseSourceName(PoseSource poses) {
+  switch (poses) {
+    case PoseSource::kTracking:
+      return "tracking";
+    case PoseSource::kGroundTruth:
+      return "groundtruth";
+    case PoseSource::kGiven:
+      return "given";
+  }
+  return "";
+}
+
+// How the map was put in the ground truth's frame for its quality figures.
+const char* AlignedBy(PoseSource poses) {
+  switch (poses) {
+    case PoseSource::kTracking:
+      return "the ground-truth pose of the first tracked frame that has one";
+    case PoseSource::kGroundTruth:
+      return "nothing: the poses are the ground truth";
+    case PoseSource::kGiven:
+      return "the ground-truth pose of the first frame with a given pose that has one";
+  }
+  return "";
+}
+
+const char* PosesFrame(PoseSource poses) {
+  switch (poses) {
+    case PoseSource::kTracking:
+      return "the first tracked camera's frame";
+    case PoseSource::kGroundTruth:
+      return "the ground truth's world frame";
+    case PoseSource::kGiven:
+      return "the given poses' world frame";
+  }
+  return "";
+}
+
+json MapFrameJson(const MapFrameFigures& frame, PoseSource poses) {
   return {{"name", frame.name},
           {"description", frame.description},
           {"files", "map.ply, map.pcd, map.bt, map.ot, the mesh, trajectory.txt, keyframes.txt"},
           {"floor_found", frame.floor_found},
           {"floor", FloorJson(frame.floor)},
-          {"poses_frame",
-           tracked ? "the first tracked camera's frame" : "the ground truth's world frame"},
+          {"poses_frame", PosesFrame(poses)},
           {"poses_from_map", RowMajor(frame.poses_from_map)}};
+}
+
+json GivenPosesJson(const GivenPoseFigures& given) {
+  return {{"source", given.source},
+          {"use", given.use},
+          {"from", given.description},
+          {"world_frame", given.world_frame},
+          {"frames_without_pose",
+           {{"before_the_poses", given.before},
+            {"before_by_up_to_s", given.before_s},
+            {"after_the_poses", given.after},
+            {"after_by_up_to_s", given.after_s},
+            {"across_gaps", given.in_gaps}}}};
 }
 
 // The files the build wrote, for report.html's links.
@@ -309,17 +358,14 @@ void AddMapQuality(const BuildResult& result, json* report) {
     return;
   }
   const MapQuality& quality = *evaluation.map_quality;
-  (*report)["map_quality"] = {
-      {"groundtruth", evaluation.static_groundtruth},
-      {"aligned_by", result.tracked()
-                         ? "the ground-truth pose of the first tracked frame that has one"
-                         : "nothing: the poses are the ground truth"},
-      {"map_points", quality.map_points},
-      {"groundtruth_points", quality.groundtruth_points},
-      {"accuracy_mean_m", quality.accuracy_mean},
-      {"accuracy_median_m", quality.accuracy_median},
-      {"completeness", quality.completeness},
-      {"ghost_share", quality.ghost_share}};
+  (*report)["map_quality"] = {{"groundtruth", evaluation.static_groundtruth},
+                              {"aligned_by", AlignedBy(result.poses)},
+                              {"map_points", quality.map_points},
+                              {"groundtruth_points", quality.groundtruth_points},
+                              {"accuracy_mean_m", quality.accuracy_mean},
+                              {"accuracy_median_m", quality.accuracy_median},
+                              {"completeness", quality.completeness},
+                              {"ghost_share", quality.ghost_share}};
   if (!evaluation.grid_quality) return;
   const GridQuality& grid = *evaluation.grid_quality;
   (*report)["grid_quality"] = {
@@ -339,8 +385,9 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   json report;
   report["stillmap_version"] = STILLMAP_VERSION;
   report["sequence"] = result.sequence_dir;
-  report["poses"] = result.tracked() ? "tracking" : "groundtruth";
-  report["map_frame"] = MapFrameJson(result.map_frame, result.tracked());
+  report["poses"] = PoseSourceName(result.poses);
+  if (result.given_poses.given()) report["given_poses"] = GivenPosesJson(result.given_poses);
+  report["map_frame"] = MapFrameJson(result.map_frame, result.poses);
   report["command"] = result.command_line.empty() ? json(nullptr) : json(result.command_line);
   report["outputs"] = OutputsJson(result, config);
   report["camera"] = CameraJson(result.camera);
@@ -372,7 +419,7 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
   report["warnings"] = result.warnings;
   report["threads"] = result.threads;
   report["timing"] = RunTimingJson(result);
-  if (!result.tracked()) {
+  if (result.poses == PoseSource::kGroundTruth) {
     report["trajectory_error"] = nullptr;
     report["trajectory_error_note"] = result.evaluation.trajectory_note;
   } else {

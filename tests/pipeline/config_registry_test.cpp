@@ -217,6 +217,9 @@ class Perturber : public OptionVisitor<Perturber> {
   void operator()(const char* /*name*/, std::optional<Eigen::Vector4d>& v, const char* /*help*/) {
     v = Eigen::Vector4d(0.0, -0.1, 1.0 / 3.0, 0.5);
   }
+  void operator()(const char* /*name*/, std::array<double, 16>& v, const char* /*help*/) {
+    for (double& x : v) x = x / 3.0 + 0.1;
+  }
 };
 
 TEST(ConfigRegistryTest, ConfigYamlReadsBackToTheSameValueInEveryField) {

@@ -242,7 +242,7 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
         fmt::format("{} must be positive", OptionKey(options, options.max_pair_time_difference)));
   }
   std::unique_ptr<BagReader> reader = stillmap::OpenBag(path);
-  const BagContents contents = ScanBagContents(*reader);
+  BagContents contents = ScanBagContents(*reader);
   BagChoice choice;
   try {
     choice = ChooseBagStreams(contents,
@@ -313,6 +313,9 @@ Sequence Sequence::OpenBag(const std::string& path, const CameraOverrides& overr
   sequence.color_count_ = color.count;
   sequence.depth_count_ = depth.count;
   sequence.bag_ = std::move(frames);
+  auto poses = std::make_shared<RecordedPoses>(std::move(contents.poses));
+  poses->color_frame = color.frame_id;
+  sequence.recorded_poses_ = std::move(poses);
   if (!options.groundtruth.empty()) sequence.ReadGroundtruth(options.groundtruth);
   return sequence;
 }

@@ -151,6 +151,45 @@ void ScanCameraInfo(const BagMessage& message, BagSerialization serialization,
 
 // What the scan met beyond the images, in warnings: camera infos that change, a topic with two
 // types, messages of the RealSense description or /tf_static that do not decode.
+TransformSample SampleOf(const RosTransform& transform) {
+  TransformSample sample;
+  sample.parent = transform.parent;
+  sample.child = transform.child;
+  sample.stamp = transform.stamp;
+  sample.translation = {transform.translation[0], transform.translation[1],
+                        transform.translation[2]};
+  sample.rotation = {transform.rotation[3], transform.rotation[0], transform.rotation[1],
+                     transform.rotation[2]};
+  return sample;
+}
+
+// Keeps what a message of /tf, /tf_static or an odometry topic says of where frames are.
+void RecordPoses(const BagStream& stream, const BagMessage& message, BagSerialization serialization,
+                 RecordedPoses* poses) {
+  const bool tf_message = stream.type.find("TFMessage") != std::string::npos;
+  const bool is_tf = tf_message && (stream.name == "/tf" || stream.name == "tf");
+  const bool is_static = tf_message && (stream.name == "/tf_static" || stream.name == "tf_static");
+  const bool odometry = stream.type.find("Odometry") != std::string::npos;
+  if (!is_tf && !is_static && !odometry) return;
+  std::string error;
+  if (odometry) {
+    RosTransform pose;
+    if (DecodeRosOdometry(message.data, message.size, serialization, &pose, &error)) {
+      poses->odometry[stream.name].push_back(SampleOf(pose));
+    } else {
+      ++poses->undecoded[stream.name];
+    }
+    return;
+  }
+  std::vector<RosTransform> transforms;
+  if (!DecodeRosTfMessage(message.data, message.size, serialization, &transforms, &error)) {
+    ++poses->undecoded[stream.name];
+    return;
+  }
+  std::vector<TransformSample>& to = is_static ? poses->tf_static : poses->tf;
+  for (const RosTransform& transform : transforms) to.push_back(SampleOf(transform));
+}
+
 void WarnOfScan(const std::string& path, const std::map<size_t, double>& info_changed,
                 size_t undecoded_transforms, BagContents* contents) {
   for (const auto& [index, time] : info_changed) {
@@ -205,8 +244,14 @@ BagContents ScanBagContents(BagReader& bag) {
       double stamp = message.time;
       const std::string key = ImageKey(stream, message, bag.serialization(), &stamp);
       images[message.topic].Add(key, stamp, message.position);
+      RosHeader header;
+      if (stream.frame_id.empty() &&
+          DecodeRosHeader(message.data, message.size, bag.serialization(), &header, &error)) {
+        stream.frame_id = header.frame_id;
+      }
       return;
     }
+    RecordPoses(stream, message, bag.serialization(), &contents.poses);
     if (stream.kind == BagStreamKind::kOther && stream.name == "/tf_static" &&
         stream.type.find("TFMessage") != std::string::npos &&
         !DecodeRosTfMessage(message.data, message.size, bag.serialization(),

@@ -10,6 +10,7 @@
 #include "bag/realsense_layout.h"
 #include "bag/ros_messages.h"
 #include "stillmap/io/bag_reader.h"
+#include "stillmap/io/sequence.h"
 
 namespace stillmap {
 
@@ -18,6 +19,7 @@ enum class BagStreamKind { kOther, kImage, kCompressedImage, kCameraInfo };
 struct BagStream {
   std::string name, type;
   BagStreamKind kind = BagStreamKind::kOther;
+  std::string frame_id;       // images: their first message's header frame_id
   std::string detail;         // images: the encoding or compressed format most of its messages have
   int width = 0, height = 0;  // raw images: the size most of its messages have [px]
   size_t count = 0;           // images: the messages kept (those of `detail` and that size)
@@ -33,6 +35,7 @@ struct BagStream {
 struct BagContents {
   std::vector<BagStream> streams;               // per topic of the reader
   std::vector<RosTransform> static_transforms;  // every /tf_static message's
+  RecordedPoses poses;                          // /tf, /tf_static, odometry (issue 48)
   RealSenseDetails realsense;                   // a RealSense recorder bag's description
   bool truncated = false;
   std::vector<std::string> warnings;

@@ -187,8 +187,27 @@ bool DecodeRosTfMessage(const std::uint8_t* data, size_t size, BagSerialization 
       if (!cursor.F64(&value)) return Fail(error, "not a tf2_msgs/TFMessage (no rotation)");
     }
     transform.parent = header.frame_id;
+    transform.stamp = header.stamp;
     transforms->push_back(std::move(transform));
   }
+  return true;
+}
+
+bool DecodeRosOdometry(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                       RosTransform* pose, std::string* error) {
+  Cursor cursor(data, size, serialization);
+  RosHeader header;
+  if (!Header(cursor, serialization, &header) || !cursor.String(&pose->child)) {
+    return Fail(error, "not a nav_msgs/Odometry (its frames run past the message)");
+  }
+  for (double& value : pose->translation) {
+    if (!cursor.F64(&value)) return Fail(error, "not a nav_msgs/Odometry (no position)");
+  }
+  for (double& value : pose->rotation) {
+    if (!cursor.F64(&value)) return Fail(error, "not a nav_msgs/Odometry (no orientation)");
+  }
+  pose->parent = header.frame_id;
+  pose->stamp = header.stamp;
   return true;
 }
 

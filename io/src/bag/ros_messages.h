@@ -46,6 +46,7 @@ struct RosCameraInfo {
 
 // One geometry_msgs/TransformStamped of a tf2_msgs/TFMessage: the pose of `child` in `parent`.
 struct RosTransform {
+  double stamp = 0.0;  // [s] (its header's; 0 for a bare geometry_msgs/Transform)
   std::string parent, child;
   std::array<double, 3> translation{};  // [m]
   std::array<double, 4> rotation{};     // quaternion x, y, z, w
@@ -66,6 +67,11 @@ bool DecodeRosCameraInfo(const std::uint8_t* data, size_t size, BagSerialization
 // A tf2_msgs/TFMessage (what /tf_static carries): its transforms appended to *transforms.
 bool DecodeRosTfMessage(const std::uint8_t* data, size_t size, BagSerialization serialization,
                         std::vector<RosTransform>* transforms, std::string* error);
+
+// A nav_msgs/Odometry's pose: that of `child` (child_frame_id) in `parent` (the header's frame_id)
+// at `stamp`; the covariances and twist are not read.
+bool DecodeRosOdometry(const std::uint8_t* data, size_t size, BagSerialization serialization,
+                       RosTransform* pose, std::string* error);
 
 // geometry_msgs/Transform, std_msgs/Float32 and diagnostic_msgs/KeyValue: what the RealSense
 // recorder writes beside its images (extrinsics, options, device info).

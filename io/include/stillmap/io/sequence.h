@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -12,6 +13,7 @@
 #include "stillmap/io/camera.h"
 #include "stillmap/io/option_fields.h"
 #include "stillmap/io/trajectory.h"
+#include "stillmap/io/transform_tree.h"
 
 namespace stillmap {
 
@@ -92,6 +94,16 @@ struct Frame {
 
 class BagFrames;
 
+// What a bag recorded of where things were (issue 48): /tf, /tf_static and every
+// nav_msgs/Odometry topic, each message's transforms in bag order.
+struct RecordedPoses {
+  std::vector<TransformSample> tf, tf_static;
+  std::map<std::string, std::vector<TransformSample>> odometry;  // by topic
+  std::string color_frame;  // the colour images' header frame_id (their first message's)
+  // Messages of those topics that do not decode, by topic.
+  std::map<std::string, size_t> undecoded;
+};
+
 // True when `path` is a recorded bag: a file whose bytes start like one, or a ROS 2 bag folder
 // (bag_reader.h).
 bool IsBag(const std::string& path);
@@ -136,6 +148,8 @@ class Sequence {
   // What went wrong in reading it: a recording cut short ("truncated"), damaged parts skipped.
   const std::vector<std::string>& warnings() const { return warnings_; }
   bool is_bag() const { return bag_ != nullptr; }
+  // A bag's /tf, /tf_static and odometry (null for a folder).
+  const RecordedPoses* recorded_poses() const { return recorded_poses_.get(); }
 
  private:
   // Reads the ground truth at `path` (TUM format) with the camera's body transform.
@@ -152,6 +166,7 @@ class Sequence {
   std::string groundtruth_note_;
   std::vector<std::string> notes_, warnings_;
   std::shared_ptr<const BagFrames> bag_;  // a bag's frames (null for a folder)
+  std::shared_ptr<const RecordedPoses> recorded_poses_;
 };
 
 }  // namespace stillmap

@@ -14,6 +14,9 @@ struct StampedPose {
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
 };
 
+// The pose a share `s` (0..1) of the way from `a` to `b`: translation linear, rotation SLERP.
+Eigen::Isometry3d InterpolatePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s);
+
 // The poses alone (camera-to-world), in order.
 std::vector<Eigen::Isometry3d> WorldFromCameras(const std::vector<StampedPose>& poses);
 

@@ -3,6 +3,7 @@
 // header of its own so that the build's steps take it without depending on the controller.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "stillmap/pipeline/build_result.h"
@@ -21,7 +22,13 @@ struct BuildRequest {
   std::string command_line;    // as typed, for the report (empty: a library call)
 
   PoseSource poses() const {
-    return config.run.poses == "groundtruth" ? PoseSource::kGroundTruth : PoseSource::kTracking;
+    if (config.run.poses == "groundtruth") return PoseSource::kGroundTruth;
+    if (config.run.poses == "tracking" || config.poses.use == "prior") return PoseSource::kTracking;
+    return PoseSource::kGiven;
+  }
+  // Poses given as a file, tf:FRAME or odom:TOPIC (used as they are, or as the tracker's prior).
+  std::optional<GivenPoseSource> given_poses() const {
+    return ParseGivenPoseSource(config.run.poses, OptionKey(config, config.run.poses));
   }
   int threads() const { return config.run.threads; }
 };

@@ -22,6 +22,22 @@ namespace stillmap {
 enum class PoseSource {
   kGroundTruth,  // the sequence's groundtruth.txt, interpolated to each frame's time
   kTracking,     // the tracker of tracking/ (the default)
+  kGiven,  // given poses (a file, a bag's tf tree or odometry) used as they are (poses.use=map)
+};
+
+// Poses given from outside the build (--poses FILE|tf:FRAME|odom:TOPIC): where they came from,
+// how they were used, and the frames they had no pose for.
+struct GivenPoseFigures {
+  std::string source;       // run.poses as given; empty: none given
+  std::string use;          // poses.use: map or prior
+  std::string description;  // the file, or the chain of frames and the topics it came from
+  std::string world_frame;  // the poses' world
+  // Frames in the range used without a given pose: before the poses' span, after it, or across
+  // a gap wider than poses.max_gap_s; and how far the farthest lay outside the span [s].
+  size_t before = 0, after = 0, in_gaps = 0;
+  double before_s = 0.0, after_s = 0.0;
+  bool given() const { return !source.empty(); }
+  size_t without_pose() const { return before + after + in_gaps; }
 };
 
 struct FrameCounts {
@@ -124,7 +140,7 @@ struct StageTimings {
 
 // The frame of the 3-D outputs (MapFrameOptions) and the floor it was found from.
 struct MapFrameFigures {
-  std::string name;         // floor | camera | groundtruth
+  std::string name;         // floor | camera | groundtruth | poses
   std::string description;  // for the files' headers and the report
   // The outputs' frame in the frame the poses were computed in (the first tracked camera's, or
   // the ground truth's world with --poses groundtruth).
@@ -141,6 +157,7 @@ struct BuildResult {
   std::string command_line;  // BuildRequest::command_line
   std::string started_utc;   // ISO 8601, when the build started
   PoseSource poses = PoseSource::kTracking;
+  GivenPoseFigures given_poses;  // --poses FILE|tf:FRAME|odom:TOPIC
   Camera camera;
   int threads = 1;
   FrameCounts frames;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "stillmap/io/evaluation.h"
+#include "stillmap/io/given_poses.h"
 #include "stillmap/io/option_names.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/mapping/keyframe_selection.h"
@@ -24,7 +25,7 @@ namespace stillmap {
 // What the command line decides about a run, kept with the other keys so that config.yaml repeats
 // the run (`--config OUT/config.yaml`); --poses, --detector, --models and --threads override it.
 struct RunSettings {
-  std::string poses = "tracking";  // tracking | groundtruth
+  std::string poses = "tracking";  // tracking | groundtruth | FILE | tf:FRAME | odom:TOPIC
   std::string detector = "auto";
   std::string models;  // "" = $STILLMAP_MODELS, else ../shared/models when present
   int threads = 2;
@@ -33,7 +34,9 @@ struct RunSettings {
   template <typename Self, typename Visitor>
   static void VisitFields(Self& self, Visitor& visit) {
     visit("poses", self.poses,
-          "tracking, or groundtruth: map from the ground-truth poses (--poses)");
+          "tracking, groundtruth (the sequence's ground truth), a TUM trajectory file, tf:FRAME "
+          "(a bag's /tf tree from FRAME to the camera) or odom:TOPIC (a bag's odometry); "
+          "poses.use says how given poses are used (--poses)");
     visit("detector", self.detector,
           "auto, none, yolo-fastest, yolox, yolo-fastest+yolox, deeplab or both (--detector)");
     visit("models", self.models,
@@ -55,12 +58,14 @@ struct MapFrameOptions {
   static void VisitFields(Self& self, Visitor& visit) {
     visit("frame", self.frame,
           "floor (z up, floor at z = 0, origin under the first camera, x along its view), camera "
-          "(the first camera's optical frame) or groundtruth (groundtruth.txt's world)");
+          "(the first camera's optical frame), groundtruth (groundtruth.txt's world) or poses (the "
+          "world of the poses given by --poses FILE|tf:FRAME|odom:TOPIC)");
   }
 };
 
 struct BuildConfig {
   RunSettings run;
+  GivenPoseOptions poses;  // run.poses given as a file, tf:FRAME or odom:TOPIC
   MapFrameOptions map;
   CameraOverrides camera;
   SequenceOptions sequence;
@@ -99,6 +104,7 @@ struct BuildConfig {
   template <typename Self, typename Visitor>
   static void VisitFields(Self& self, Visitor& visit) {
     visit.Section("run", self.run);
+    visit.Section("poses", self.poses);
     visit.Section("map", self.map);
     visit("map.session_record", self.session_record,
           "write session.bin: the fused keyframes' poses, features and compact images, for "
