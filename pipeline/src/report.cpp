@@ -293,7 +293,7 @@ json ShareJson(std::vector<double> shares) {
           {"median", shares[shares.size() / 2]}};
 }
 
-json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options) {
+json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options) {
   const TrackerStatistics& t = tracking.statistics;
   return {{"frames", t.frames},
           {"tracked", t.tracked},
@@ -328,6 +328,13 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
           {"bundle_adjustment_observations_rejected", t.observations_rejected},
           {"depth_self_calibration", DepthCalibrationJson(t, options)},
           {"bundle_adjustment_thread", tracking.bundle_adjustment_thread}};
+}
+
+json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options) {
+  const TrackerStatistics& t = tracking.statistics;
+  json out = TrackerJson(tracking, options);
+  if (tracking.prior) out["carried_by_given_poses"] = t.carried;
+  return out;
 }
 
 void AddTrajectoryError(const EvaluationFigures& evaluation, const BuildConfig& config,

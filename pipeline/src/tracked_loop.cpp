@@ -15,7 +15,8 @@ void Record(const TrackResult& result, double time, TrackingFigures* figures) {
   figures->total_ms.push_back(result.timings.total_ms);
   ++figures->status_counts[TrackStatusName(result.status)];
   if (!result.tracked()) figures->lost_times.push_back(time);
-  if (result.status == TrackStatus::kOccluded || result.status == TrackStatus::kPredicted) {
+  if (result.status == TrackStatus::kOccluded || result.status == TrackStatus::kPredicted ||
+      result.status == TrackStatus::kCarried) {
     figures->flagged_times.push_back(time);
   }
   figures->static_depth_share.push_back(result.static_depth_share);
@@ -36,6 +37,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     PreparedFrame prepared = stages.reader.Get(k);
     Frame& frame = prepared.frame;
+    if (!inputs.prior_poses.empty()) tracker.SetPrior(inputs.prior_poses[k]);
     const cv::Mat mask = stages.masks.Compute(
         frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, tracker.PredictedPose());
     const TrackResult tracked =
@@ -66,6 +68,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
         OptionKey(&CameraOverrides::depth_factor)));
   }
   figures.statistics = tracker.statistics();
+  figures.prior = !inputs.prior_poses.empty();
   figures.fuse_ms = fuser.fuse_ms();
   figures.refuse_ms = fuser.refuse_ms();
   figures.refused_keyframes_moved = moved;

@@ -266,7 +266,7 @@ TEST(ConfigRegistryTest, ValidationMessagesNameKeysThatExist) {
   std::set<std::string> keys;
   for (const ConfigKeyInfo& key : ListConfigKeys()) keys.insert(key.name);
   const std::regex key_pattern(
-      "\\b(run|map|camera|sequence|mapping|octomap|tracking|masking|keyframes|"
+      "\\b(run|poses|map|camera|sequence|mapping|octomap|tracking|masking|keyframes|"
       "grid|mesh|render|detector|eval|merge)\\.[a-z0-9_]+");
   size_t refused = 0;
   for (const std::string& key : keys) {

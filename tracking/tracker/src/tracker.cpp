@@ -26,6 +26,8 @@ const char* TrackStatusName(TrackStatus status) {
       return "occluded";
     case TrackStatus::kPredicted:
       return "predicted";
+    case TrackStatus::kCarried:
+      return "carried";
     case TrackStatus::kLost:
       return "lost";
   }
@@ -111,21 +113,19 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
 
   if (!have_map) {
     TrackWithoutMap(frame, with_depth, frame_index, time, lock, &result);
+    next_prior.reset();
     result.timings.total_ms = MillisecondsSince(start);
     return result;
   }
 
-  // Constant-velocity prediction, then projection search (a wider one when it finds little).
+  // The prior's or constant-velocity prediction, then projection search (a wider one when it
+  // finds little).
   Clock::time_point stage = Clock::now();
   const Eigen::Isometry3d last = have_last ? last_camera_from_world : last_good_camera_from_world;
-  const Eigen::Isometry3d predicted = have_velocity ? velocity * last : last;
+  Eigen::Isometry3d predicted = Predict(last);
   const LocalSet local = CollectLocalLandmarks();
   Association association(frame.size());
-  SearchByProjection(predicted, local, options.matching.search_radius_px, frame, &association);
-  if (association.count() < options.matching.min_matches) {
-    SearchByProjection(predicted, local, options.matching.wide_search_radius_px, frame,
-                       &association);
-  }
+  SearchAroundPredictions(&predicted, local, frame, &association);
   result.timings.match_ms = MillisecondsSince(stage);
 
   stage = Clock::now();
@@ -145,6 +145,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   } else {
     TrackWithoutPose(predicted, frame, with_depth, frame_index, time, lock, &result);
   }
+  next_prior.reset();
   result.timings.keyframe_ms = MillisecondsSince(stage);
   result.timings.total_ms = MillisecondsSince(start);
   return result;
@@ -210,6 +211,12 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameDa
                                      int with_depth, size_t frame_index, double time,
                                      std::unique_lock<std::mutex>& lock, TrackResult* result) {
   const bool occluded = result->static_depth_share < options.relocalization.min_static_depth_share;
+  if (HasPriorMotion()) {  // the given poses carry the frame where vision failed
+    ++stats.carried;
+    result->status = TrackStatus::kCarried;
+    Accept(PriorPrediction(), time, {}, result);
+    return;
+  }
   if (occluded && have_last &&
       consecutive_predicted < options.relocalization.max_predicted_frames) {
     // Nothing to track behind the occluder: the motion model carries the pose through.
@@ -280,6 +287,7 @@ void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double ti
   last_camera_from_world = camera_from_world;
   have_good = true;
   last_good_camera_from_world = camera_from_world;
+  last_good_prior = next_prior;
   last_good_time = time;
   consecutive_lost = 0;
   last_frame_landmarks.clear();
@@ -310,11 +318,17 @@ TrackResult Tracker::Track(size_t frame_index, double time, const cv::Mat& gray,
 
 std::optional<Eigen::Isometry3d> Tracker::PredictedPose() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
-  if (!impl_->have_map || !impl_->have_last) return std::nullopt;
-  const Eigen::Isometry3d predicted = impl_->have_velocity
-                                          ? impl_->velocity * impl_->last_camera_from_world
-                                          : impl_->last_camera_from_world;
-  return predicted.inverse();
+  if (!impl_->have_map) return std::nullopt;
+  if (!impl_->have_last) {
+    if (!impl_->HasPriorMotion()) return std::nullopt;
+    return impl_->PriorPrediction().inverse();
+  }
+  return impl_->Predict(impl_->last_camera_from_world).inverse();
+}
+
+void Tracker::SetPrior(const std::optional<Eigen::Isometry3d>& given_world_from_camera) {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->next_prior = given_world_from_camera;
 }
 
 std::vector<FinalKeyframe> Tracker::TakeFinalKeyframes() {

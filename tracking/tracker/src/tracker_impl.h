@@ -206,6 +206,17 @@ struct Tracker::Impl {
   void TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameData& frame, int with_depth,
                         size_t frame_index, double time, std::unique_lock<std::mutex>& lock,
                         TrackResult* result);
+  // The next frame's predicted camera_from_world: constant velocity from `last`, else the
+  // prior's motion since the last posed frame (tracker_prior.cpp).
+  Eigen::Isometry3d Predict(const Eigen::Isometry3d& last) const;
+  // The prior's motion since the last posed frame applied to that frame's pose (needs
+  // HasPriorMotion: this frame and the last posed one both have a prior).
+  Eigen::Isometry3d PriorPrediction() const;
+  bool HasPriorMotion() const { return next_prior && last_good_prior; }
+  // Projection search around *predicted; when it finds fewer than min_matches, around the
+  // prior's prediction (which becomes *predicted when it finds more), then wider.
+  void SearchAroundPredictions(Eigen::Isometry3d* predicted, const LocalSet& local,
+                               const FrameData& frame, Association* association);
   // Visible / found counts for landmark culling.
   void CountVisibility(const Eigen::Isometry3d& camera_from_world, const LocalSet& local,
                        const Association& association);
@@ -410,6 +421,8 @@ struct Tracker::Impl {
   Eigen::Isometry3d last_good_camera_from_world = Eigen::Isometry3d::Identity();
   int consecutive_lost = 0;
   int consecutive_predicted = 0;  // frames posed by the motion model in a row
+  // Given poses (Tracker::SetPrior): the next frame's, and the last posed frame's.
+  std::optional<Eigen::Isometry3d> next_prior, last_good_prior;
   double last_good_time = 0.0;
   int frames_since_keyframe = 0;
   std::vector<int> last_frame_landmarks;

@@ -60,7 +60,9 @@ struct TrackingFigures {
   TrackerStatistics statistics;
   std::map<std::string, size_t> status_counts;  // TrackStatusName -> frames
   std::vector<double> lost_times;               // frames without a pose [s]
-  // Frames posed with too little static depth (occluded, predicted by the motion model) [s].
+  bool prior = false;  // given poses were the tracker's prior (poses.use=prior)
+  // Frames posed with too little static depth (occluded, predicted by the motion model) or
+  // carried by the prior where vision failed [s].
   std::vector<double> flagged_times;
   std::vector<double> static_depth_share;  // per frame (TrackResult::static_depth_share)
   std::vector<double> extract_ms, match_ms, pose_ms, keyframe_ms, total_ms;  // per frame

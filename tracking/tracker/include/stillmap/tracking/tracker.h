@@ -36,6 +36,7 @@ enum class TrackStatus {
   kNewMap,       // a new local map chained to the last good pose
   kOccluded,     // too little static depth: posed from what remains, no keyframe
   kPredicted,    // too little static depth and nothing to track: the motion model's pose
+  kCarried,      // vision failed: the given poses' motion carried the pose (SetPrior)
   kLost,         // no pose: nothing is written for this frame
 };
 const char* TrackStatusName(TrackStatus status);
@@ -83,6 +84,7 @@ struct TrackerStatistics {
   size_t relocalized = 0;
   size_t new_maps = 0;                 // local maps started after the first
   size_t occluded = 0, predicted = 0;  // frames with too little static depth (TrackStatus)
+  size_t carried = 0;                  // frames the given poses carried (TrackStatus::kCarried)
   size_t relocalizations_refused = 0;  // too far from the last good pose
   size_t keyframes = 0;
   size_t keyframes_culled = 0;  // keyframes culled when final: their view was covered
@@ -134,8 +136,17 @@ class Tracker {
   TrackResult Track(size_t frame_index, double time, const cv::Mat& gray, const cv::Mat& depth_m,
                     const cv::Mat& ignore_mask = cv::Mat());
 
-  // The constant-velocity prediction of the next frame's pose (camera-to-world), or nothing when
-  // there is no map yet or the last frame was lost.
+  // A prior for the next frame (poses.use=prior): its pose from outside (a robot's odometry,
+  // world_from_camera in that source's own world), or nothing when it has none. Only its motion
+  // since the last posed frame is used: the next frame is predicted by it instead of by constant
+  // velocity, and where vision fails that prediction is the frame's pose (kCarried), so that no
+  // frame is lost and no new local map begins while the prior lasts. Call before PredictedPose
+  // and Track; Track takes it.
+  void SetPrior(const std::optional<Eigen::Isometry3d>& given_world_from_camera);
+
+  // The prediction of the next frame's pose (camera-to-world): the prior's motion when there is
+  // one, else constant velocity; nothing when there is no map yet or the last frame was lost
+  // (and no prior carries it).
   std::optional<Eigen::Isometry3d> PredictedPose() const;
 
   // Keyframes whose pose became final since the last call, oldest first.
