@@ -82,6 +82,12 @@ void GivenPoseOptions::Validate() const {
   if (!(max_gap_s > 0.0)) {
     throw InputError(fmt::format("{} must be positive", OptionKey(*this, max_gap_s)));
   }
+  if (!(keyframe_distance_m >= 0.0) ||
+      !(keyframe_angle_deg >= 0.0 && keyframe_angle_deg <= 180.0)) {
+    throw InputError(fmt::format("{} must be >= 0 and {} in [0, 180]",
+                                 OptionKey(*this, keyframe_distance_m),
+                                 OptionKey(*this, keyframe_angle_deg)));
+  }
   Eigen::Matrix4d m;
   for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = body_from_camera[static_cast<size_t>(i)];
   const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();

@@ -133,6 +133,10 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
                    depth.min_depth,
                    depth.max_depth};
   options.groundtruth_reference_interval = config.groundtruth_reference_interval;
+  if (options.poses == PoseSource::kGiven) {
+    options.keyframe_distance_m = config.poses.keyframe_distance_m;
+    options.keyframe_angle_deg = config.poses.keyframe_angle_deg;
+  }
   options.flow = config.masking_enabled && config.masking.TracksFlow();
   options.read_ahead = request.threads() > 1;
   options.show_progress = request.show_progress;

@@ -1,21 +1,45 @@
+#include <cmath>
+
 #include "pose_loops.h"
 
 namespace stillmap {
+namespace {
 
-PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, int reference_interval,
+// The camera moved or turned enough since `last` to fuse the frame at `pose`.
+bool FarEnough(const Eigen::Isometry3d& last, const Eigen::Isometry3d& pose,
+               const LoopOptions& options) {
+  const Eigen::Isometry3d motion = last.inverse() * pose;
+  const double angle_deg = Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;
+  return motion.translation().norm() >= options.keyframe_distance_m ||
+         angle_deg >= options.keyframe_angle_deg;
+}
+
+}  // namespace
+
+PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& options,
                                LoopStages stages) {
-  const auto reference_every = static_cast<size_t>(reference_interval);
+  const auto reference_every = static_cast<size_t>(options.groundtruth_reference_interval);
+  const bool every_frame = options.keyframe_distance_m <= 0.0 && options.keyframe_angle_deg <= 0.0;
+  std::vector<StampedPose> fused;
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     const PreparedFrame prepared = stages.reader.Get(k);
     const Frame& frame = prepared.frame;
     const Eigen::Isometry3d& pose = inputs.known_poses[k].world_from_camera;
-    const cv::Mat mask =
-        stages.masks.Compute(frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, pose);
-    if (k % reference_every == 0) stages.masks.AddReference(frame, mask, pose, -1);
-    stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
+    const bool fuse =
+        every_frame || fused.empty() || FarEnough(fused.back().world_from_camera, pose, options);
+    const bool reference = k % reference_every == 0;
+    if (fuse || reference) {  // a frame neither fused nor a reference is not masked
+      const cv::Mat mask = stages.masks.Compute(frame, prepared.gray,
+                                                prepared.flow ? &*prepared.flow : nullptr, pose);
+      if (reference) stages.masks.AddReference(frame, mask, pose, -1);
+      if (fuse) {
+        stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
+        fused.push_back(inputs.known_poses[k]);
+      }
+    }
     stages.progress.Update(k + 1);
   }
-  return {Trajectory(inputs.known_poses), inputs.known_poses, {}, 0.0};
+  return {Trajectory(inputs.known_poses), std::move(fused), {}, 0.0};
 }
 
 }  // namespace stillmap

@@ -15,7 +15,7 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
   const LoopStages stages{reader, masks, mapper, progress};
   result.posed = options.poses == PoseSource::kTracking
                      ? RunTrackedLoop(inputs, options, stages, &result)
-                     : RunGroundTruthLoop(inputs, options.groundtruth_reference_interval, stages);
+                     : RunGroundTruthLoop(inputs, options, stages);
   progress.Finish();
   result.reader_cpu_ms = reader.ahead_cpu_ms();
   result.load_wait_ms = reader.wait_ms();

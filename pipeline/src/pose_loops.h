@@ -31,6 +31,9 @@ struct LoopOptions {
   // With ground-truth poses every n-th frame is a depth-check reference
   // (masking.groundtruth_reference_interval).
   int groundtruth_reference_interval = 5;
+  // Given poses used as they are: a frame is fused when the camera moved or turned this much
+  // since the last one fused (poses.keyframe_*; 0 and 0: every frame, as with the ground truth).
+  double keyframe_distance_m = 0.0, keyframe_angle_deg = 0.0;
   bool flow = false;       // the flow check's corners are tracked ahead with the decoding
   bool read_ahead = true;  // frames decoded on another thread (run.threads > 1)
   bool show_progress = false;
@@ -62,9 +65,10 @@ struct LoopStages {
   ProgressLine& progress;
 };
 
-// With the ground truth's poses: every frame is fused; every n-th one becomes a depth-check
-// reference.
-PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, int reference_interval,
+// With known poses (the ground truth's, or given ones used as they are): every frame is masked,
+// every n-th one becomes a depth-check reference, and every frame is fused (or, with a keyframe
+// distance or angle, those the camera reached by moving or turning that much since the last).
+PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& options,
                                LoopStages stages);
 
 // With tracked poses: keyframes are fused once their pose is final (they left the bundle

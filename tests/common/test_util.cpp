@@ -58,6 +58,14 @@ std::optional<std::string> SharedBag(const std::string& name) {
   return path.string();
 }
 
+std::optional<std::string> SharedTool(const std::string& name) {
+  const char* env = std::getenv("STILLMAP_DATA");
+  const fs::path root = env != nullptr ? fs::path(env) : fs::path(STILLMAP_SHARED_DATA);
+  const fs::path path = root / ".." / "tools" / name;
+  if (!fs::exists(path)) return std::nullopt;
+  return path.string();
+}
+
 std::optional<std::string> SharedModels(const std::string& name) {
   const char* env = std::getenv("STILLMAP_MODELS");
   const fs::path root =

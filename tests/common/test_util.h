@@ -36,6 +36,8 @@ class TempDir {
 std::optional<std::string> SharedSequence(const std::string& name);
 // A recorded bag of the shared data's bags/ folder, or nullopt when absent.
 std::optional<std::string> SharedBag(const std::string& name);
+// A tool of the shared folder (tools/NAME beside data/, e.g. make-bags), or nullopt when absent.
+std::optional<std::string> SharedTool(const std::string& name);
 
 // An analytic scene: the plane n . X = d (world frame), textured by a checkerboard.
 struct PlaneScene {

@@ -25,6 +25,10 @@ struct GivenPoseOptions {
   std::array<double, 16> body_from_camera = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   // A pose is interpolated between two samples at most this far apart [s].
   double max_gap_s = 0.2;
+  // With poses.use=map a frame is fused when the camera moved or turned this much since the last
+  // frame fused (0 and 0: every frame, as with ground-truth poses) [m], [deg].
+  double keyframe_distance_m = 0.02;
+  double keyframe_angle_deg = 2.0;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -36,6 +40,11 @@ struct GivenPoseOptions {
           "the camera's pose in the body frame of a trajectory file (16 numbers, row-major 4x4)");
     visit("max_gap_s", self.max_gap_s,
           "widest gap between two given poses that a frame's pose is interpolated across [s]");
+    visit("keyframe_distance_m", self.keyframe_distance_m,
+          "poses.use=map: a frame is fused when the camera moved this far since the last one "
+          "fused [m] (0 with keyframe_angle_deg 0: every frame)");
+    visit("keyframe_angle_deg", self.keyframe_angle_deg,
+          "poses.use=map: ... or turned this far [deg]");
   }
   // Throws InputError naming the key for a value out of range.
   void Validate() const;
