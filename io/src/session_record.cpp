@@ -84,19 +84,21 @@ json HeaderJson(const SessionRecord& record, const std::vector<SessionKeyframeBl
                          {"depth_png_bytes", block.depth_png.size()},
                          {"color_jpeg_bytes", block.color_jpeg.size()}});
   }
-  return {{"camera", CameraJson(record.camera)},
-          {"map_frame",
-           {{"name", frame.name},
-            {"description", frame.description},
-            {"floor_up", {frame.floor_up.x(), frame.floor_up.y(), frame.floor_up.z()}},
-            {"floor_offset", frame.floor_offset},
-            {"floor_found", frame.floor_found},
-            {"floor_source", frame.floor_source},
-            {"map_from_floor", MatrixJson(frame.map_from_floor)}}},
-          {"depth_unit_m", record.depth_unit_m},
-          {"sequence", record.sequence},
-          {"stillmap_version", record.stillmap_version},
-          {"keyframes", keyframes}};
+  json header = {{"camera", CameraJson(record.camera)},
+                 {"map_frame",
+                  {{"name", frame.name},
+                   {"description", frame.description},
+                   {"floor_up", {frame.floor_up.x(), frame.floor_up.y(), frame.floor_up.z()}},
+                   {"floor_offset", frame.floor_offset},
+                   {"floor_found", frame.floor_found},
+                   {"floor_source", frame.floor_source},
+                   {"map_from_floor", MatrixJson(frame.map_from_floor)}}},
+                 {"depth_unit_m", record.depth_unit_m},
+                 {"sequence", record.sequence},
+                 {"stillmap_version", record.stillmap_version},
+                 {"keyframes", keyframes}};
+  if (!record.poses.empty()) header["poses"] = record.poses;
+  return header;
 }
 
 void AppendFeatures(const std::vector<SessionFeature>& features, std::vector<unsigned char>* out) {
@@ -244,6 +246,7 @@ SessionRecord ParseRecord(const json& header, std::uint64_t offset, std::uint64_
   if (!(record.depth_unit_m > 0.0)) read.Fail("'depth_unit_m' is not positive");
   record.sequence = read.Value<std::string>(header, "sequence");
   record.stillmap_version = read.Value<std::string>(header, "stillmap_version");
+  if (header.contains("poses")) record.poses = read.Value<std::string>(header, "poses");
   const json keyframes = read.Value<json>(header, "keyframes");
   if (!keyframes.is_array()) read.Fail("'keyframes' is not a list");
   auto block = [&](const json& entry, const char* key, std::uint64_t* at, std::uint64_t* size) {

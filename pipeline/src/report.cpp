@@ -465,6 +465,15 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
       "outputs in {}",
       result.frames.tracked, result.frames.pairs_used, result.frames.fused,
       result.map.voxels_written, result.frames_per_second, result.peak_memory_mib, output_dir));
+  const GivenPoseFigures& given = result.given_poses;
+  if (given.given()) {
+    const size_t carried = result.tracking ? result.tracking->statistics.carried : 0;
+    lines.push_back(fmt::format(
+        "poses: {}, {}; {} frames without a given pose", given.description,
+        given.use == "prior" ? fmt::format("the tracker's prior ({} frames carried)", carried)
+                             : std::string("the map's poses"),
+        given.without_pose()));
+  }
   if (result.AteRmse()) {
     lines.push_back(
         fmt::format("trajectory vs ground truth: ATE RMSE {:.1f} mm (report.json has RPE)",

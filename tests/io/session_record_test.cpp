@@ -67,6 +67,7 @@ SessionRecord TestRecord() {
   record.depth_unit_m = 0.001;
   record.sequence = "/data/room";
   record.stillmap_version = "1.2.3";
+  record.poses = "tf:odom, the tracker's prior";
   record.map_frame.name = "floor";
   record.map_frame.description = "floor frame";
   record.map_frame.floor_up = Eigen::Vector3d(0.0, 0.6, 0.8);
@@ -129,6 +130,7 @@ TEST_F(SessionRecordTest, WhatIsWrittenReadsBack) {
       *expected.camera.groundtruth_body_from_camera));
   EXPECT_EQ(record.sequence, "/data/room");
   EXPECT_EQ(record.stillmap_version, "1.2.3");
+  EXPECT_EQ(record.poses, "tf:odom, the tracker's prior");
   EXPECT_EQ(record.depth_unit_m, 0.001);
   EXPECT_EQ(record.map_frame.name, "floor");
   EXPECT_TRUE(record.map_frame.floor_up.isApprox(expected.map_frame.floor_up));

@@ -70,6 +70,9 @@ struct SessionRecord {
   double depth_unit_m = 0.0;  // the depth PNGs' step [m]
   std::string sequence;       // the recording the build read
   std::string stillmap_version;
+  // Where the build's poses came from besides its own tracking ("tf:odom, the tracker's prior");
+  // empty for a build that tracked alone (the key is then left out of the header).
+  std::string poses;
   std::vector<SessionKeyframe> keyframes;  // in time order
 };
 
