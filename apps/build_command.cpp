@@ -56,15 +56,18 @@ void BuildCommand::Add(CLI::App& app) {
 }
 
 void BuildCommand::AddRunOptions() {
-  command->add_option("--poses", poses,
-                      "where the camera poses come from: tracking (the default), groundtruth (the "
-                      "sequence's ground truth), FILE.txt (a TUM trajectory, world_from_body, with "
-                      "poses.body_from_camera), tf:FRAME (a bag's /tf and /tf_static, from FRAME, "
-                      "e.g. odom or map, to the colour image's frame_id) or odom:TOPIC (a bag's "
-                      "nav_msgs/Odometry, joined to the camera through /tf_static). Given poses "
-                      "are used as they are (poses.use=map: no visual tracking) or as the "
-                      "tracker's prior (poses.use=prior); map.frame=poses puts the outputs in "
-                      "their world");
+  const std::string use = stillmap::OptionKey(&stillmap::GivenPoseOptions::use);
+  command->add_option(
+      "--poses", poses,
+      fmt::format("where the camera poses come from: tracking (the default), groundtruth (the "
+                  "sequence's ground truth), FILE.txt (a TUM trajectory, world_from_body, with "
+                  "{}), tf:FRAME (a bag's /tf and /tf_static, from FRAME, e.g. odom or map, to "
+                  "the colour image's frame_id) or odom:TOPIC (a bag's nav_msgs/Odometry, joined "
+                  "to the camera through /tf_static). Given poses are used as they are ({}=map: "
+                  "no visual tracking) or as the tracker's prior ({}=prior); {}=poses puts the "
+                  "outputs in their world",
+                  stillmap::OptionKey(&stillmap::GivenPoseOptions::body_from_camera), use, use,
+                  stillmap::OptionKey(&stillmap::MapFrameOptions::frame)));
   command
       ->add_option("--detector", detector,
                    "semantic prior for dynamic rejection: auto (the default: "

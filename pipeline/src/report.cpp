@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "report_parts.h"
+#include "report_poses.h"
 #include "report_timing.h"
 #include "stillmap/io/option_names.h"
 #include "stillmap/pipeline/build_request.h"
@@ -165,66 +166,6 @@ json FloorJson(const FloorPlane& floor) {
 }
 
 namespace {
-
-const char* PoseSourceName(PoseSource poses) {
-  switch (poses) {
-    case PoseSource::kTracking:
-      return "tracking";
-    case PoseSource::kGroundTruth:
-      return "groundtruth";
-    case PoseSource::kGiven:
-      return "given";
-  }
-  return "";
-}
-
-// How the map was put in the ground truth's frame for its quality figures.
-const char* AlignedBy(PoseSource poses) {
-  switch (poses) {
-    case PoseSource::kTracking:
-      return "the ground-truth pose of the first tracked frame that has one";
-    case PoseSource::kGroundTruth:
-      return "nothing: the poses are the ground truth";
-    case PoseSource::kGiven:
-      return "the ground-truth pose of the first frame with a given pose that has one";
-  }
-  return "";
-}
-
-const char* PosesFrame(PoseSource poses) {
-  switch (poses) {
-    case PoseSource::kTracking:
-      return "the first tracked camera's frame";
-    case PoseSource::kGroundTruth:
-      return "the ground truth's world frame";
-    case PoseSource::kGiven:
-      return "the given poses' world frame";
-  }
-  return "";
-}
-
-json MapFrameJson(const MapFrameFigures& frame, PoseSource poses) {
-  return {{"name", frame.name},
-          {"description", frame.description},
-          {"files", "map.ply, map.pcd, map.bt, map.ot, the mesh, trajectory.txt, keyframes.txt"},
-          {"floor_found", frame.floor_found},
-          {"floor", FloorJson(frame.floor)},
-          {"poses_frame", PosesFrame(poses)},
-          {"poses_from_map", RowMajor(frame.poses_from_map)}};
-}
-
-json GivenPosesJson(const GivenPoseFigures& given) {
-  return {{"source", given.source},
-          {"use", given.use},
-          {"from", given.description},
-          {"world_frame", given.world_frame},
-          {"frames_without_pose",
-           {{"before_the_poses", given.before},
-            {"before_by_up_to_s", given.before_s},
-            {"after_the_poses", given.after},
-            {"after_by_up_to_s", given.after_s},
-            {"across_gaps", given.in_gaps}}}};
-}
 
 // The files the build wrote, for report.html's links.
 json OutputsJson(const BuildResult& result, const BuildConfig& config) {
