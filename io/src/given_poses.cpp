@@ -73,6 +73,12 @@ const std::vector<TransformSample>& OdometryOf(const RecordedPoses& recorded,
       source.text, path, source.value, topics.empty() ? "none" : topics));
 }
 
+Eigen::Matrix4d RowMajorMatrix(const std::array<double, 16>& values) {
+  Eigen::Matrix4d m;
+  for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = values[static_cast<size_t>(i)];
+  return m;
+}
+
 }  // namespace
 
 void GivenPoseOptions::Validate() const {
@@ -88,8 +94,7 @@ void GivenPoseOptions::Validate() const {
                                  OptionKey(*this, keyframe_distance_m),
                                  OptionKey(*this, keyframe_angle_deg)));
   }
-  Eigen::Matrix4d m;
-  for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = body_from_camera[static_cast<size_t>(i)];
+  const Eigen::Matrix4d m = RowMajorMatrix(body_from_camera);
   const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
   if (!m.allFinite() || (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() > 1e-3 ||
       r.determinant() < 0.0 || m.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) {
@@ -100,8 +105,7 @@ void GivenPoseOptions::Validate() const {
 }
 
 Eigen::Isometry3d GivenPoseOptions::BodyFromCamera() const {
-  Eigen::Matrix4d m;
-  for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = body_from_camera[static_cast<size_t>(i)];
+  const Eigen::Matrix4d m = RowMajorMatrix(body_from_camera);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() =
       Eigen::Quaterniond(Eigen::Matrix3d(m.topLeftCorner<3, 3>())).normalized().toRotationMatrix();
