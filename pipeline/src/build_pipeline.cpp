@@ -136,6 +136,7 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
   if (options.poses == PoseSource::kGiven) {
     options.keyframe_distance_m = config.poses.keyframe_distance_m;
     options.keyframe_angle_deg = config.poses.keyframe_angle_deg;
+    options.given_session = config.session_record;
   }
   options.flow = config.masking_enabled && config.masking.TracksFlow();
   options.read_ahead = request.threads() > 1;

@@ -1,5 +1,6 @@
 #include <cmath>
 
+#include "given_session.h"
 #include "pose_loops.h"
 
 namespace stillmap {
@@ -21,6 +22,10 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& opt
   const auto reference_every = static_cast<size_t>(options.groundtruth_reference_interval);
   const bool every_frame = options.keyframe_distance_m <= 0.0 && options.keyframe_angle_deg <= 0.0;
   std::vector<StampedPose> fused;
+  std::optional<GivenSessionKeeper> session;
+  if (options.given_session) {
+    session.emplace(inputs.camera, options.tracking.features, options.fuser.max_depth_m);
+  }
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     const PreparedFrame prepared = stages.reader.Get(k);
     const Frame& frame = prepared.frame;
@@ -35,11 +40,14 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& opt
       if (fuse) {
         stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
         fused.push_back(inputs.known_poses[k]);
+        if (session) session->Offer(frame, prepared.gray, mask, pose);
       }
     }
     stages.progress.Update(k + 1);
   }
-  return {Trajectory(inputs.known_poses), std::move(fused), {}, 0.0};
+  if (!session) return {Trajectory(inputs.known_poses), std::move(fused), {}, 0.0};
+  return {Trajectory(inputs.known_poses), std::move(fused), session->Take(),
+          session->depth_unit_m()};
 }
 
 }  // namespace stillmap

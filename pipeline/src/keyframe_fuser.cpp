@@ -9,9 +9,7 @@
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
-namespace {
 
-// A keyframe's features as the session record keeps them.
 std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features) {
   std::vector<SessionFeature> out(features.size());
   for (size_t i = 0; i < features.size(); ++i) {
@@ -27,8 +25,6 @@ std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features) {
   }
   return out;
 }
-
-}  // namespace
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
                              const MaskStage& masks, Mapper* mapper)

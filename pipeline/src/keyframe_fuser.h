@@ -20,6 +20,9 @@
 
 namespace stillmap {
 
+// A keyframe's features as the session record keeps them.
+std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features);
+
 // What the fuser reads of the build's configuration.
 struct FuserOptions {
   bool keep_for_refusion = true;  // tracking.loop_closure: fused keyframes may move

@@ -19,7 +19,10 @@ void WriteSessionFile(std::vector<SessionKeyframeBlocks> keyframes, double depth
   const std::filesystem::path absolute = std::filesystem::absolute(sequence, error);
   record.sequence = error ? sequence : absolute.lexically_normal().string();
   record.stillmap_version = STILLMAP_VERSION;
-  if (inputs.given) record.poses = inputs.given->source().text + ", the tracker's prior";
+  if (inputs.given) {
+    record.poses = inputs.given->source().text +
+                   (inputs.known_poses.empty() ? ", the tracker's prior" : ", the map's poses");
+  }
   SessionMapFrame& out = record.map_frame;
   out.name = frame.name;
   out.description = frame.description;

@@ -174,6 +174,29 @@ TEST_F(GivenPosesTest, WrongFramesTopicsAndStampsAreRefusedWithWhatTheBagHolds) 
       << output;
 }
 
+TEST_F(GivenPosesTest, AMapFromGivenPosesMergesWithATrackedOneLikeAnyOther) {
+  testing::TempDir work;
+  std::string output;
+  const std::string bag = *dir_ / "teddy.db3";
+  ASSERT_EQ(Build(bag, work / "given", "--poses odom:/odom", &output), 0) << output;
+  ASSERT_EQ(Build(bag, work / "tracked", "", &output), 0) << output;
+  ASSERT_TRUE(fs::exists(work / "given/session.bin"));
+  ASSERT_EQ(testing::RunStillmap("merge " + work / "given" + " " + work / "tracked" + " -o " +
+                                     work / "merged" + " --quiet",
+                                 &output),
+            0)
+      << output;
+  const nlohmann::json merged = Report(work / "merged");
+  ASSERT_EQ(merged["sessions"].size(), 2u);
+  for (const nlohmann::json& session : merged["sessions"]) {
+    EXPECT_TRUE(session["joined"].get<bool>()) << session["name"];
+    EXPECT_GE(session["keyframes"].get<int>(), 3) << session["name"];
+  }
+  EXPECT_NE(testing::ReadText(work / "given/session.bin")
+                .find("\"poses\":\"odom:/odom, the map's poses\""),
+            std::string::npos);
+}
+
 // Overwrites the rotation of the first `count` poses of base_link in a ROS 1 bag (/tf and /odom
 // alike: the frame name, then its pose) with NaN.
 void BreakTransforms(const std::string& path, int count) {
