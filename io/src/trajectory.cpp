@@ -111,6 +111,16 @@ std::optional<Eigen::Isometry3d> Trajectory::Interpolate(double time, double max
                          (time - a.time) / (b.time - a.time));
 }
 
+double RotationAngleDeg(const Eigen::Isometry3d& motion) {
+  return Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;
+}
+
+bool MovedOrTurned(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double distance_m,
+                   double angle_deg) {
+  const Eigen::Isometry3d motion = from.inverse() * to;
+  return motion.translation().norm() >= distance_m || RotationAngleDeg(motion) >= angle_deg;
+}
+
 Eigen::Isometry3d InterpolatePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b,
                                   double s) {
   const Eigen::Quaterniond qa(a.rotation());

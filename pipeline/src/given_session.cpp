@@ -1,9 +1,9 @@
 #include "given_session.h"
 
-#include <cmath>
 #include <opencv2/imgcodecs.hpp>
 
 #include "keyframe_fuser.h"
+#include "stillmap/io/trajectory.h"
 
 namespace stillmap {
 namespace {
@@ -20,11 +20,9 @@ GivenSessionKeeper::GivenSessionKeeper(const Camera& camera, const FeatureOption
 
 void GivenSessionKeeper::Offer(const Frame& frame, const cv::Mat& gray, const cv::Mat& mask,
                                const Eigen::Isometry3d& world_from_camera) {
-  if (!kept_.empty()) {
-    const Eigen::Isometry3d motion =
-        kept_.back().keyframe.map_from_camera.inverse() * world_from_camera;
-    const double angle_deg = Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;
-    if (motion.translation().norm() < kSessionDistanceM && angle_deg < kSessionAngleDeg) return;
+  if (!kept_.empty() && !MovedOrTurned(kept_.back().keyframe.map_from_camera, world_from_camera,
+                                       kSessionDistanceM, kSessionAngleDeg)) {
+    return;
   }
   SessionKeyframeBlocks blocks;
   blocks.keyframe.id = static_cast<int>(kept_.size());

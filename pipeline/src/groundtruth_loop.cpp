@@ -1,21 +1,7 @@
-#include <cmath>
-
 #include "given_session.h"
 #include "pose_loops.h"
 
 namespace stillmap {
-namespace {
-
-// The camera moved or turned enough since `last` to fuse the frame at `pose`.
-bool FarEnough(const Eigen::Isometry3d& last, const Eigen::Isometry3d& pose,
-               const LoopOptions& options) {
-  const Eigen::Isometry3d motion = last.inverse() * pose;
-  const double angle_deg = Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;
-  return motion.translation().norm() >= options.keyframe_distance_m ||
-         angle_deg >= options.keyframe_angle_deg;
-}
-
-}  // namespace
 
 PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& options,
                                LoopStages stages) {
@@ -30,8 +16,9 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& opt
     const PreparedFrame prepared = stages.reader.Get(k);
     const Frame& frame = prepared.frame;
     const Eigen::Isometry3d& pose = inputs.known_poses[k].world_from_camera;
-    const bool fuse =
-        every_frame || fused.empty() || FarEnough(fused.back().world_from_camera, pose, options);
+    const bool fuse = every_frame || fused.empty() ||
+                      MovedOrTurned(fused.back().world_from_camera, pose,
+                                    options.keyframe_distance_m, options.keyframe_angle_deg);
     const bool reference = k % reference_every == 0;
     if (fuse || reference) {  // a frame neither fused nor a reference is not masked
       const cv::Mat mask = stages.masks.Compute(frame, prepared.gray,

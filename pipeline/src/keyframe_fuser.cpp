@@ -152,7 +152,7 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     const auto it = world_from_keyframe.find(stored.keyframe_id);
     if (it == world_from_keyframe.end()) continue;
     const Eigen::Isometry3d change = stored.world_from_camera.inverse() * it->second;
-    const double angle_deg = Eigen::AngleAxisd(change.linear()).angle() * 180.0 / M_PI;
+    const double angle_deg = RotationAngleDeg(change);
     if (change.translation().norm() > 0.001 || angle_deg > 0.05) ++moved;
     stored.world_from_camera = it->second;
   }

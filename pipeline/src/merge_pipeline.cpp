@@ -21,6 +21,7 @@
 #include "stillmap/io/option_names.h"
 #include "stillmap/io/output_files.h"
 #include "stillmap/io/timing.h"
+#include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/revisit_cells.h"
 #include "stillmap/pipeline/merge_report.h"
@@ -33,10 +34,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-
-double AngleDeg(const Eigen::Isometry3d& transform) {
-  return Eigen::AngleAxisd(transform.linear()).angle() * 180.0 / M_PI;
-}
 
 // The merged map may not be written into one of the sessions' folders: it would replace them.
 void CheckOutputApart(const MergeRequest& request) {
@@ -86,13 +83,13 @@ void DescribeSessions(const std::vector<MergeSession>& sessions, const JoinedSes
     if (!figures.joined) left_out.push_back(sessions[s].name);
     const Eigen::Isometry3d& placement = joined.first_from_session[s];
     figures.placement_m = placement.translation().norm();
-    figures.placement_deg = AngleDeg(placement);
+    figures.placement_deg = RotationAngleDeg(placement);
     const std::vector<Eigen::Isometry3d>& solved = joined.first_from_keyframe[s];
     for (size_t k = 0; k < solved.size(); ++k) {
       const Eigen::Isometry3d move =
           (placement * sessions[s].record().keyframes[k].map_from_camera).inverse() * solved[k];
       figures.graph_move_m = std::max(figures.graph_move_m, move.translation().norm());
-      figures.graph_move_deg = std::max(figures.graph_move_deg, AngleDeg(move));
+      figures.graph_move_deg = std::max(figures.graph_move_deg, RotationAngleDeg(move));
     }
     result->sessions.push_back(figures);
   }

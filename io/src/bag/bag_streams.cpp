@@ -163,14 +163,14 @@ TransformSample SampleOf(const RosTransform& transform) {
   return sample;
 }
 
-// Keeps what a message of /tf, /tf_static or an odometry topic says of where frames are.
+// Keeps what a message of /tf or an odometry topic says of where frames are (/tf_static's are
+// decoded once, for the depth registration too, and taken after the scan).
 void RecordPoses(const BagStream& stream, const BagMessage& message, BagSerialization serialization,
                  RecordedPoses* poses) {
   const bool tf_message = stream.type.find("TFMessage") != std::string::npos;
   const bool is_tf = tf_message && (stream.name == "/tf" || stream.name == "tf");
-  const bool is_static = tf_message && (stream.name == "/tf_static" || stream.name == "tf_static");
   const bool odometry = stream.type.find("Odometry") != std::string::npos;
-  if (!is_tf && !is_static && !odometry) return;
+  if (!is_tf && !odometry) return;
   std::string error;
   if (odometry) {
     RosTransform pose;
@@ -186,8 +186,7 @@ void RecordPoses(const BagStream& stream, const BagMessage& message, BagSerializ
     ++poses->undecoded[stream.name];
     return;
   }
-  std::vector<TransformSample>& to = is_static ? poses->tf_static : poses->tf;
-  for (const RosTransform& transform : transforms) to.push_back(SampleOf(transform));
+  for (const RosTransform& transform : transforms) poses->tf.push_back(SampleOf(transform));
 }
 
 void WarnOfScan(const std::string& path, const std::map<size_t, double>& info_changed,
@@ -269,6 +268,9 @@ BagContents ScanBagContents(BagReader& bag) {
     stream.last_stamp = std::max(stream.last_stamp, message.time);
     ++stream.count;
   });
+  for (const RosTransform& transform : contents.static_transforms) {
+    contents.poses.tf_static.push_back(SampleOf(transform));
+  }
   contents.truncated = bag.truncated();
   scan_warnings.swap(contents.warnings);  // the fit warnings met during the scan
   contents.warnings = bag.warnings();

@@ -17,6 +17,13 @@ struct StampedPose {
 // The pose a share `s` (0..1) of the way from `a` to `b`: translation linear, rotation SLERP.
 Eigen::Isometry3d InterpolatePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s);
 
+// The angle a motion turns by [deg].
+double RotationAngleDeg(const Eigen::Isometry3d& motion);
+// True when the camera at `to` moved at least `distance_m` or turned at least `angle_deg` from
+// `from` (a keyframe rule by motion alone).
+bool MovedOrTurned(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double distance_m,
+                   double angle_deg);
+
 // The poses alone (camera-to-world), in order.
 std::vector<Eigen::Isometry3d> WorldFromCameras(const std::vector<StampedPose>& poses);
 
