@@ -11,11 +11,23 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
     // The mask stage resolved the corner count and the KLT window.
     flow.emplace(masks.options().flow_points, masks.options().flow);
   }
-  FrameReader reader(inputs.sequence, inputs.frame_indices, options.read_ahead, std::move(flow));
+  const bool tracked = options.poses == PoseSource::kTracking;
+  KnownPosePlan plan;
+  std::vector<size_t> indices = inputs.frame_indices;
+  std::vector<bool> after_gap;
+  if (!tracked) {
+    plan = PlanKnownPoseFrames(inputs, options);
+    indices.clear();
+    for (size_t j = 0; j < plan.read.size(); ++j) {
+      indices.push_back(inputs.frame_indices[plan.read[j]]);
+      after_gap.push_back(j > 0 && plan.read[j] != plan.read[j - 1] + 1);
+    }
+  }
+  FrameReader reader(inputs.sequence, std::move(indices), options.read_ahead, std::move(flow),
+                     std::move(after_gap));
   const LoopStages stages{reader, masks, mapper, progress};
-  result.posed = options.poses == PoseSource::kTracking
-                     ? RunTrackedLoop(inputs, options, stages, &result)
-                     : RunGroundTruthLoop(inputs, options, stages);
+  result.posed = tracked ? RunTrackedLoop(inputs, options, stages, &result)
+                         : RunGroundTruthLoop(inputs, options, plan, stages);
   progress.Finish();
   result.reader_cpu_ms = reader.ahead_cpu_ms();
   result.load_wait_ms = reader.wait_ms();

@@ -66,11 +66,21 @@ struct LoopStages {
   ProgressLine& progress;
 };
 
-// With known poses (the ground truth's, or given ones used as they are): every frame is masked,
-// every n-th one becomes a depth-check reference, and every frame is fused (or, with a keyframe
+// With known poses, which frames are read, masked and fused (positions in inputs.frame_indices):
+// every n-th frame is a depth-check reference, and every frame is fused (or, with a keyframe
 // distance or angle, those the camera reached by moving or turning that much since the last).
+// Only those are masked; the others are not read either, except the frame before one masked when
+// masking tracks flow (a flow step is from the frame before).
+struct KnownPosePlan {
+  std::vector<size_t> read;           // ascending
+  std::vector<bool> fuse, reference;  // one per frame
+};
+KnownPosePlan PlanKnownPoseFrames(const BuildInputs& inputs, const LoopOptions& options);
+
+// With known poses (the ground truth's, or given ones used as they are): the frames of `plan`,
+// read by stages.reader in the order of plan.read, masked, fused and made references.
 PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& options,
-                               LoopStages stages);
+                               const KnownPosePlan& plan, LoopStages stages);
 
 // With tracked poses: keyframes are fused once their pose is final (they left the bundle
 // adjustment window). Fills result->tracking and result->selection. Throws std::runtime_error
