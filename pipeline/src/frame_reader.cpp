@@ -10,10 +10,9 @@
 namespace stillmap {
 
 FrameReader::FrameReader(const Sequence& sequence, std::vector<size_t> indices, bool read_ahead,
-                         std::optional<FlowTracker> flow, std::vector<bool> after_gap)
+                         std::optional<FlowTracker> flow)
     : sequence_(sequence),
       indices_(std::move(indices)),
-      after_gap_(std::move(after_gap)),
       read_ahead_(read_ahead),
       flow_(std::move(flow)) {
   if (!read_ahead_) return;
@@ -30,7 +29,7 @@ PreparedFrame FrameReader::Get(size_t k) {
     frame = next.get();  // rethrows the frame's error
     if (k + kFramesAhead < indices_.size()) Schedule(k + kFramesAhead);
   } else {
-    frame = Prepare(k);
+    frame = Prepare(indices_[k]);
   }
   wait_ms_ += MillisecondsSince(start);
   if (frame.flow) flow_ms_.push_back(frame.flow->ms);
@@ -38,21 +37,19 @@ PreparedFrame FrameReader::Get(size_t k) {
   return frame;
 }
 
-PreparedFrame FrameReader::Prepare(size_t k) {
+PreparedFrame FrameReader::Prepare(size_t index) {
   const double cpu = ThreadCpuMs();
-  const bool after_gap = k < after_gap_.size() && after_gap_[k];
   PreparedFrame prepared;
-  prepared.frame = sequence_.LoadFrame(indices_[k]);
-  checks_.Add(prepared.frame, after_gap);
+  prepared.frame = sequence_.LoadFrame(index);
+  checks_.Add(prepared.frame);
   cv::cvtColor(prepared.frame.color, prepared.gray, cv::COLOR_BGR2GRAY);
-  if (flow_ && after_gap) flow_->Restart();
   if (flow_) prepared.flow = flow_->Next(prepared.gray);
   prepared.cpu_ms = ThreadCpuMs() - cpu;
   return prepared;
 }
 
 void FrameReader::Schedule(size_t k) {
-  ahead_.push_back(worker_->Submit([this, k] { return Prepare(k); }));
+  ahead_.push_back(worker_->Submit([this, index = indices_[k]] { return Prepare(index); }));
 }
 
 }  // namespace stillmap

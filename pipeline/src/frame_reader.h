@@ -34,10 +34,8 @@ class FrameReader {
 
   // Reads sequence frames `indices` in order; with `read_ahead` on another thread while the
   // caller works (kFramesAhead). `flow`: the flow tracker of the masking (none: no flow steps).
-  // `after_gap` (empty: none; else one per index): the frame does not follow the one read before
-  // it (frames between were skipped), so it has no flow step and is not compared with it.
   FrameReader(const Sequence& sequence, std::vector<size_t> indices, bool read_ahead,
-              std::optional<FlowTracker> flow, std::vector<bool> after_gap = {});
+              std::optional<FlowTracker> flow);
   FrameReader(const FrameReader&) = delete;
   FrameReader& operator=(const FrameReader&) = delete;
 
@@ -53,12 +51,11 @@ class FrameReader {
   const StreamChecks& checks() const { return checks_; }
 
  private:
-  PreparedFrame Prepare(size_t k);
+  PreparedFrame Prepare(size_t index);
   void Schedule(size_t k);  // queues frame k on the reading thread
 
   const Sequence& sequence_;
   std::vector<size_t> indices_;
-  std::vector<bool> after_gap_;
   bool read_ahead_;
   std::optional<FlowTracker> flow_;               // used by one Prepare at a time, frames in order
   std::deque<std::future<PreparedFrame>> ahead_;  // queued in order, at most kFramesAhead

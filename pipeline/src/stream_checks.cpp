@@ -10,11 +10,9 @@
 
 namespace stillmap {
 
-void StreamChecks::Add(const Frame& frame, bool after_gap) {
+void StreamChecks::Add(const Frame& frame) {
   ++frames_;
   const cv::Mat& colour = frame.color;
-  if (after_gap) previous_colour_.release();
-  if (!previous_colour_.empty()) ++colour_pairs_;
   if (!previous_colour_.empty() && previous_colour_.size() == colour.size() &&
       previous_colour_.type() == colour.type() && previous_colour_.isContinuous() &&
       colour.isContinuous() &&
@@ -48,11 +46,11 @@ double StreamChecks::DepthQuantile(double share) const {
 
 std::vector<std::string> StreamChecks::Warnings(double depth_factor) const {
   std::vector<std::string> warnings;
-  if (colour_pairs_ >= 2 && 2 * frozen_colour_ >= colour_pairs_) {
+  if (frames_ >= 3 && 2 * frozen_colour_ >= frames_ - 1) {
     warnings.push_back(fmt::format(
         "{} of {} colour frames are identical to the frame before: the colour stream looks "
         "frozen, and tracking follows it (check the recording's colour images)",
-        frozen_colour_, colour_pairs_ + 1));
+        frozen_colour_, frames_));
   }
   const double median = DepthQuantile(0.5), far = DepthQuantile(0.95);
   if (depth_readings_ > 0 && (median > kMaxMedianM || far < kMin95thPercentileM)) {

@@ -23,14 +23,12 @@ class StreamChecks {
   static constexpr double kMaxMedianM = 8.0;
   static constexpr double kMin95thPercentileM = 1.5;
 
-  // Counts one frame (frames in order); `after_gap`: frames before it were skipped, so its colour
-  // is not compared with the one read before.
-  void Add(const Frame& frame, bool after_gap = false);
+  // Counts one frame (frames in order).
+  void Add(const Frame& frame);
 
   // The depth reading below which `share` (0..1) of all readings lie [m]; 0 without readings.
   double DepthQuantile(double share) const;
-  // Frames whose colour image equals the previous frame's, byte for byte (of those read right
-  // after their previous frame).
+  // Frames whose colour image equals the previous frame's, byte for byte.
   size_t frozen_colour_frames() const { return frozen_colour_; }
   size_t frames() const { return frames_; }
 
@@ -41,7 +39,6 @@ class StreamChecks {
   std::array<size_t, static_cast<size_t>(kMaxDepthM / kBinM) + 1> depth_bins_{};
   size_t depth_readings_ = 0;
   size_t frames_ = 0;
-  size_t colour_pairs_ = 0;  // frames compared with their previous frame
   size_t frozen_colour_ = 0;
   cv::Mat previous_colour_;
 };

@@ -61,31 +61,6 @@ TEST(FrameReaderTest, ReadingAheadGivesTheFramesAndFlowOfReadingInPlace) {
   EXPECT_EQ(in_place.checks().frames(), kFrames);
 }
 
-TEST(FrameReaderTest, AfterAGapTheFlowStartsAgainAndTheNextStepIsTheOneOfReadingEveryFrame) {
-  testing::TempDir dir;
-  WriteSlidingSequence(dir.path());
-  const Sequence sequence = Sequence::Open(dir.path(), testing::SmallCamera(160, 120));
-  FrameReader every(sequence, AllFrames(), false, Flow());
-  std::vector<PreparedFrame> all;
-  for (size_t k = 0; k < kFrames; ++k) all.push_back(every.Get(k));
-  FrameReader some(sequence, {0, 1, 5, 6}, true, Flow(), {false, false, true, false});
-  for (size_t j = 0; j < 4; ++j) {
-    const PreparedFrame frame = some.Get(j);
-    const size_t k = frame.frame.index;
-    ASSERT_TRUE(frame.flow.has_value()) << "frame " << k;
-    if (k == 5) {  // after the gap: no step (the flow from frame 1 would be 4 frames long)
-      EXPECT_TRUE(frame.flow->from.empty());
-      EXPECT_TRUE(frame.flow->result.current.empty());
-      continue;
-    }
-    EXPECT_EQ(frame.flow->from, all[k].flow->from) << "frame " << k;
-    EXPECT_EQ(frame.flow->result.current, all[k].flow->result.current) << "frame " << k;
-    EXPECT_EQ(frame.flow->result.tracked, all[k].flow->result.tracked) << "frame " << k;
-  }
-  EXPECT_FALSE(all[6].flow->from.empty());  // frame 6's step compared above was not empty
-  EXPECT_EQ(some.checks().frames(), 4u);
-}
-
 TEST(FrameReaderTest, ABadImageIsTheErrorOfItsFrameAndTheFramesBeforeItArrive) {
   testing::TempDir dir;
   WriteSlidingSequence(dir.path());

@@ -21,16 +21,5 @@ TEST(StreamChecksTest, AFrozenColourStreamIsCountedAndWarnedOf) {
   EXPECT_NE(checks.Warnings(5000.0)[0].find("3 of 4 colour frames"), std::string::npos);
 }
 
-TEST(StreamChecksTest, FramesAfterAGapAreNotComparedWithTheFrameReadBefore) {
-  StreamChecks checks;  // changing colours, each read after a gap from an equal one
-  for (int k = 0; k < 4; ++k) {
-    checks.Add(FrameOfColour(k), false);
-    checks.Add(FrameOfColour(k), true);
-  }
-  EXPECT_EQ(checks.frames(), 8u);
-  EXPECT_EQ(checks.frozen_colour_frames(), 0u);
-  EXPECT_TRUE(checks.Warnings(5000.0).empty());
-}
-
 }  // namespace
 }  // namespace stillmap

@@ -109,11 +109,6 @@ class FlowTracker {
   FlowTracker(int corners, const FlowCheckOptions& options)
       : corners_(corners), options_(options) {}
   FlowStep Next(const cv::Mat& gray);
-  // The next frame does not follow the last one: its step has no flow (as the first frame's).
-  void Restart() {
-    previous_pyramid_ = {};
-    previous_corners_.clear();
-  }
 
  private:
   int corners_;
