@@ -6,8 +6,10 @@
 #include <pcl/point_types.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/core/utility.hpp>
 #include <vector>
 
@@ -17,6 +19,79 @@
 namespace stillmap {
 
 namespace {
+
+// Voxels are judged in runs of this many in ForEachPoint's order, sorted by (x, y, z) index, so
+// a run is a small box of space and the views that cannot see any of it are skipped for all.
+constexpr int kRunVoxels = 256;
+
+// Whether no point of the box [lo, hi] can land in `view` closer than 0.1 m: the box is behind
+// it or, for an undistorted camera, projects beside its image. Both are decided exactly at the
+// box's corners (depth is affine; x/z and y/z of a box in front of the camera take their extremes
+// at corners), with 2 pixels of slack for rounding. With distortion only "behind" is used.
+bool ViewMissesBox(const KeyframeView& view, const PixelProjection& projection, bool distorted,
+                   const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+  float min_z = std::numeric_limits<float>::max(), max_z = -min_z;
+  Eigen::Vector2f min_n(min_z, min_z), max_n(max_z, max_z);
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3f p((corner & 1) ? hi.x() : lo.x(), (corner & 2) ? hi.y() : lo.y(),
+                            (corner & 4) ? hi.z() : lo.z());
+    const Eigen::Vector3f q = view.camera_from_world * p;
+    min_z = std::min(min_z, q.z());
+    max_z = std::max(max_z, q.z());
+    const Eigen::Vector2f n(q.x() / q.z(), q.y() / q.z());
+    min_n = min_n.cwiseMin(n);
+    max_n = max_n.cwiseMax(n);
+  }
+  if (max_z < 0.1f) return true;
+  if (distorted || min_z < 0.1f) return false;
+  const Eigen::Vector2f a = projection(min_n.x(), min_n.y()), b = projection(max_n.x(), max_n.y());
+  const float slack = 2.0f;
+  const float cols = 2.0f * static_cast<float>(view.depth_m.cols);
+  const float rows = 2.0f * static_cast<float>(view.depth_m.rows);
+  return std::max(a.x(), b.x()) < -slack || std::min(a.x(), b.x()) > cols + slack ||
+         std::max(a.y(), b.y()) < -slack || std::min(a.y(), b.y()) > rows + slack;
+}
+
+// How `view` judges the voxel at `position`: it saw through it, saw it there, or neither.
+enum class Verdict { kThrough, kAt, kNone };
+Verdict Judge(const KeyframeView& view, const PixelProjection& projection,
+              const Eigen::Vector3f& position, float margin_m, float margin_sigmas) {
+  const Eigen::Vector3f q = view.camera_from_world * position;
+  if (q.z() < 0.1f) return Verdict::kNone;
+  const Eigen::Vector2f pixel = projection(q.x() / q.z(), q.y() / q.z());
+  // Half resolution: block (u, v) of the view holds the camera's pixels (2u..2u+1, ...). Both
+  // bounds are checked in floating point, before any conversion can wrap (a wild distortion
+  // projects to +-1e30; NaN fails both tests).
+  const float half_u = std::floor((pixel.x() + 0.5f) * 0.5f);
+  const float half_v = std::floor((pixel.y() + 0.5f) * 0.5f);
+  if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth_m.cols) && half_v >= 0.0f &&
+        half_v < static_cast<float>(view.depth_m.rows))) {
+    return Verdict::kNone;
+  }
+  const float reading = view.depth_m.at<float>(static_cast<int>(half_v), static_cast<int>(half_u));
+  if (!(reading > 0.0f)) return Verdict::kNone;
+  const float margin = margin_m + margin_sigmas * KinectDepthSigma(q.z());
+  if (reading > q.z() + margin) return Verdict::kThrough;
+  return reading >= q.z() - margin ? Verdict::kAt : Verdict::kNone;
+}
+
+// What the views said of one voxel: of the latest session that saw it or saw through it (merged
+// sessions, Mapper::BeginLaterSession), how many views saw through it and how many saw it there.
+struct Tally {
+  int free = 0, seen = 0, session = 0;
+  void Add(int view_session, Verdict verdict) {
+    if (view_session < session) return;
+    if (view_session > session) {  // a later session's evidence replaces the earlier ones'
+      session = view_session;
+      free = seen = 0;
+    }
+    if (verdict == Verdict::kThrough) {
+      ++free;
+    } else {
+      ++seen;
+    }
+  }
+};
 
 // Which voxels the views saw through: flags (1 = drop) in ForEachPoint's order.
 std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options,
@@ -33,44 +108,42 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options,
   for (const Camera& camera : cameras) projections.emplace_back(camera);
   const float margin_m = static_cast<float>(options.view_margin_m);
   const float margin_sigmas = static_cast<float>(options.view_margin_sigmas);
-  cv::parallel_for_(cv::Range(0, static_cast<int>(positions.size())), [&](const cv::Range& range) {
-    for (int k = range.start; k < range.end; ++k) {
-      int free = 0, seen = 0, session = 0;
+  const int runs = (static_cast<int>(positions.size()) + kRunVoxels - 1) / kRunVoxels;
+  cv::parallel_for_(cv::Range(0, runs), [&](const cv::Range& range) {
+    std::vector<const KeyframeView*> seeing;  // in the views' order: later sessions win
+    for (int run = range.start; run < range.end; ++run) {
+      const size_t begin = static_cast<size_t>(run) * kRunVoxels;
+      const size_t end = std::min(positions.size(), begin + kRunVoxels);
+      Eigen::Vector3f lo = positions[begin], hi = positions[begin];
+      for (size_t k = begin; k < end; ++k) {
+        lo = lo.cwiseMin(positions[k]);
+        hi = hi.cwiseMax(positions[k]);
+      }
+      seeing.clear();
       for (const KeyframeView& view : views) {
-        const Eigen::Vector3f q = view.camera_from_world * positions[static_cast<size_t>(k)];
-        if (q.z() < 0.1f) continue;
-        const Eigen::Vector2f pixel =
-            projections[static_cast<size_t>(view.camera)](q.x() / q.z(), q.y() / q.z());
-        // Half resolution: block (u, v) of the view holds the camera's pixels (2u..2u+1, ...).
-        // Both bounds are checked in floating point, before any conversion can wrap (a wild
-        // distortion projects to +-1e30; NaN fails both tests).
-        const float half_u = std::floor((pixel.x() + 0.5f) * 0.5f);
-        const float half_v = std::floor((pixel.y() + 0.5f) * 0.5f);
-        if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth_m.cols) && half_v >= 0.0f &&
-              half_v < static_cast<float>(view.depth_m.rows))) {
-          continue;
-        }
-        const int u = static_cast<int>(half_u), v = static_cast<int>(half_v);
-        const float reading = view.depth_m.at<float>(v, u);
-        if (!(reading > 0.0f)) continue;
-        const float margin = margin_m + margin_sigmas * KinectDepthSigma(q.z());
-        const bool through = reading > q.z() + margin, at = !through && reading >= q.z() - margin;
-        if (view.session < session || !(through || at)) continue;
-        if (view.session > session) {  // a later session's evidence replaces the earlier ones'
-          session = view.session;
-          free = seen = 0;
-        }
-        if (through) {
-          ++free;
-        } else {
-          ++seen;
+        const auto c = static_cast<size_t>(view.camera);
+        if (!ViewMissesBox(view, projections[c], cameras[c].HasDistortion(), lo, hi)) {
+          seeing.push_back(&view);
         }
       }
-      drop[static_cast<size_t>(k)] =
-          free >= options.min_free_views &&
-                  static_cast<double>(free) > options.free_view_ratio * static_cast<double>(seen)
-              ? 1
-              : 0;
+      // View by view over the run (the run's pixels lie close together in each view's depth),
+      // each voxel hearing the views in their order as before.
+      std::array<Tally, kRunVoxels> tallies{};
+      for (const KeyframeView* view : seeing) {
+        const PixelProjection& projection = projections[static_cast<size_t>(view->camera)];
+        for (size_t k = begin; k < end; ++k) {
+          const Verdict verdict = Judge(*view, projection, positions[k], margin_m, margin_sigmas);
+          if (verdict != Verdict::kNone) tallies[k - begin].Add(view->session, verdict);
+        }
+      }
+      for (size_t k = begin; k < end; ++k) {
+        const Tally& tally = tallies[k - begin];
+        drop[k] = tally.free >= options.min_free_views &&
+                          static_cast<double>(tally.free) >
+                              options.free_view_ratio * static_cast<double>(tally.seen)
+                      ? 1
+                      : 0;
+      }
     }
   });
   return drop;

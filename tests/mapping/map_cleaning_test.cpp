@@ -172,6 +172,29 @@ TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) 
   EXPECT_EQ(left, 0u);
   EXPECT_EQ(three.OutputSize(), all.OutputSize() - shoe_voxels);
 
+  // Views that cannot see the cloud change nothing, whether skipped as a whole (turned away,
+  // 20 m aside) or judged voxel by voxel (a distorted camera turned away: only "behind" is
+  // decided for the whole run): beside the two seeing through it, the shoe stays until a third.
+  Eigen::Isometry3d away = at(0, 0, 0);
+  away.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  Camera distorted = camera;
+  distorted.distortion[0] = 0.1;  // k1
+  std::vector<KeyframeView> blind_views(views.begin(), views.begin() + 3);
+  for (const Eigen::Isometry3d& pose : {away, at(20.0f, 0, 0)}) {
+    blind_views.push_back(MakeKeyframeView(wall_depth(), cv::Mat(), pose));
+    blind_views.push_back(MakeKeyframeView(wall_depth(), cv::Mat(), pose));
+    blind_views.back().camera = 1;
+  }
+  VoxelCloud unseen = cloud_of();
+  EXPECT_EQ(
+      CleanCloud(options, nullptr, {camera, distorted}, blind_views, &unseen).seen_through_views,
+      0u);
+  blind_views.push_back(views[3]);
+  VoxelCloud seen = cloud_of();
+  EXPECT_EQ(
+      CleanCloud(options, nullptr, {camera, distorted}, blind_views, &seen).seen_through_views,
+      shoe_voxels);
+
   // A keyframe's masked pixels are no evidence: with the shoe's place masked in the three
   // others, nothing is dropped; and the check can be switched off.
   cv::Mat masked(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
