@@ -21,8 +21,14 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
   }
   FrameReader reader(inputs.sequence, std::move(indices), options.read_ahead, std::move(flow));
   const LoopStages stages{reader, masks, mapper, progress};
-  result.posed = tracked ? RunTrackedLoop(inputs, options, stages, &result)
-                         : RunGroundTruthLoop(inputs, options, plan, stages);
+  const bool every_frame = options.keyframe_distance_m <= 0.0 && options.keyframe_angle_deg <= 0.0;
+  if (tracked) {
+    result.posed = RunTrackedLoop(inputs, options, stages, &result);
+  } else if (options.poses == PoseSource::kGiven && !every_frame) {
+    result.posed = RunGivenPoseLoop(inputs, options, plan, stages, &result);
+  } else {
+    result.posed = RunGroundTruthLoop(inputs, options, plan, stages);
+  }
   progress.Finish();
   result.reader_cpu_ms = reader.ahead_cpu_ms();
   result.load_wait_ms = reader.wait_ms();

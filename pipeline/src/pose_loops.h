@@ -83,6 +83,14 @@ KnownPosePlan PlanKnownPoseFrames(const BuildInputs& inputs, const LoopOptions& 
 PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& options,
                                const KnownPosePlan& plan, LoopStages stages);
 
+// With given poses used as they are and a keyframe rule: the frames of `plan` masked as by
+// RunGroundTruthLoop, those to fuse held until the frames after them within the depth check's
+// horizon have come, then fused as tracked keyframes are (KeyframeFuser: the map re-check
+// against the frames on both sides, the masked-share and revisit rules). Fills
+// result->selection.
+PosedFrames RunGivenPoseLoop(const BuildInputs& inputs, const LoopOptions& options,
+                             const KnownPosePlan& plan, LoopStages stages, LoopResult* result);
+
 // With tracked poses: keyframes are fused once their pose is final (they left the bundle
 // adjustment window). Fills result->tracking and result->selection. Throws std::runtime_error
 // when no frame could be tracked.

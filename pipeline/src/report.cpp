@@ -52,6 +52,29 @@ json FramesJson(const FrameCounts& frames) {
           {"frozen_colour", frames.frozen_colour}};
 }
 
+// How the fused frames were chosen.
+std::string SelectionText(const BuildResult& result, const BuildConfig& config) {
+  if (result.tracked()) return config.selection.Describe();
+  const GivenPoseOptions& poses = config.poses;
+  if (result.poses != PoseSource::kGiven ||
+      (poses.keyframe_distance_m <= 0.0 && poses.keyframe_angle_deg <= 0.0)) {
+    return "none: with known poses every frame is fused";
+  }
+  const KeyframeSelectionOptions& selection = config.selection;
+  std::string text = fmt::format(
+      "a frame each {} m or {} deg the camera moved ({}, {}), its mask re-checked against the "
+      "frames on both sides",
+      poses.keyframe_distance_m, poses.keyframe_angle_deg,
+      OptionKey(poses, poses.keyframe_distance_m), OptionKey(poses, poses.keyframe_angle_deg));
+  if (!selection.enabled) return text;
+  text += fmt::format("; invalid when more than {} of it is masked", selection.max_masked_share);
+  if (selection.revisit.enabled) {
+    text += fmt::format("; only the depth cells that frames fused {} or more before it did not see",
+                        selection.revisit.keyframes_apart);
+  }
+  return text;
+}
+
 json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
   return {{"fused", result.frames.fused},
           {"rejected_invalid", result.selection.invalid},
@@ -61,8 +84,7 @@ json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
           {"map_recheck_added_pixels", result.selection.recheck_additions},
           // Depth cells (16 px) of keyframes on revisits left out: an earlier visit fused them.
           {"revisit_cells_left_out", result.selection.revisit_cells_left_out},
-          {"selection", result.tracked() ? config.selection.Describe()
-                                         : "none: with known poses every frame is fused"}};
+          {"selection", SelectionText(result, config)}};
 }
 
 json MaskingJson(const MaskingFigures& masking) {

@@ -25,10 +25,13 @@ struct GivenPoseOptions {
   std::array<double, 16> body_from_camera = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   // A pose is interpolated between two samples at most this far apart [s].
   double max_gap_s = 0.2;
-  // With poses.use=map a frame is fused when the camera moved or turned this much since the last
-  // frame fused (0 and 0: every frame, as with ground-truth poses) [m], [deg].
-  double keyframe_distance_m = 0.02;
-  double keyframe_angle_deg = 2.0;
+  // With poses.use=map a frame is a keyframe when the camera moved or turned this much since the
+  // last one (0 and 0: every frame fused, as with ground-truth poses) [m], [deg]. Keyframes are
+  // fused as tracked ones are (map re-check, masked share, revisit cells). 0.05 m / 5 deg was
+  // chosen on five synthetic scenarios' ghosts and completeness and bonn_crowd_a's speed
+  // (docs/figures.md, "Given poses through the keyframe fuser").
+  double keyframe_distance_m = 0.05;
+  double keyframe_angle_deg = 5.0;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -41,8 +44,8 @@ struct GivenPoseOptions {
     visit("max_gap_s", self.max_gap_s,
           "widest gap between two given poses that a frame's pose is interpolated across [s]");
     visit("keyframe_distance_m", self.keyframe_distance_m,
-          "poses.use=map: a frame is fused when the camera moved this far since the last one "
-          "fused [m] (0 with keyframe_angle_deg 0: every frame)");
+          "poses.use=map: a frame is a keyframe when the camera moved this far since the last "
+          "one [m] (0 with keyframe_angle_deg 0: every frame fused)");
     visit("keyframe_angle_deg", self.keyframe_angle_deg,
           "poses.use=map: ... or turned this far [deg]");
   }
