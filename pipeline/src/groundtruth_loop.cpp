@@ -5,7 +5,7 @@ namespace stillmap {
 
 KnownPosePlan PlanKnownPoseFrames(const BuildInputs& inputs, const LoopOptions& options) {
   const auto reference_every = static_cast<size_t>(options.groundtruth_reference_interval);
-  const bool every_frame = options.keyframe_distance_m <= 0.0 && options.keyframe_angle_deg <= 0.0;
+  const bool every_frame = options.FusesEveryFrame();
   const size_t n = inputs.known_poses.size();
   KnownPosePlan plan{{}, std::vector<bool>(n, false), std::vector<bool>(n, false)};
   const Eigen::Isometry3d* last_fused = nullptr;

@@ -21,10 +21,9 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
   }
   FrameReader reader(inputs.sequence, std::move(indices), options.read_ahead, std::move(flow));
   const LoopStages stages{reader, masks, mapper, progress};
-  const bool every_frame = options.keyframe_distance_m <= 0.0 && options.keyframe_angle_deg <= 0.0;
   if (tracked) {
     result.posed = RunTrackedLoop(inputs, options, stages, &result);
-  } else if (options.poses == PoseSource::kGiven && !every_frame) {
+  } else if (options.poses == PoseSource::kGiven && !options.FusesEveryFrame()) {
     result.posed = RunGivenPoseLoop(inputs, options, plan, stages, &result);
   } else {
     result.posed = RunGroundTruthLoop(inputs, options, plan, stages);

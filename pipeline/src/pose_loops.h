@@ -34,6 +34,7 @@ struct LoopOptions {
   // Given poses used as they are: a frame is fused when the camera moved or turned this much
   // since the last one fused (poses.keyframe_*; 0 and 0: every frame, as with the ground truth).
   double keyframe_distance_m = 0.0, keyframe_angle_deg = 0.0;
+  bool FusesEveryFrame() const { return keyframe_distance_m <= 0.0 && keyframe_angle_deg <= 0.0; }
   bool given_session = false;  // given poses as they are, with map.session_record
   bool flow = false;           // the flow check's corners are tracked ahead with the decoding
   bool read_ahead = true;      // frames decoded on another thread (run.threads > 1)
