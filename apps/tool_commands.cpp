@@ -42,7 +42,9 @@ void SynthCommand::Add(CLI::App& app) {
   command->add_option("OUT_DIR", out_dir, "output folder (new, or an earlier synth output)")
       ->required();
   command->add_option("--scenario", options.scenario, "one of:" + scenarios)->required();
-  command->add_option("--frames", options.frames, "frames at 30 Hz (default 300)")
+  command
+      ->add_option("--frames", options.frames,
+                   "frames at 30 Hz (default: 300; floor and floor_lost: their whole path)")
       ->check(kWholeNumber);
   command->add_option("--seed", options.seed, "textures, colors and noise (default 1)")
       ->check(kWholeNumber);

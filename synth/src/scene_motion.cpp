@@ -2,6 +2,7 @@
 // path of each scenario.
 #include <cmath>
 
+#include "floor_plan.h"
 #include "scene_geometry.h"
 #include "synthetic_scene.h"
 
@@ -9,12 +10,14 @@ namespace stillmap::synth {
 
 namespace {
 
-// Standing (kStopAndGo): at `to` for stand_s, or back at `from` after the walk back.
+// Standing (kStopAndGo): at `from` before setting off, at `to` for stand_s, or back at `from`
+// after the walk back.
 bool Standing(const MovingObject& object, double time) {
   if (object.motion != Motion::kStopAndGo) return false;
   const float walk_s = (object.to - object.from).norm() / object.speed;
-  const float t = static_cast<float>(time + object.phase_offset);
-  return (t >= walk_s && t < walk_s + object.stand_s) || t >= 2.0f * walk_s + object.stand_s;
+  const float t = static_cast<float>(time + object.phase_offset) - object.wait_s;
+  return t < 0.0f || (t >= walk_s && t < walk_s + object.stand_s) ||
+         t >= 2.0f * walk_s + object.stand_s;
 }
 
 // Position along a back-and-forth path and the direction of travel. kStopAndGo walks out and
@@ -25,6 +28,8 @@ void WalkState(const MovingObject& object, double time, Eigen::Vector2f* positio
   const float length = span.norm();
   float travelled = object.speed * static_cast<float>(time + object.phase_offset);
   if (object.motion == Motion::kStopAndGo) {
+    travelled = object.speed *
+                std::max(0.0f, static_cast<float>(time + object.phase_offset) - object.wait_s);
     const float stand_m = object.speed * object.stand_s;
     travelled = travelled < length ? travelled
                 : travelled < length + stand_m
@@ -103,6 +108,7 @@ std::vector<Eigen::Isometry3f> PartPoses(const MovingObject& object, double time
 }
 
 Eigen::Isometry3f CameraPose(const std::string& scenario, double time) {
+  if (IsFloorScenario(scenario)) return FloorCameraPose(scenario, time);
   const float t = static_cast<float>(time);
   Eigen::Vector3f position(0.0f, -0.9f, 1.35f);  // far wall within 4 m
   Eigen::Vector3f target(0.0f, 2.0f, 1.0f);
@@ -154,16 +160,7 @@ Eigen::Isometry3f CameraPose(const std::string& scenario, double time) {
         0.5f * Eigen::Vector3f(std::sin(azimuth) * std::cos(elevation),
                                -std::cos(azimuth) * std::cos(elevation), std::sin(elevation));
   }
-  // Look-at: z towards the target, x right (horizontal), y down; then roll about z.
-  const Eigen::Vector3f z = (target - position).normalized();
-  const Eigen::Vector3f x = z.cross(Eigen::Vector3f::UnitZ()).normalized();
-  const Eigen::Vector3f y = z.cross(x);
-  Eigen::Isometry3f world_from_camera = Eigen::Isometry3f::Identity();
-  world_from_camera.linear() << x, y, z;
-  world_from_camera.linear() = world_from_camera.linear() *
-                               Eigen::AngleAxisf(roll, Eigen::Vector3f::UnitZ()).toRotationMatrix();
-  world_from_camera.translation() = position;
-  return world_from_camera;
+  return LookAt(position, target, roll);
 }
 
 }  // namespace stillmap::synth

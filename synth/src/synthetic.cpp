@@ -6,10 +6,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "floor_plan.h"
+#include "static_truth.h"
 #include "stillmap/io/cloud_files.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/image_io.h"
@@ -23,7 +26,6 @@ namespace stillmap {
 namespace {
 
 namespace fs = std::filesystem;
-using synth::kFirstDynamicId;
 
 constexpr double kFrameRate = 30.0;    // [Hz]
 constexpr double kStartTime = 1000.0;  // timestamp of frame 0 [s]
@@ -79,6 +81,10 @@ void Render(const synth::Scene& scene, const std::string& scenario, double time,
   const Eigen::Isometry3f camera_from_world = synth::CameraPose(scenario, time).inverse();
   raster->Clear();
   for (const synth::StaticObject& object : scene.statics) {
+    if (synth::SphereOutsideView(camera_from_world * object.bound_center, object.bound_radius,
+                                 raster->camera(), 0.0f, std::numeric_limits<float>::max())) {
+      continue;
+    }
     raster->Draw(object.mesh, Eigen::Isometry3f::Identity(), camera_from_world, object.id,
                  object.material, scene.light_in_world);
   }
@@ -89,70 +95,6 @@ void Render(const synth::Scene& scene, const std::string& scenario, double time,
     for (size_t k = 0; k < object.parts.size(); ++k) {
       raster->Draw(object.parts[k].mesh, world_from_body * parts[k], camera_from_world, object.id,
                    object.parts[k].material, scene.light_in_world);
-    }
-  }
-}
-
-// Samples the static surfaces every `spacing` metres (a grid in each triangle's plane), colored by
-// their texture.
-std::vector<VoxelPoint> SampleStaticSurfaces(const synth::Scene& scene, double spacing) {
-  std::vector<VoxelPoint> points;
-  const float s = static_cast<float>(spacing);
-  for (const synth::StaticObject& object : scene.statics) {
-    const Material& material = scene.materials[object.material];
-    for (const auto& face : object.mesh.faces) {
-      const Eigen::Vector3f a = object.mesh.vertices[face[0]];
-      const Eigen::Vector3f ab = object.mesh.vertices[face[1]] - a;
-      const Eigen::Vector3f ac = object.mesh.vertices[face[2]] - a;
-      const Eigen::Vector3f normal = ab.cross(ac);
-      if (normal.norm() < 1e-12f) continue;
-      const Eigen::Vector3f e1 = ab.normalized();
-      const Eigen::Vector3f e2 = normal.normalized().cross(e1);
-      // Triangle in 2-D: a = (0, 0), b = (|ab|, 0), c = (ac.e1, ac.e2).
-      const Eigen::Vector2f b2(ab.norm(), 0.0f), c2(ac.dot(e1), ac.dot(e2));
-      const float det = b2.x() * c2.y() - c2.x() * b2.y();
-      const float x_min = std::min({0.0f, b2.x(), c2.x()}),
-                  x_max = std::max({0.0f, b2.x(), c2.x()});
-      const float y_min = std::min({0.0f, c2.y()}), y_max = std::max({0.0f, c2.y()});
-      for (float y = y_min + s / 2; y < y_max; y += s) {
-        for (float x = x_min + s / 2; x < x_max; x += s) {
-          // Barycentric coordinates of (x, y): p = a + beta * ab + gamma * ac.
-          const float beta = (x * c2.y() - c2.x() * y) / det;
-          const float gamma = (b2.x() * y - x * b2.y()) / det;
-          if (beta < 0.0f || gamma < 0.0f || beta + gamma > 1.0f) continue;
-          const Eigen::Vector2f uv = (1 - beta - gamma) * object.mesh.uvs[face[0]] +
-                                     beta * object.mesh.uvs[face[1]] +
-                                     gamma * object.mesh.uvs[face[2]];
-          const Eigen::Vector3f bgr = SampleTexture(material.texture, uv.x(), uv.y());
-          VoxelPoint point;
-          point.position = a + beta * ab + gamma * ac;
-          point.rgb = {static_cast<std::uint8_t>(bgr[2]), static_cast<std::uint8_t>(bgr[1]),
-                       static_cast<std::uint8_t>(bgr[0])};
-          point.count = 1;
-          points.push_back(point);
-        }
-      }
-    }
-  }
-  return points;
-}
-
-// Marks the surface points that a camera with this static-only depth sees: in the image, within
-// range, and not behind another static surface.
-void MarkVisible(const std::vector<VoxelPoint>& points, const Eigen::Isometry3f& camera_from_world,
-                 const cv::Mat& static_depth, const Camera& camera, double max_range,
-                 std::vector<std::atomic<std::uint8_t>>* seen) {
-  const float max_z = static_cast<float>(max_range);
-  for (size_t i = 0; i < points.size(); ++i) {
-    if ((*seen)[i].load(std::memory_order_relaxed) != 0) continue;
-    const Eigen::Vector3f q = camera_from_world * points[i].position;
-    if (q.z() < 0.1f || q.z() > max_z) continue;
-    const int u = static_cast<int>(std::lround(camera.fx * q.x() / q.z() + camera.cx));
-    const int v = static_cast<int>(std::lround(camera.fy * q.y() / q.z() + camera.cy));
-    if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
-    const float surface = static_depth.at<float>(v, u);
-    if (surface > 0.0f && std::abs(surface - q.z()) < 0.01f + 0.01f * q.z()) {
-      (*seen)[i].store(1, std::memory_order_relaxed);
     }
   }
 }
@@ -179,8 +121,10 @@ void SynthOptions::Validate() const {
     for (const std::string& name : names) known += " " + name;
     throw InputError("--scenario: unknown scenario '" + scenario + "' (known:" + known + ")");
   }
-  if (frames < 2 || frames > 100000) throw InputError("--frames must be between 2 and 100000");
-  if (!(static_gt_spacing >= 0.001 && static_gt_spacing <= 0.1)) {
+  if (frames != 0 && (frames < 2 || frames > 100000)) {
+    throw InputError("--frames must be between 2 and 100000");
+  }
+  if (static_gt_spacing != 0.0 && !(static_gt_spacing >= 0.001 && static_gt_spacing <= 0.1)) {
     throw InputError("static_gt_spacing must be between 0.001 and 0.1 m");
   }
   if (!(static_gt_max_range > 0.4)) throw InputError("static_gt_max_range must exceed 0.4 m");
@@ -190,7 +134,7 @@ void SynthOptions::Validate() const {
 std::vector<std::string> SynthScenarioNames() {
   return {"static",  "walking_static", "walking_xyz", "walking_rpy", "walking_halfsphere",
           "sitting", "carried_object", "crowd_start", "lens_pass",   "stop_and_go",
-          "loop",    "look_alike",     "busy_office"};
+          "loop",    "look_alike",     "busy_office", "floor",       "floor_lost"};
 }
 
 Camera SynthCamera() {
@@ -246,10 +190,22 @@ struct FrameJob {
   const SynthOptions& options;
   const Camera& camera;
   const fs::path& work;
-  const std::vector<VoxelPoint>& surface;        // static surface samples
-  std::vector<std::atomic<std::uint8_t>>& seen;  // per sample: some frame saw it
-  std::vector<double>& dynamic_share;            // per frame
+  synth::StaticTruth& truth;
+  std::vector<double>& dynamic_share;  // per frame
 };
+
+// Sensor noise on a color image, when asked.
+cv::Mat ColorNoise(const FrameJob& job, const cv::Mat& color, cv::RNG& rng) {
+  if (!job.options.color_noise) return color;
+  cv::Mat noise(color.size(), CV_16SC3);
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
+  cv::Mat noisy;
+  color.convertTo(noisy, CV_16SC3);
+  noisy += noise;
+  cv::Mat out;
+  noisy.convertTo(out, CV_8UC3);
+  return out;
+}
 
 // The color image of frame time `time`, with motion blur and noise when asked.
 cv::Mat ColorImage(const FrameJob& job, double time, cv::RNG& rng, Rasterizer* raster) {
@@ -266,28 +222,33 @@ cv::Mat ColorImage(const FrameJob& job, double time, cv::RNG& rng, Rasterizer* r
     }
     sum.convertTo(color, CV_8UC3, 1.0 / 3.0);
   }
-  if (job.options.color_noise) {
-    cv::Mat noise(color.size(), CV_16SC3);
-    rng.fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
-    cv::Mat noisy;
-    color.convertTo(noisy, CV_16SC3);
-    noisy += noise;
-    noisy.convertTo(color, CV_8UC3);
-  }
-  return color;
+  return ColorNoise(job, color, rng);
+}
+
+// A frame taken with the lens covered: black but for the sensor's noise, no depth, nothing
+// moving in view.
+void WriteCoveredFrame(const FrameJob& job, size_t i) {
+  const Camera& camera = job.camera;
+  cv::RNG rng(job.options.seed * 1000003ULL + i);
+  const cv::Mat black(camera.height, camera.width, CV_8UC3, cv::Scalar::all(0));
+  const cv::Mat empty(camera.height, camera.width, CV_16UC1, cv::Scalar(0));
+  WritePng((job.work / "rgb" / FrameName(i)).string(), ColorNoise(job, black, rng));
+  WritePng((job.work / "depth" / FrameName(i)).string(), empty);
+  WritePng((job.work / "masks" / FrameName(i)).string(), cv::Mat(black.size(), CV_8UC1, 0.0));
 }
 
 // Renders frame i and writes its color, depth and mask images.
 void RenderFrame(const FrameJob& job, size_t i, Rasterizer* raster) {
   const SynthOptions& options = job.options;
   const double time = static_cast<double>(i) / kFrameRate;
+  if (synth::FloorLensCovered(options.scenario, time)) return WriteCoveredFrame(job, i);
   cv::Mat static_depth;
   Render(job.scene, options.scenario, time, raster, &static_depth);
-  MarkVisible(job.surface, synth::CameraPose(options.scenario, time).inverse(), static_depth,
-              job.camera, options.static_gt_max_range, &job.seen);
+  job.truth.MarkVisible(synth::CameraPose(options.scenario, time).inverse(), static_depth,
+                        job.camera);
   cv::RNG rng(options.seed * 1000003ULL + i);
   const cv::Mat depth = DepthModel(raster->buffers(), job.camera, options.depth_noise, rng);
-  const cv::Mat mask = raster->buffers().object_id >= kFirstDynamicId;
+  const cv::Mat mask = raster->buffers().object_id >= job.scene.first_dynamic_id;
   job.dynamic_share[i] = cv::countNonZero(mask) / static_cast<double>(mask.total());
   const cv::Mat color = ColorImage(job, time, rng, raster);
   WritePng((job.work / "rgb" / FrameName(i)).string(), color);
@@ -368,9 +329,21 @@ void WriteSynthInfo(const SynthOptions& options, const SynthSummary& summary, si
 
 }  // namespace
 
-SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptions& options) {
+SynthOptions SynthOptions::WithScenarioDefaults() const {
+  SynthOptions resolved = *this;
+  const bool floor = synth::IsFloorScenario(scenario);
+  if (resolved.frames == 0) {
+    resolved.frames =
+        floor ? static_cast<size_t>(synth::FloorDuration(scenario) * kFrameRate) : 300;
+  }
+  if (resolved.static_gt_spacing == 0.0) resolved.static_gt_spacing = floor ? 0.01 : 0.005;
+  return resolved;
+}
+
+SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptions& requested) {
   const auto start = std::chrono::steady_clock::now();
-  options.Validate();
+  requested.Validate();
+  const SynthOptions options = requested.WithScenarioDefaults();
   CheckSynthFolder(out_dir);
   OutputSet outputs(
       out_dir, "synth",
@@ -380,14 +353,13 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   for (const char* sub : {"rgb", "depth", "masks", "scene"}) fs::create_directories(work / sub);
   synth::Scene scene = synth::BuildScene(options.scenario, options.seed);
   PassMeshesThroughFiles(work, &scene);
+  synth::BoundStatics(&scene);
 
   const Camera camera = SynthCamera();
   // The static ground truth: surface samples, kept when some frame sees them.
-  const std::vector<VoxelPoint> surface = SampleStaticSurfaces(scene, options.static_gt_spacing);
-  std::vector<std::atomic<std::uint8_t>> seen(surface.size());
-  for (auto& flag : seen) flag.store(0, std::memory_order_relaxed);
+  synth::StaticTruth truth(scene, options.static_gt_spacing, options.static_gt_max_range);
   std::vector<double> dynamic_share(options.frames, 0.0);
-  RenderFrames({scene, options, camera, work, surface, seen, dynamic_share});
+  RenderFrames({scene, options, camera, work, truth, dynamic_share});
 
   // Lists, trajectories and ground truth.
   WriteTimestampList((work / "rgb.txt").string(), "color images (stillmap synth)", "rgb",
@@ -400,10 +372,7 @@ SynthSummary WriteSyntheticSequence(const std::string& out_dir, const SynthOptio
   WritePoses(scene, options, work);
   WriteCameraYaml((work / "camera.yaml").string(), camera,
                   "stillmap synth camera: ideal pinhole, depth registered to color");
-  std::vector<VoxelPoint> static_gt;
-  for (size_t i = 0; i < surface.size(); ++i) {
-    if (seen[i].load(std::memory_order_relaxed) != 0) static_gt.push_back(surface[i]);
-  }
+  const std::vector<VoxelPoint> static_gt = truth.Seen();
   WritePly((work / "static_gt.ply").string(), static_gt);
 
   SynthSummary summary;
