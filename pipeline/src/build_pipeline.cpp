@@ -17,7 +17,9 @@
 #include "map_finish.h"
 #include "map_outputs.h"
 #include "mask_setup.h"
+#include "merge_links.h"
 #include "pose_loops.h"
+#include "segment_output.h"
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/output_files.h"
@@ -132,6 +134,12 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
                    config.selection,
                    depth.min_depth,
                    depth.max_depth};
+  options.segments.place = config.tracking.loops.place;
+  options.segments.place_candidates = config.merge.place_candidates;
+  options.segments.place_min_votes = config.merge.place_min_votes;
+  options.segments.links = LinkOptions(config.merge);
+  options.segments.pose_graph = config.tracking.loops.pose_graph;
+  options.segments.link_weight = config.merge.link_weight;
   options.groundtruth_reference_interval = config.groundtruth_reference_interval;
   if (options.poses == PoseSource::kGiven) {
     options.keyframe_distance_m = config.poses.keyframe_distance_m;
@@ -170,6 +178,7 @@ void Append(std::vector<std::string> from, std::vector<std::string>* to) {
 void TakeLoopFigures(LoopResult loop, BuildResult* result) {
   result->tracking = std::move(loop.tracking);
   result->selection = loop.selection;
+  result->segments = std::move(loop.segments);
   result->masking.statistics = loop.masking;
   result->frames.depth_median_m = loop.depth_median_m;
   result->frames.depth_95th_percentile_m = loop.depth_95th_percentile_m;
@@ -209,8 +218,10 @@ void WriteOutputs(const BuildRequest& request, const BuildInputs& inputs,
                   result->poses, outputs);
   result->frames.fused = result->map.statistics.frames;
   result->frames.tracked = posed->trajectory.size();
-  const size_t new_maps = result->tracking ? result->tracking->statistics.new_maps : 0;
-  Append(MapWarnings(result->map, result->map_frame, request.config.mapping, new_maps),
+  const size_t linked = static_cast<size_t>(
+      std::count_if(result->segments.begin(), result->segments.end(),
+                    [](const SegmentSummary& s) { return s.join == SegmentJoin::kLinked; }));
+  Append(MapWarnings(result->map, result->map_frame, request.config.mapping, linked),
          &result->warnings);
 }
 
@@ -222,7 +233,7 @@ const std::vector<std::string>& BuildOutputNames() {
   static const std::vector<std::string> kNames = {
       "map.ply",  "map.pcd",     "map.bt",      "map.ot",      "trajectory.txt", "keyframes.txt",
       "grid.pgm", "grid.yaml",   "mesh.glb",    "mesh.obj",    "mesh.mtl",       "mesh.ply",
-      "renders/", "config.yaml", "report.json", "report.html", "session.bin"};
+      "renders/", "config.yaml", "report.json", "report.html", "session.bin",    "segments/"};
   return kNames;
 }
 
@@ -258,6 +269,8 @@ BuildResult RunBuild(const BuildRequest& request) {
   const double loop_cpu_start = ThreadCpuMs();
   LoopResult loop = RunPoseLoop(inputs, LoopOptionsOf(request), *masks.stage, mapper);
   PosedFrames posed = std::move(loop.posed);
+  std::vector<ApartSegment> apart = std::move(loop.apart);
+  const double depth_unit_m = posed.session_depth_unit_m;  // of the kept keyframes' depth
   TakeLoopFigures(std::move(loop), &result);
   const double finish_cpu_start = ThreadCpuMs();
   result.timings.frame_loop_cpu_ms = finish_cpu_start - loop_cpu_start;
@@ -268,6 +281,16 @@ BuildResult RunBuild(const BuildRequest& request) {
   FinishedBuildMap finished =
       FinishMapInFrame(std::move(map), posed, inputs, result.masking, MapFinishOptionsOf(request));
   WriteOutputs(request, inputs, &finished, &posed, outputs, &result);
+  if (!apart.empty()) {
+    const SegmentOutputContext context{inputs,
+                                       request.config,
+                                       request.sequence_dir,
+                                       result.masking,
+                                       MapFinishOptionsOf(request),
+                                       MapFileOptionsOf(request),
+                                       depth_unit_m};
+    Append(WriteApartSegments(std::move(apart), context, outputs), &result.warnings);
+  }
   result.timings.write_ms = MillisecondsSince(write_start);
   result.timings.finish_cpu_ms = ThreadCpuMs() - finish_cpu_start;
   result.timings.process_cpu_ms = (ProcessCpuSeconds() - process_cpu_start_s) * 1000.0;

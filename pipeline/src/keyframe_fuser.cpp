@@ -3,28 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
-
-std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features) {
-  std::vector<SessionFeature> out(features.size());
-  for (size_t i = 0; i < features.size(); ++i) {
-    SessionFeature& f = out[i];
-    f.u = features.keypoints[i].pt.x;
-    f.v = features.keypoints[i].pt.y;
-    f.x = static_cast<float>(features.normalized[i].x());
-    f.y = static_cast<float>(features.normalized[i].y());
-    f.depth_m = features.depth_m[i];
-    f.octave = static_cast<std::uint8_t>(std::clamp(features.keypoints[i].octave, 0, 255));
-    std::memcpy(f.descriptor.data(), features.descriptors.ptr(static_cast<int>(i)),
-                f.descriptor.size());
-  }
-  return out;
-}
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
                              const MaskStage& masks, Mapper* mapper)
@@ -60,7 +43,8 @@ cv::Mat KeyframeFuser::Recheck(const FinalKeyframe& keyframe, std::map<int, Wait
 }
 
 void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
-                         const DepthCorrection& correction) {
+                         const DepthCorrection& correction,
+                         const std::function<bool(int keyframe_id)>& in_map) {
   const auto start = std::chrono::steady_clock::now();
   for (const FinalKeyframe& keyframe : finals) {
     const auto it = waiting_.find(keyframe.id);
@@ -81,11 +65,11 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
       // The depth corrected as the tracker's self-calibration has it now (the poses are
       // consistent with it).
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
-      const cv::Mat seen = SeenBefore(keyframe.id, input);
-      if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen);
-      if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
-      mapper_.Integrate(input);
-      fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
+      if (in_map && !in_map(keyframe.id)) {
+        Store(keyframe, input, cv::Mat(), true);
+      } else {
+        FuseNow(keyframe, std::move(input));
+      }
     }
     if (recheck_) {
       MaskReference done = std::move(it->second.reference);
@@ -98,6 +82,63 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
   fuse_ms_ += MillisecondsSince(start);
 }
 
+void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
+  const cv::Mat seen = SeenBefore(keyframe.id, input);
+  if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen);
+  if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
+  mapper_.Integrate(input);
+  fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
+}
+
+size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_map,
+                                 const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  size_t joined = 0;
+  for (Stored& stored : stored_) {
+    if (!stored.apart || !in_map(stored.keyframe_id)) continue;
+    const auto it = world_from_keyframe.find(stored.keyframe_id);
+    if (it != world_from_keyframe.end()) stored.world_from_camera = it->second;
+    MapperFrame input = Decode(stored);  // moving pixels are 0 in its depth
+    const cv::Mat seen = SeenBefore(stored.keyframe_id, input);
+    if (!seen.empty()) {
+      cv::imencode(".png", seen, stored.seen_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+      input.mask = seen;
+    }
+    mapper_.Integrate(input);
+    fused_poses_.push_back({stored.time, stored.world_from_camera});
+    stored.apart = false;
+    ++joined;
+  }
+  std::sort(fused_poses_.begin(), fused_poses_.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.time < b.time; });
+  return joined;
+}
+
+std::vector<SessionKeyframeBlocks> KeyframeFuser::TakeApart(
+    const std::function<bool(int keyframe_id)>& take) {
+  std::vector<SessionKeyframeBlocks> out;
+  std::vector<Stored> kept;
+  for (Stored& stored : stored_) {
+    if (stored.apart && take(stored.keyframe_id)) {
+      out.push_back(Blocks(std::move(stored)));
+    } else {
+      kept.push_back(std::move(stored));
+    }
+  }
+  stored_ = std::move(kept);
+  return out;
+}
+
+MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
+  MapperFrame input;
+  input.time = stored.time;
+  input.color = cv::imdecode(stored.color_jpeg, cv::IMREAD_COLOR);
+  cv::imdecode(stored.depth_png, cv::IMREAD_UNCHANGED)
+      .convertTo(input.depth_m, CV_32F, depth_unit_m_);
+  if (!stored.seen_png.empty()) input.mask = cv::imdecode(stored.seen_png, cv::IMREAD_UNCHANGED);
+  input.world_from_camera = stored.world_from_camera;
+  return input;
+}
+
 cv::Mat KeyframeFuser::SeenBefore(int keyframe_id, const MapperFrame& input) {
   CellView view =
       revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera);
@@ -107,15 +148,15 @@ cv::Mat KeyframeFuser::SeenBefore(int keyframe_id, const MapperFrame& input) {
 }
 
 void KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& input,
-                          const cv::Mat& seen) {
-  Stored stored{keyframe.id, input.time, input.world_from_camera, {}, {}, {}, {}};
+                          const cv::Mat& seen, bool apart) {
+  Stored stored{keyframe.id, input.time, input.world_from_camera, {}, {}, {}, {}, apart};
   cv::Mat depth;
   input.depth_m.convertTo(depth, CV_16U, 1.0 / depth_unit_m_);  // saturates beyond the range
   if (!input.mask.empty()) depth.setTo(0, input.mask);
   cv::imencode(".png", depth, stored.depth_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
   if (!seen.empty()) cv::imencode(".png", seen, stored.seen_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
   cv::imencode(".jpg", input.color, stored.color_jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
-  if (keep_for_session_) stored.features = SessionFeatures(keyframe.features);
+  if (keep_for_session_ || apart) stored.features = SessionFeatures(keyframe.features);
   stored_.push_back(std::move(stored));
 }
 
@@ -123,17 +164,21 @@ std::vector<SessionKeyframeBlocks> KeyframeFuser::TakeSessionKeyframes() {
   std::vector<SessionKeyframeBlocks> out;
   if (!keep_for_session_) return out;
   for (Stored& stored : stored_) {
-    SessionKeyframeBlocks blocks;
-    blocks.keyframe.id = stored.keyframe_id;
-    blocks.keyframe.time = stored.time;
-    blocks.keyframe.map_from_camera = stored.world_from_camera;
-    blocks.keyframe.features = std::move(stored.features);
-    blocks.depth_png = std::move(stored.depth_png);
-    blocks.color_jpeg = std::move(stored.color_jpeg);
-    out.push_back(std::move(blocks));
+    if (!stored.apart) out.push_back(Blocks(std::move(stored)));
   }
   stored_.clear();
   return out;
+}
+
+SessionKeyframeBlocks KeyframeFuser::Blocks(Stored stored) {
+  SessionKeyframeBlocks blocks;
+  blocks.keyframe.id = stored.keyframe_id;
+  blocks.keyframe.time = stored.time;
+  blocks.keyframe.map_from_camera = stored.world_from_camera;
+  blocks.keyframe.features = std::move(stored.features);
+  blocks.depth_png = std::move(stored.depth_png);
+  blocks.color_jpeg = std::move(stored.color_jpeg);
+  return blocks;
 }
 
 size_t KeyframeFuser::stored_bytes() const {
@@ -153,7 +198,7 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     if (it == world_from_keyframe.end()) continue;
     const Eigen::Isometry3d change = stored.world_from_camera.inverse() * it->second;
     const double angle_deg = RotationAngleDeg(change);
-    if (change.translation().norm() > 0.001 || angle_deg > 0.05) ++moved;
+    if (!stored.apart && (change.translation().norm() > 0.001 || angle_deg > 0.05)) ++moved;
     stored.world_from_camera = it->second;
   }
   revisits_.Repose(world_from_keyframe);
@@ -161,14 +206,8 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
   mapper_.Reset();
   fused_poses_.clear();
   for (const Stored& stored : stored_) {
-    MapperFrame input;
-    input.time = stored.time;
-    input.color = cv::imdecode(stored.color_jpeg, cv::IMREAD_COLOR);
-    cv::imdecode(stored.depth_png, cv::IMREAD_UNCHANGED)
-        .convertTo(input.depth_m, CV_32F, depth_unit_m_);
-    if (!stored.seen_png.empty()) input.mask = cv::imdecode(stored.seen_png, cv::IMREAD_UNCHANGED);
-    input.world_from_camera = stored.world_from_camera;
-    mapper_.Integrate(input);
+    if (stored.apart) continue;
+    mapper_.Integrate(Decode(stored));
     fused_poses_.push_back({stored.time, stored.world_from_camera});
   }
   refuse_ms_ += MillisecondsSince(start);

@@ -2,6 +2,7 @@
 // (valid, not redundant) and fusion with the depth as the tracker's self-calibration has it.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <optional>
 #include <vector>
@@ -19,9 +20,6 @@
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
-
-// A keyframe's features as the session record keeps them.
-std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features);
 
 // What the fuser reads of the build's configuration.
 struct FuserOptions {
@@ -45,8 +43,17 @@ class KeyframeFuser {
             const Eigen::Isometry3d& world_from_camera);
 
   // Re-checks, judges and fuses the keyframes whose poses are now final (in the order given),
-  // their depth corrected by `correction`.
-  void Fuse(const std::vector<FinalKeyframe>& finals, const DepthCorrection& correction);
+  // their depth corrected by `correction`. A keyframe `in_map` says no to (a map segment not
+  // joined to the first: map_segments.h) is judged the same but kept apart, compact, instead.
+  void Fuse(const std::vector<FinalKeyframe>& finals, const DepthCorrection& correction,
+            const std::function<bool(int keyframe_id)>& in_map = nullptr);
+  // Fuses the keyframes kept apart that `in_map` now says yes to (their segment was joined), at
+  // their poses in `world_from_keyframe`. Returns how many.
+  size_t FuseJoined(const std::function<bool(int keyframe_id)>& in_map,
+                    const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+  // Hands over the keyframes kept apart that `take` says yes to, in the session record's form
+  // (poses in the tracker's world, features always kept).
+  std::vector<SessionKeyframeBlocks> TakeApart(const std::function<bool(int keyframe_id)>& take);
 
   // After loop corrections: when a fused keyframe's pose in `world_from_keyframe` (by keyframe
   // id) differs from the one it was fused at (by more than 1 mm or 0.05 degrees), the map is
@@ -83,9 +90,17 @@ class KeyframeFuser {
     std::vector<unsigned char> seen_png;    // CV_8UC1 cells seen on an earlier visit, or empty
     std::vector<unsigned char> color_jpeg;  // BGR
     std::vector<SessionFeature> features;   // for the session record
+    bool apart = false;                     // kept apart: not in the map (Fuse's in_map)
   };
+  static SessionKeyframeBlocks Blocks(Stored stored);
   // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
-  void Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen);
+  void Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
+             bool apart = false);
+  // A stored keyframe as the mapper takes it.
+  MapperFrame Decode(const Stored& stored) const;
+  // Fuses a judged keyframe into the map (the cells earlier visits saw left out), kept compact
+  // when the build may fuse it again or records the session.
+  void FuseNow(const FinalKeyframe& keyframe, MapperFrame input);
   // The depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells), or an
   // empty matrix.
   cv::Mat SeenBefore(int keyframe_id, const MapperFrame& input);

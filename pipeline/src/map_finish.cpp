@@ -124,14 +124,14 @@ MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleanin
 }
 
 std::vector<std::string> MapWarnings(const MapFigures& map, const MapFrameFigures& frame,
-                                     const MapperOptions& options, size_t new_maps) {
+                                     const MapperOptions& options, size_t segments_linked) {
   std::vector<std::string> warnings;
-  if (new_maps > 0) {
+  if (segments_linked > 0) {
     warnings.push_back(fmt::format(
-        "tracking was lost and not relocalized {} time(s); each time a new local map was started "
-        "from the last good pose and fused into the same cloud, so parts of the map may be "
-        "misaligned copies (report.json: tracking.lost_frame_times)",
-        new_maps));
+        "tracking was lost and not relocalized {} time(s) where the map was later found again: "
+        "each part after such a loss was placed in the map by the places it shares with the "
+        "parts before (report.json: segments)",
+        segments_linked));
   }
   if (map.voxels_out_of_range + map.octomap_points_out_of_range > 0) {
     warnings.push_back(fmt::format(

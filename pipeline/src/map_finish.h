@@ -51,9 +51,9 @@ std::optional<OccupancyGrid> ProjectMapGrid(const FinishedMap& map,
 // The figures of a finished map and its cleaning.
 MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleaning);
 
-// Warnings about the finished map that the figures alone do not make plain; `new_maps`: local
-// maps started after a loss of tracking.
+// Warnings about the finished map that the figures alone do not make plain; `segments_linked`:
+// map segments (after a loss of tracking) placed in the map by links to earlier places.
 std::vector<std::string> MapWarnings(const MapFigures& map, const MapFrameFigures& frame,
-                                     const MapperOptions& options, size_t new_maps);
+                                     const MapperOptions& options, size_t segments_linked);
 
 }  // namespace stillmap

@@ -9,6 +9,7 @@
 #include "merge_sessions.h"
 #include "stillmap/pipeline/merge_options.h"
 #include "stillmap/tracking/place_index.h"
+#include "stillmap/tracking/place_links.h"
 
 namespace stillmap {
 
@@ -36,18 +37,16 @@ class SessionPlaces {
   SessionPlaces(const SessionRecord& record, const PlaceIndexOptions& index_options);
   const SessionRecord& record() const { return record_; }
   const PlaceIndex& index() const { return index_; }
-  const cv::Mat& descriptors(size_t keyframe) const { return descriptors_[keyframe]; }
-  // The keyframe's features with depth (indices), and their descriptors in that order.
-  const std::vector<int>& with_depth(size_t keyframe) const { return with_depth_[keyframe]; }
-  const cv::Mat& depth_descriptors(size_t keyframe) const { return depth_descriptors_[keyframe]; }
+  const LinkKeyframe& keyframe(size_t k) const { return keyframes_[k]; }
 
  private:
   const SessionRecord& record_;
   PlaceIndex index_;
-  std::vector<cv::Mat> descriptors_;  // per keyframe, CV_8U rows of 32 bytes
-  std::vector<std::vector<int>> with_depth_;
-  std::vector<cv::Mat> depth_descriptors_;
+  std::vector<LinkKeyframe> keyframes_;
 };
+
+// The link rules of a merge (merge.*).
+PlaceLinkOptions LinkOptions(const MergeOptions& options);
 
 // The links between sessions a and b (indices `a` < `b` for the result).
 PairLinks FindLinks(const SessionPlaces& a, const SessionPlaces& b, int index_a, int index_b,

@@ -7,6 +7,7 @@
 #include "build_inputs.h"
 #include "frame_reader.h"
 #include "keyframe_fuser.h"
+#include "segment_keeper.h"
 #include "stillmap/io/session_record.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/mapper.h"
@@ -26,8 +27,9 @@ struct PosedFrames {
 // What the frame loops read of the request.
 struct LoopOptions {
   PoseSource poses = PoseSource::kTracking;
-  TrackerOptions tracking;  // tracked runs
-  FuserOptions fuser;       // tracked runs
+  TrackerOptions tracking;     // tracked runs
+  FuserOptions fuser;          // tracked runs
+  MapSegmentOptions segments;  // tracked runs: joining segments after a loss (merge.*)
   // With ground-truth poses every n-th frame is a depth-check reference
   // (masking.groundtruth_reference_interval).
   int groundtruth_reference_interval = 5;
@@ -46,6 +48,8 @@ struct LoopResult {
   PosedFrames posed;
   std::optional<TrackingFigures> tracking;  // tracked runs
   SelectionFigures selection;               // tracked runs
+  std::vector<SegmentSummary> segments;     // tracked runs: every map segment
+  std::vector<ApartSegment> apart;          // the segments never joined, to be written apart
   MaskingStatistics masking;
   double depth_median_m = 0.0, depth_95th_percentile_m = 0.0;  // every depth reading's
   size_t frozen_colour = 0;  // colour frames equal to the one before
@@ -93,8 +97,9 @@ PosedFrames RunGivenPoseLoop(const BuildInputs& inputs, const LoopOptions& optio
                              const KnownPosePlan& plan, LoopStages stages, LoopResult* result);
 
 // With tracked poses: keyframes are fused once their pose is final (they left the bundle
-// adjustment window). Fills result->tracking and result->selection. Throws std::runtime_error
-// when no frame could be tracked.
+// adjustment window), those of map segments not joined to the first kept apart (segment_keeper.h).
+// Fills result->tracking, result->selection, result->segments and result->apart. Throws
+// std::runtime_error when no frame could be tracked.
 PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options, LoopStages stages,
                            LoopResult* result);
 

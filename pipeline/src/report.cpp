@@ -197,6 +197,9 @@ json OutputsJson(const BuildResult& result, const BuildConfig& config) {
   if (result.grid) files.insert(files.end(), {"grid.pgm", "grid.yaml"});
   if (result.mesh) files.push_back(result.mesh->file);
   files.insert(files.end(), {"config.yaml", "report.json"});
+  for (const SegmentSummary& segment : result.segments) {
+    if (!segment.in_map) files.push_back(fmt::format("segments/{}/", segment.id));
+  }
   return files;
 }
 
@@ -386,6 +389,7 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
             : fmt::format("not written: {}=false", OptionKey(&GridOptions::enabled));
   }
   if (result.tracking) report["tracking"] = TrackingJson(*result.tracking, config.tracking);
+  if (!result.segments.empty()) report["segments"] = SegmentsJson(result.segments);
   report["warnings"] = result.warnings;
   report["threads"] = result.threads;
   report["timing"] = RunTimingJson(result);
@@ -436,6 +440,18 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
         given.use == "prior" ? fmt::format("the tracker's prior ({} frames carried)", carried)
                              : std::string("the map's poses"),
         given.without_pose()));
+  }
+  size_t apart_frames = 0, apart_segments = 0;
+  for (const SegmentSummary& segment : result.segments) {
+    if (segment.in_map) continue;
+    apart_frames += segment.frames;
+    ++apart_segments;
+  }
+  if (apart_segments > 0) {
+    lines.push_back(fmt::format(
+        "{} more frames tracked in {} map segment(s) that could not be placed in the map: "
+        "written apart under segments/ (warnings below)",
+        apart_frames, apart_segments));
   }
   if (result.AteRmse()) {
     lines.push_back(

@@ -1,5 +1,7 @@
 #include "report_poses.h"
 
+#include <fmt/format.h>
+
 #include "report_parts.h"
 
 namespace stillmap {
@@ -68,6 +70,27 @@ json GivenPosesJson(const GivenPoseFigures& given) {
             {"after_the_poses", given.after},
             {"after_by_up_to_s", given.after_s},
             {"across_gaps", given.in_gaps}}}};
+}
+
+nlohmann::json SegmentsJson(const std::vector<SegmentSummary>& segments) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const SegmentSummary& s : segments) {
+    nlohmann::json entry = {
+        {"id", s.id},
+        {"first_time", s.first_time},
+        {"last_time", s.last_time},
+        {"frames", s.frames},
+        {"keyframes", s.keyframes},
+        {"joined", SegmentJoinName(s.join)},
+        {"in", s.in_map ? std::string("map") : fmt::format("segments/{}/", s.id)}};
+    if (s.join == SegmentJoin::kLinked) {
+      entry["joined_to"] = s.joined_to;
+      entry["joined_at_time"] = s.joined_time;
+      entry["agreeing_links"] = s.links;
+    }
+    out.push_back(entry);
+  }
+  return out;
 }
 
 }  // namespace stillmap

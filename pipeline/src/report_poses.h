@@ -15,5 +15,8 @@ const char* AlignedBy(PoseSource poses);
 nlohmann::json MapFrameJson(const MapFrameFigures& frame, PoseSource poses);
 // report.json's "given_poses": the source, its use, chain and world, frames without a pose.
 nlohmann::json GivenPosesJson(const GivenPoseFigures& given);
+// report.json's "segments": each map segment's span, frames, keyframes, how it was joined (first,
+// linked, not joined), and where it is (the map, or segments/<id>/).
+nlohmann::json SegmentsJson(const std::vector<SegmentSummary>& segments);
 
 }  // namespace stillmap

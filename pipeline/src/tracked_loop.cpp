@@ -28,9 +28,12 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
                            LoopResult* result) {
   Tracker tracker(inputs.camera, options.tracking);
   KeyframeFuser fuser(inputs.camera, options.fuser, stages.masks, &stages.mapper);
-  auto fuse_final = [&tracker, &fuser] {
-    const std::vector<FinalKeyframe> finals = tracker.TakeFinalKeyframes();
-    if (!finals.empty()) fuser.Fuse(finals, tracker.depth_correction());
+  MapSegmentOptions segment_options = options.segments;
+  segment_options.fx = inputs.camera.fx;
+  SegmentKeeper segments(segment_options);
+  auto fuse_final = [&tracker, &fuser, &segments] {
+    std::vector<FinalKeyframe> finals = tracker.TakeFinalKeyframes();
+    if (!finals.empty()) segments.Fuse(std::move(finals), tracker, fuser);
   };
   TrackingFigures figures;
   size_t corrections = 0;
@@ -43,9 +46,12 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
     const TrackResult tracked =
         tracker.Track(frame.index, frame.time, prepared.gray, frame.depth_m, mask);
     Record(tracked, frame.time, &figures);
+    segments.Frame(tracked, frame.time);
     if (tracker.pose_corrections() != corrections) {  // the depth check's references moved too
       corrections = tracker.pose_corrections();
-      stages.masks.Repose(tracker.KeyframePoses());
+      const std::map<int, Eigen::Isometry3d> poses = tracker.KeyframePoses();
+      stages.masks.Repose(poses);
+      segments.Repose(poses);
     }
     if (tracked.keyframe_id >= 0) {
       stages.masks.AddReference(frame, mask, tracked.world_from_camera, tracked.keyframe_id);
@@ -59,7 +65,10 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
   const size_t moved = fuser.Refuse(tracker.KeyframePoses());
   const double store_mib = static_cast<double>(fuser.stored_bytes()) / (1024.0 * 1024.0);
-  PosedFrames posed{tracker.TrackedTrajectory(), fuser.fused_poses(), fuser.TakeSessionKeyframes(),
+  Trajectory trajectory = tracker.TrackedTrajectory();
+  result->apart = segments.TakeApart(fuser, &trajectory);
+  result->segments = segments.Summaries();
+  PosedFrames posed{std::move(trajectory), fuser.fused_poses(), fuser.TakeSessionKeyframes(),
                     fuser.depth_unit_m()};
   if (posed.trajectory.empty()) {
     throw std::runtime_error(fmt::format(

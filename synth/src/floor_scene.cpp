@@ -157,14 +157,16 @@ void AddWalls(FloorBuilder& build, std::uint16_t corridor_paint, std::uint16_t c
 
 // Floors (tiles in the corridor, a carpet of its own in each room) and ceilings with lights.
 void AddSlabs(FloorBuilder& build, std::uint16_t ceiling, std::uint16_t light) {
-  const std::uint16_t tiles = build.Material(TileTexture(build.rng(), {150, 160, 165}, 16));
+  // One texture over the whole corridor (28 tiles of 0.6 m, 4 mm a texel): a texture repeated
+  // along it would make stretches metres apart look the same to place recognition.
+  const std::uint16_t tiles = build.Material(TileTexture(build.rng(), {150, 160, 165}, 28, 4096));
   const FloorRect& c = kFloorCore;
   const float south = kCorridorSouthWall + kFloorWallHalf,
               north = kCorridorNorthWall - kFloorWallHalf;
   const std::array<FloorRect, 4> corridor{
       {{0, south, 16, c.y0}, {0, c.y1, 16, north}, {0, c.y0, c.x0, c.y1}, {c.x1, c.y0, 16, c.y1}}};
   for (size_t k = 0; k < corridor.size(); ++k) {
-    build.Slab("corridor_floor_" + std::to_string(k), corridor[k], 0.0f, tiles, 9.6f);
+    build.Slab("corridor_floor_" + std::to_string(k), corridor[k], 0.0f, tiles, 16.8f);
     build.Slab("corridor_ceiling_" + std::to_string(k), corridor[k], kH, ceiling, 1.5f);
   }
   for (float x = 1.0f; x < 16.0f; x += 3.0f) {
@@ -174,9 +176,10 @@ void AddSlabs(FloorBuilder& build, std::uint16_t ceiling, std::uint16_t light) {
   }
   for (const FloorRoom& room : FloorRooms()) {
     const cv::Scalar tone = RandomColor(build.rng(), 50, 140);
+    // A carpet over the whole room (4 mm a texel), not a repeated square metre.
     const std::uint16_t carpet =
-        build.Material(NoiseTexture(build.rng(), tone, 18.0, 256, 16, 16.0));
-    build.Slab(std::string(room.name) + "_floor", room.inside, 0.0f, carpet, 1.0f);
+        build.Material(NoiseTexture(build.rng(), tone, 18.0, 2048, 128, 16.0));
+    build.Slab(std::string(room.name) + "_floor", room.inside, 0.0f, carpet, 8.0f);
     build.Slab(std::string(room.name) + "_ceiling", room.inside, kH, ceiling, 1.5f);
     const float y = (room.inside.y0 + room.inside.y1) / 2;
     for (float x : {room.inside.x0 + 2.5f, room.inside.x1 - 2.5f}) {

@@ -112,26 +112,25 @@ cv::Mat FaceTexture(cv::RNG& rng, const cv::Scalar& skin, const cv::Scalar& hair
   return face;
 }
 
-cv::Mat TileTexture(cv::RNG& rng, const cv::Scalar& base, int tiles) {
-  constexpr int kSize = 2048;
-  cv::Mat floor = NoiseTexture(rng, base, 4.0, kSize, 24, 9.0);
-  const int tile = kSize / tiles;
+cv::Mat TileTexture(cv::RNG& rng, const cv::Scalar& base, int tiles, int size) {
+  cv::Mat floor = NoiseTexture(rng, base, 4.0, size, 24, 9.0);
+  const int tile = size / tiles;
   for (int ty = 0; ty < tiles; ++ty) {
     for (int tx = 0; tx < tiles; ++tx) {
       const cv::Rect rect(tx * tile, ty * tile, tile, tile);
       floor(rect) += cv::Scalar::all(rng.uniform(-14, 14));
     }
   }
-  for (int s = 0; s < 160; ++s) {  // scuffs and specks
-    const cv::Point at(rng.uniform(0, kSize), rng.uniform(0, kSize));
+  for (int s = 0; s < tiles * tiles; ++s) {  // scuffs and specks, about one per tile
+    const cv::Point at(rng.uniform(0, size), rng.uniform(0, size));
     const cv::Size half(rng.uniform(2, 14), rng.uniform(1, 6));
     cv::ellipse(floor, at, half, rng.uniform(0, 180), 0, 360, base * rng.uniform(0.45, 0.8),
                 cv::FILLED);
   }
   for (int g = 0; g <= tiles; ++g) {  // grout
-    const int at = std::min(g * tile, kSize - 1);
-    cv::line(floor, {at, 0}, {at, kSize - 1}, base * 0.55, 3);
-    cv::line(floor, {0, at}, {kSize - 1, at}, base * 0.55, 3);
+    const int at = std::min(g * tile, size - 1);
+    cv::line(floor, {at, 0}, {at, size - 1}, base * 0.55, 3);
+    cv::line(floor, {0, at}, {size - 1, at}, base * 0.55, 3);
   }
   return floor;
 }

@@ -18,9 +18,9 @@ cv::Mat ScreenTexture(cv::RNG& rng);
 // A face on skin, for a head's texture (u around from the front, v from the top).
 cv::Mat FaceTexture(cv::RNG& rng, const cv::Scalar& skin, const cv::Scalar& hair);
 
-// Floor tiles, `tiles` x `tiles` over the texture: each tile its own shade of `base`, speckled,
-// grout between them and a few scuffs, so that no two stretches of a corridor look the same.
-cv::Mat TileTexture(cv::RNG& rng, const cv::Scalar& base, int tiles);
+// Floor tiles, `tiles` x `tiles` over a `size` px texture: each tile its own shade of `base`,
+// speckled, grout between them and scuffs, so that no two stretches of a corridor look the same.
+cv::Mat TileTexture(cv::RNG& rng, const cv::Scalar& base, int tiles, int size);
 // Paint and nothing else: a blank corridor wall.
 cv::Mat PlainPaint(cv::RNG& rng, const cv::Scalar& paint);
 // A whiteboard with marker lines, boxes and words.

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 
@@ -125,6 +126,22 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
     features.depth_m.push_back(depth);
   }
   return features;
+}
+
+std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features) {
+  std::vector<SessionFeature> out(features.size());
+  for (size_t i = 0; i < features.size(); ++i) {
+    SessionFeature& f = out[i];
+    f.u = features.keypoints[i].pt.x;
+    f.v = features.keypoints[i].pt.y;
+    f.x = static_cast<float>(features.normalized[i].x());
+    f.y = static_cast<float>(features.normalized[i].y());
+    f.depth_m = features.depth_m[i];
+    f.octave = static_cast<std::uint8_t>(std::clamp(features.keypoints[i].octave, 0, 255));
+    std::memcpy(f.descriptor.data(), features.descriptors.ptr(static_cast<int>(i)),
+                f.descriptor.size());
+  }
+  return out;
 }
 
 }  // namespace stillmap

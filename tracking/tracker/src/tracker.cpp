@@ -373,7 +373,15 @@ std::map<int, Eigen::Isometry3d> Tracker::KeyframePoses() const {
 
 size_t Tracker::pose_corrections() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
-  return impl_->stats.loops_accepted + impl_->stats.global_bundle_adjustments;
+  return impl_->stats.loops_accepted + impl_->stats.global_bundle_adjustments +
+         impl_->stats.segment_moves;
+}
+
+void Tracker::MoveKeyframes(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  std::unique_lock<std::mutex> lock(impl_->mutex);
+  impl_->TakeLoopCorrection(lock);
+  impl_->TakeAdjustment(lock);
+  impl_->MoveKeyframes(world_from_keyframe);
 }
 
 DepthCorrection Tracker::depth_correction() const {

@@ -303,6 +303,8 @@ struct Tracker::Impl {
   void TakeLoopCorrection(std::unique_lock<std::mutex>& lock);
   void ApplyLoopCorrection(const LoopCorrection& loop);
   void MergeLoopLandmarks(const LoopCorrection& loop);
+  // Tracker::MoveKeyframes, once the pending results are taken.
+  void MoveKeyframes(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // Landmarks shared by each pair of keyframes: (older, newer) id -> count.
   std::map<std::pair<int, int>, int> CovisibilityPairs() const;
   void ClearMatches(Association& association);

@@ -101,4 +101,38 @@ void Tracker::Impl::MergeLoopLandmarks(const LoopCorrection& loop) {
   }
 }
 
+void Tracker::Impl::MoveKeyframes(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  // world' = correction * world per keyframe moved.
+  std::map<int, Eigen::Isometry3d> correction;
+  for (const auto& [id, world_from_camera] : world_from_keyframe) {
+    const auto it = keyframes.find(id);
+    if (it == keyframes.end()) continue;
+    correction.emplace(id, world_from_camera * it->second.camera_from_world);
+    it->second.camera_from_world = world_from_camera.inverse();
+  }
+  if (correction.empty()) return;
+  ++stats.segment_moves;
+  const auto& [newest, at_newest] = *correction.rbegin();
+  const bool current_map = std::find(map_keyframes.begin(), map_keyframes.end(), newest) !=
+                           map_keyframes.end();
+  if (!current_map) return;  // older segments keep no landmarks
+  // The rest of the current map moves with the keyframe moved nearest before it (the keyframes
+  // made since the newest one moved, those culled meanwhile), each landmark with its maker.
+  auto nearest = [&](int keyframe_id) -> const Eigen::Isometry3d& {
+    auto it = correction.upper_bound(keyframe_id);
+    if (it != correction.begin()) --it;
+    return it->second;
+  };
+  for (int id : map_keyframes) {
+    if (correction.count(id) > 0) continue;
+    Keyframe& keyframe = keyframes.at(id);
+    keyframe.camera_from_world = keyframe.camera_from_world * nearest(id).inverse();
+  }
+  for (auto& [id, landmark] : landmarks) {
+    landmark.position = nearest(landmark.created_keyframe) * landmark.position;
+  }
+  last_camera_from_world = last_camera_from_world * at_newest.inverse();
+  last_good_camera_from_world = last_good_camera_from_world * at_newest.inverse();
+}
+
 }  // namespace stillmap

@@ -13,6 +13,7 @@
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/tracking/map_segments.h"
 #include "stillmap/tracking/mask_stage.h"
 #include "stillmap/tracking/tracker.h"
 
@@ -165,6 +166,9 @@ struct BuildResult {
   FrameCounts frames;
   std::optional<TrackingFigures> tracking;  // tracked runs
   SelectionFigures selection;
+  // Tracked builds: every map segment (a new one after each loss relocalization did not undo),
+  // how it was joined, and whether it is in the map or was written apart under segments/<id>/.
+  std::vector<SegmentSummary> segments;
   MaskingFigures masking;
   MapFigures map;
   MapFrameFigures map_frame;

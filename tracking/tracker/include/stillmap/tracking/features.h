@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "stillmap/io/camera.h"
+#include "stillmap/io/session_record.h"
 
 namespace stillmap {
 
@@ -58,5 +59,8 @@ struct FrameFeatures {
 // Pixels where `ignore_mask` (CV_8UC1, or empty) is non-zero yield no features.
 FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const Camera& camera,
                               const cv::Mat& ignore_mask, const FeatureOptions& options);
+
+// A keyframe's features as the session record keeps them (and place links match them).
+std::vector<SessionFeature> SessionFeatures(const FrameFeatures& features);
 
 }  // namespace stillmap

@@ -4,8 +4,9 @@
 // keyframes that runs on its own thread so that it never stalls tracking.
 //
 // World frame: the first tracked camera frame. When tracking is lost and relocalization against
-// recent keyframes fails for a while, a new local map starts, chained to the last good pose (the
-// camera is assumed to be where it was last seen); the report counts these new maps.
+// recent keyframes fails for a while, a new local map starts at the last good pose, whose true
+// place is unknown: the build makes it a map segment of its own (map_segments.h), placed when its
+// places are found in an earlier segment (MoveKeyframes).
 #pragma once
 
 #include <Eigen/Geometry>
@@ -102,6 +103,7 @@ struct TrackerStatistics {
   double loop_correction_deg = 0.0;
   double loop_ms = 0.0;        // place queries and verification, on the tracking thread
   double loop_solve_ms = 0.0;  // pose graphs, on whichever thread ran them
+  size_t segment_moves = 0;  // keyframes moved from outside (MoveKeyframes)
   size_t global_bundle_adjustments = 0;
   double global_bundle_adjustment_ms = 0.0;
   double place_index_mib = 0.0;  // memory of the place index
@@ -170,6 +172,13 @@ class Tracker {
   // Every keyframe's current pose (camera-to-world) by keyframe id: after Finish, the final
   // ones, loop corrections included.
   std::map<int, Eigen::Isometry3d> KeyframePoses() const;
+
+  // Moves keyframes to poses found outside the tracker (a map segment joined to an earlier one:
+  // map_segments.h), camera-to-world by keyframe id, after taking what the worker had pending.
+  // Landmarks move with the keyframe that made them. When the newest keyframe moved belongs to
+  // the current local map, its keyframes made since and the camera move with it. Counts as a
+  // pose correction.
+  void MoveKeyframes(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
  private:
   struct Impl;

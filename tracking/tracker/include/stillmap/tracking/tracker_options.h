@@ -233,7 +233,7 @@ struct RelocalizationOptions {
     visit("relocalization_keyframes", self.relocalization_keyframes,
           "keyframes a relocalization tries");
     visit("new_map_after_lost", self.new_map_after_lost,
-          "consecutive lost frames before a new local map starts at the last good pose");
+          "consecutive lost frames before a new map segment begins, in a frame of its own");
     visit("min_static_depth_share", self.min_static_depth_share,
           "frames with less depth outside the moving mask make no keyframe (occluded)");
     visit("max_predicted_frames", self.max_predicted_frames,

@@ -1,0 +1,51 @@
+// Map segments in a tracked build (map_segments.h): where each begins, its frames, and its final
+// keyframes as places. A join moves the tracker's keyframes and fuses the keyframes kept apart
+// that are now in the map; at the end, each segment never joined is handed out with its frames and
+// keyframes, to be written apart.
+#pragma once
+
+#include <vector>
+
+#include "keyframe_fuser.h"
+#include "stillmap/io/session_record.h"
+#include "stillmap/io/trajectory.h"
+#include "stillmap/tracking/map_segments.h"
+#include "stillmap/tracking/tracker.h"
+
+namespace stillmap {
+
+// A segment never joined to the map: its frames and fused keyframes in its own frame (the
+// tracker's world as its new local map began), for a build of its own.
+struct ApartSegment {
+  SegmentSummary summary;
+  Trajectory trajectory;
+  std::vector<SessionKeyframeBlocks> keyframes;
+};
+
+class SegmentKeeper {
+ public:
+  explicit SegmentKeeper(const MapSegmentOptions& options) : segments_(options) {}
+
+  // A tracked frame: a new segment begins with the first map and each new one after a loss.
+  void Frame(const TrackResult& tracked, double time);
+  // The keyframes that became final: places of their segments (a join moves the tracker's
+  // keyframes), then judged and fused, or kept apart while their segment is not in the map.
+  void Fuse(std::vector<FinalKeyframe> finals, Tracker& tracker, KeyframeFuser& fuser);
+  // The tracker's keyframes moved (its loops, its global bundle adjustment).
+  void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+    segments_.Repose(world_from_keyframe);
+  }
+  // After the last frame: the trajectory's frames of the map's segments (`all` without those of
+  // the segments written apart), and the segments apart.
+  std::vector<ApartSegment> TakeApart(KeyframeFuser& fuser, Trajectory* all) const;
+  std::vector<SegmentSummary> Summaries() const { return segments_.Summaries(); }
+  const MapSegments& segments() const { return segments_; }
+
+ private:
+  // The segment a frame at `time` belongs to: the last one begun at or before it.
+  int SegmentAt(double time, const std::vector<SegmentSummary>& summaries) const;
+
+  MapSegments segments_;
+};
+
+}  // namespace stillmap

@@ -1,0 +1,84 @@
+#include "segment_output.h"
+
+#include <fmt/format.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "stillmap/mapping/mapper.h"
+
+namespace stillmap {
+namespace {
+
+// The segment's keyframes fused into a map of its own.
+FinishedMap MapOf(const std::vector<SessionKeyframeBlocks>& keyframes,
+                  const SegmentOutputContext& context) {
+  MapperOptions options = context.config.mapping;
+  options.in_background = false;
+  Mapper mapper(context.inputs.camera, options);
+  for (const SessionKeyframeBlocks& blocks : keyframes) {
+    MapperFrame input;
+    input.time = blocks.keyframe.time;
+    input.color = cv::imdecode(blocks.color_jpeg, cv::IMREAD_COLOR);
+    cv::imdecode(blocks.depth_png, cv::IMREAD_UNCHANGED)
+        .convertTo(input.depth_m, CV_32F, context.depth_unit_m);  // moving pixels are 0
+    input.world_from_camera = blocks.keyframe.map_from_camera;
+    mapper.Integrate(input);
+  }
+  return mapper.Finish();
+}
+
+// One segment as a build of its own in `dir`; returns why its map could not be made, or "".
+std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& context,
+                         const std::string& dir) {
+  OutputSet outputs(dir, "build", BuildOutputNames());
+  PosedFrames posed;
+  posed.trajectory = std::move(segment.trajectory);
+  for (const SessionKeyframeBlocks& blocks : segment.keyframes) {
+    posed.fused_poses.push_back({blocks.keyframe.time, blocks.keyframe.map_from_camera});
+  }
+  posed.session_depth_unit_m = context.depth_unit_m;
+  std::string failure;
+  MapFrameFigures frame;
+  try {
+    FinishedBuildMap finished = FinishMapInFrame(MapOf(segment.keyframes, context), posed,
+                                                 context.inputs, context.masking, context.finish);
+    StageTimings timings;
+    WriteMapFiles(finished.map, &finished.cloud, finished.frame, finished.grid, context.files,
+                  outputs, &timings);
+    frame = finished.frame;
+  } catch (const std::runtime_error& e) {
+    failure = e.what();  // too little to map: its poses and keyframes are still the user's
+  }
+  posed.session_keyframes = std::move(segment.keyframes);
+  WriteBuildFiles(&posed, frame, context.inputs, context.config, context.sequence_dir,
+                  PoseSource::kTracking, outputs);
+  outputs.Commit();
+  return failure;
+}
+
+}  // namespace
+
+std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
+                                            const SegmentOutputContext& context,
+                                            OutputSet& outputs) {
+  std::vector<std::string> warnings;
+  for (ApartSegment& segment : apart) {
+    const SegmentSummary summary = segment.summary;
+    const std::string name = fmt::format("segments/{}", summary.id);
+    const size_t keyframes = segment.keyframes.size();
+    const std::string failure =
+        WriteSegment(std::move(segment), context, outputs.TemporaryPath(name));
+    std::string warning = fmt::format(
+        "tracking was lost at {:.2f} s and not relocalized, and the {:.1f} s after it ({:.2f} - "
+        "{:.2f} s, {} frames, {} keyframes) could not be placed in the map: it is not in the map "
+        "but written apart in {}/ in a frame of its own ('stillmap merge' can join it with "
+        "this build's session.bin)",
+        summary.first_time, summary.last_time - summary.first_time, summary.first_time,
+        summary.last_time, summary.frames, keyframes, outputs.FinalPath(name));
+    if (!failure.empty()) warning += "; it holds no map, only its poses: " + failure;
+    warnings.push_back(warning);
+  }
+  return warnings;
+}
+
+}  // namespace stillmap

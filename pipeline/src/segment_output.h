@@ -1,0 +1,37 @@
+// The map segments never joined to the map (segment_keeper.h), each written apart as a build of
+// its own under segments/<k>/: its map files, trajectory.txt, keyframes.txt, session.bin (so that
+// `stillmap merge` can join it later) and config.yaml, all in the segment's own frame.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "build_inputs.h"
+#include "map_finish.h"
+#include "map_outputs.h"
+#include "segment_keeper.h"
+#include "stillmap/io/output_files.h"
+#include "stillmap/pipeline/build_result.h"
+#include "stillmap/pipeline/config.h"
+
+namespace stillmap {
+
+// What writing a segment apart reads of the build.
+struct SegmentOutputContext {
+  const BuildInputs& inputs;
+  const BuildConfig& config;
+  const std::string& sequence_dir;
+  const MaskingFigures& masking;
+  MapFinishOptions finish;
+  MapFileOptions files;
+  double depth_unit_m = 0.0;  // of the keyframes' depth PNGs
+};
+
+// Writes each segment into outputs' segments/<id>/ and returns, per segment, a warning naming
+// its time span and where it went (or why no map could be made of it: its trajectory and session
+// record are written all the same).
+std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
+                                            const SegmentOutputContext& context,
+                                            OutputSet& outputs);
+
+}  // namespace stillmap

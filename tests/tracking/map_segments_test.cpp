@@ -1,0 +1,117 @@
+// Map segments against rendered truth: keyframes of a synthetic room at their exact poses, the
+// second segment's given in a frame of its own (an unknown offset from the first's). Agreeing links
+// must join it back where it belongs; a place it never saw must never be joined.
+#include "stillmap/tracking/map_segments.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "stillmap/io/sequence.h"
+#include "stillmap/io/trajectory.h"
+#include "stillmap/synth/synthetic.h"
+#include "stillmap/tracking/features.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+struct RenderedKeyframe {
+  double time = 0.0;
+  Eigen::Isometry3d world_from_camera;
+  std::vector<SessionFeature> features;
+};
+
+// Every `step`-th frame of a noise-free rendered sequence (textures and colours from `seed`), with
+// its true pose and its ORB features.
+std::vector<RenderedKeyframe> Keyframes(const std::string& dir, const std::string& scenario,
+                                        int frames, int step, std::uint64_t seed = 1) {
+  SynthOptions options;
+  options.scenario = scenario;
+  options.frames = static_cast<size_t>(frames);
+  options.seed = seed;
+  options.depth_noise = options.color_noise = false;
+  WriteSyntheticSequence(dir, options);
+  const Sequence sequence = Sequence::Open(dir, ResolveCamera(dir, {}));
+  const Trajectory truth = Trajectory::ReadTum(dir + "/groundtruth.txt");
+  std::vector<RenderedKeyframe> out;
+  for (size_t i = 0; i < sequence.frames().size(); i += static_cast<size_t>(step)) {
+    const Frame frame = sequence.LoadFrame(i);
+    cv::Mat gray;
+    cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
+    const FrameFeatures features =
+        ExtractFeatures(gray, frame.depth_m, sequence.camera(), cv::Mat(), FeatureOptions());
+    out.push_back({frame.time, truth.poses()[i].world_from_camera, SessionFeatures(features)});
+  }
+  return out;
+}
+
+double Degrees(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd((a.inverse() * b).linear()).angle() * 180.0 / M_PI;
+}
+
+class MapSegmentsTest : public ::testing::Test {
+ protected:
+  testing::TempDir dir_;
+};
+
+TEST_F(MapSegmentsTest, AgreeingLinksJoinASegmentWhereItBelongs) {
+  // The hand-held sweep of an empty room: the second half sees what the first saw.
+  const std::vector<RenderedKeyframe> keyframes = Keyframes(dir_ / "static", "static", 150, 5);
+  const size_t half = keyframes.size() / 2;
+  // The second segment in a frame of its own: 1.5 m and 40 degrees off the first's.
+  Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
+  offset.translate(Eigen::Vector3d(1.5, -0.4, 0.2));
+  offset.rotate(Eigen::AngleAxisd(40.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()));
+  MapSegments segments({});
+  std::optional<SegmentCorrection> correction;
+  for (size_t k = 0; k < keyframes.size(); ++k) {
+    const int id = static_cast<int>(k);
+    if (k == 0 || k == half) segments.Begin(id, keyframes[k].time);
+    const Eigen::Isometry3d pose =
+        k < half ? keyframes[k].world_from_camera : offset * keyframes[k].world_from_camera;
+    auto joined = segments.AddKeyframe(id, keyframes[k].time, pose, keyframes[k].features);
+    if (joined) {
+      EXPECT_FALSE(correction) << "joined twice";
+      correction = joined;
+    }
+  }
+  ASSERT_TRUE(correction) << segments.verified_links() << " links verified";
+  EXPECT_EQ(correction->segments, std::vector<int>{1});
+  // Every keyframe of the second segment placed back at its true pose.
+  for (const auto& [id, world_from_camera] : correction->world_from_keyframe) {
+    const Eigen::Isometry3d& truth = keyframes[static_cast<size_t>(id)].world_from_camera;
+    EXPECT_LT((world_from_camera.translation() - truth.translation()).norm(), 0.02) << id;
+    EXPECT_LT(Degrees(world_from_camera, truth), 1.0) << id;
+  }
+  const std::vector<SegmentSummary> summaries = segments.Summaries();
+  ASSERT_EQ(summaries.size(), 2u);
+  EXPECT_EQ(summaries[0].join, SegmentJoin::kFirst);
+  EXPECT_EQ(summaries[1].join, SegmentJoin::kLinked);
+  EXPECT_GE(summaries[1].links, 3);
+  EXPECT_TRUE(segments.InMap(1));
+}
+
+TEST_F(MapSegmentsTest, APlaceTheMapNeverSawIsNeverJoined) {
+  // The same room, textured and coloured from another seed: another place.
+  const std::vector<RenderedKeyframe> first = Keyframes(dir_ / "first", "static", 60, 5);
+  const std::vector<RenderedKeyframe> second = Keyframes(dir_ / "second", "static", 60, 5, 7);
+  MapSegments segments({});
+  int id = 0;
+  segments.Begin(id, first.front().time);
+  for (const RenderedKeyframe& keyframe : first) {
+    EXPECT_FALSE(
+        segments.AddKeyframe(id++, keyframe.time, keyframe.world_from_camera, keyframe.features));
+  }
+  segments.Begin(id, second.front().time + 10.0);
+  for (const RenderedKeyframe& keyframe : second) {
+    EXPECT_FALSE(segments.AddKeyframe(id++, keyframe.time + 10.0, keyframe.world_from_camera,
+                                      keyframe.features));
+  }
+  EXPECT_FALSE(segments.InMap(1));
+  EXPECT_EQ(segments.Summaries()[1].join, SegmentJoin::kNotJoined);
+  EXPECT_EQ(segments.Summaries()[1].keyframes, second.size());
+}
+
+}  // namespace
+}  // namespace stillmap

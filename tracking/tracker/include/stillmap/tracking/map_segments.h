@@ -1,0 +1,124 @@
+// Map segments (issue 47): when tracking is lost and relocalization does not undo it, the
+// tracker starts a new local map whose place relative to the earlier ones is unknown: a new
+// segment, in a frame of its own. A component of its own behind a narrow interface: keyframes in
+// (final keyframes with their features and poses, and where each segment begins); segments,
+// links and corrections out. Each keyframe becomes a place of its segment and asks the place index
+// for places of the segments not joined with its own; each candidate is verified geometrically
+// (place_links.h) and the links between two groups of segments are checked against each other
+// with the merge's rule (min_links links agreeing on where one group lies in the other). Then the
+// younger group is joined to the older: moved by the links' transform, and settled by a pose graph
+// (its own keyframes' chain and the agreeing links, the older group held). The group of the first
+// segment is the map; a segment never joined to it is written apart by the build.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "stillmap/io/session_record.h"
+#include "stillmap/tracking/place_index.h"
+#include "stillmap/tracking/place_links.h"
+#include "stillmap/tracking/pose_graph.h"
+
+namespace stillmap {
+
+struct MapSegmentOptions {
+  PlaceIndexOptions place;      // tracking.place_*
+  int place_candidates = 3;     // best-voted places verified per keyframe (merge.*)
+  int place_min_votes = 30;     // votes a place needs to be verified (merge.*)
+  PlaceLinkOptions links;       // verification and agreement (merge.*)
+  PoseGraphOptions pose_graph;  // tracking.pose_graph_*
+  double link_weight = 1.0;     // a link's edge against a segment's own (merge.link_weight)
+  double fx = 525.0;            // the camera's focal length [px]: the features' pixel noise
+};
+
+enum class SegmentJoin {
+  kFirst,      // the first segment: the map
+  kLinked,     // joined to an earlier segment by agreeing links
+  kNotJoined,  // never placed: written apart
+};
+const char* SegmentJoinName(SegmentJoin join);
+
+struct SegmentSummary {
+  int id = 0;
+  double first_time = 0.0, last_time = 0.0;  // its first and last tracked frame [s]
+  size_t frames = 0;                         // tracked frames
+  size_t keyframes = 0;                      // final keyframes it holds (not culled)
+  SegmentJoin join = SegmentJoin::kNotJoined;
+  int joined_to = -1;        // the segment its links went to
+  double joined_time = 0.0;  // the time of the keyframe whose link joined it [s]
+  int links = 0;             // the agreeing links that joined it
+  bool in_map = false;       // in the first segment's group (by now)
+};
+
+// A join: the new poses (camera-to-world) of the keyframes of the segments that moved.
+struct SegmentCorrection {
+  std::vector<int> segments;  // the segments that moved
+  std::map<int, Eigen::Isometry3d> world_from_keyframe;
+  Eigen::Isometry3d rigid = Eigen::Isometry3d::Identity();  // world' = rigid * world, before
+                                                            // the pose graph settled it
+};
+
+class MapSegments {
+ public:
+  explicit MapSegments(const MapSegmentOptions& options);
+
+  // A segment begins with its first keyframe (the first map, or a new one after a loss).
+  int Begin(int first_keyframe_id, double time);
+  int current() const { return static_cast<int>(segments_.size()) - 1; }
+  // The segment a keyframe belongs to (keyframe ids increase with time); -1 before the first.
+  int SegmentOf(int keyframe_id) const;
+  // A tracked frame of the current segment.
+  void AddFrame(double time);
+
+  // A final keyframe (not culled) with its pose and features: a place of its segment. Returns
+  // a correction when its link joins two groups.
+  std::optional<SegmentCorrection> AddKeyframe(int keyframe_id, double time,
+                                               const Eigen::Isometry3d& world_from_camera,
+                                               std::vector<SessionFeature> features);
+  // Keyframe poses moved (the tracker's bundle adjustment or loops): the places follow.
+  void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+
+  // The segment is in the first segment's group: its keyframes belong in the map.
+  bool InMap(int segment) const { return Root(segment) == 0; }
+  std::vector<SegmentSummary> Summaries() const;
+  size_t verified_links() const { return links_.size(); }
+  size_t candidates() const { return candidates_; }
+  size_t MemoryBytes() const;
+
+ private:
+  struct Segment {
+    int first_keyframe = 0;
+    int parent = 0;  // union-find: the group's root is its oldest segment
+    SegmentSummary summary;
+  };
+  struct Place {
+    int segment = 0;
+    Eigen::Isometry3d world_from_camera;
+    LinkKeyframe keyframe;
+  };
+  struct Link {
+    int keyframe_a = 0, keyframe_b = 0;  // a: the earlier place, b: the keyframe that asked
+    Eigen::Isometry3d a_from_b = Eigen::Isometry3d::Identity();
+  };
+
+  int Root(int segment) const;
+  // The verified links between the groups of `a` and `b` that agree; a join when enough do.
+  std::optional<SegmentCorrection> TryJoin(int root_a, int root_b, double time);
+  // Moves the younger group onto the older by `older_from_younger`, then settles it with a pose
+  // graph; returns its keyframes' new poses.
+  SegmentCorrection Join(int older, int younger, const Eigen::Isometry3d& older_from_younger,
+                         const std::vector<Link>& agreeing);
+
+  MapSegmentOptions options_;
+  std::vector<Segment> segments_;
+  std::map<int, Place> places_;  // by keyframe id
+  PlaceIndex index_;
+  std::vector<Link> links_;
+  size_t candidates_ = 0;
+};
+
+}  // namespace stillmap

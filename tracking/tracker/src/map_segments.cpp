@@ -1,0 +1,199 @@
+#include "stillmap/tracking/map_segments.h"
+
+#include <algorithm>
+
+namespace stillmap {
+namespace {
+
+// The place index's hash masks come from this seed, so that a build repeats exactly.
+constexpr std::uint64_t kSegmentPlaceSeed = 0x5e6e47;
+
+}  // namespace
+
+const char* SegmentJoinName(SegmentJoin join) {
+  switch (join) {
+    case SegmentJoin::kFirst:
+      return "first";
+    case SegmentJoin::kLinked:
+      return "linked";
+    case SegmentJoin::kNotJoined:
+      return "not joined";
+  }
+  return "unknown";
+}
+
+MapSegments::MapSegments(const MapSegmentOptions& options)
+    : options_(options), index_(options.place, kSegmentPlaceSeed) {}
+
+int MapSegments::Begin(int first_keyframe_id, double time) {
+  Segment segment;
+  segment.first_keyframe = first_keyframe_id;
+  segment.parent = static_cast<int>(segments_.size());
+  segment.summary.id = segment.parent;
+  segment.summary.first_time = segment.summary.last_time = time;
+  segment.summary.join = segments_.empty() ? SegmentJoin::kFirst : SegmentJoin::kNotJoined;
+  segments_.push_back(segment);
+  return current();
+}
+
+int MapSegments::SegmentOf(int keyframe_id) const {
+  for (int s = current(); s >= 0; --s) {
+    if (segments_[static_cast<size_t>(s)].first_keyframe <= keyframe_id) return s;
+  }
+  return -1;
+}
+
+void MapSegments::AddFrame(double time) {
+  if (segments_.empty()) return;
+  SegmentSummary& summary = segments_.back().summary;
+  ++summary.frames;
+  summary.last_time = time;
+}
+
+int MapSegments::Root(int segment) const {
+  while (segments_[static_cast<size_t>(segment)].parent != segment) {
+    segment = segments_[static_cast<size_t>(segment)].parent;
+  }
+  return segment;
+}
+
+std::optional<SegmentCorrection> MapSegments::AddKeyframe(
+    int keyframe_id, double time, const Eigen::Isometry3d& world_from_camera,
+    std::vector<SessionFeature> features) {
+  const int segment = SegmentOf(keyframe_id);
+  if (segment < 0 || places_.count(keyframe_id) > 0) return std::nullopt;
+  const Place& place = places_
+                           .emplace(keyframe_id, Place{segment, world_from_camera,
+                                                       LinkKeyframe(std::move(features))})
+                           .first->second;
+  ++segments_[static_cast<size_t>(segment)].summary.keyframes;
+  index_.Add(keyframe_id, place.keyframe.descriptors());
+  const int root = Root(segment);
+  const bool alone = std::all_of(segments_.begin(), segments_.end(),
+                                 [&](const Segment& s) { return Root(s.summary.id) == root; });
+  if (alone) return std::nullopt;  // nothing to link to
+  const std::vector<PlaceCandidate> candidates =
+      index_.Query(place.keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
+                   [&](int id) { return Root(places_.at(id).segment) == root; });
+  for (const PlaceCandidate& candidate : candidates) {
+    if (candidate.votes < options_.place_min_votes) break;  // ranked by votes
+    ++candidates_;
+    const Place& earlier = places_.at(candidate.keyframe_id);
+    const auto link = VerifyLink(earlier.keyframe, place.keyframe, options_.fx, options_.links);
+    if (!link) continue;
+    links_.push_back({candidate.keyframe_id, keyframe_id, link->c_from_q});
+    return TryJoin(Root(earlier.segment), root, time);
+  }
+  return std::nullopt;
+}
+
+void MapSegments::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  for (auto& [id, place] : places_) {
+    const auto it = world_from_keyframe.find(id);
+    if (it != world_from_keyframe.end()) place.world_from_camera = it->second;
+  }
+}
+
+std::optional<SegmentCorrection> MapSegments::TryJoin(int root_a, int root_b, double time) {
+  const int older = std::min(root_a, root_b), younger = std::max(root_a, root_b);
+  // Each link between the two groups, turned to run from the older group to the younger, and
+  // the transform it implies (older world from younger world).
+  std::vector<Link> between;
+  std::vector<Eigen::Isometry3d> implied;
+  std::vector<Eigen::Vector3d> positions;  // the linked keyframe of the younger group
+  for (const Link& link : links_) {
+    const Place& a = places_.at(link.keyframe_a);
+    const Place& b = places_.at(link.keyframe_b);
+    const int ra = Root(a.segment), rb = Root(b.segment);
+    if (ra == older && rb == younger) {
+      between.push_back(link);
+    } else if (ra == younger && rb == older) {
+      between.push_back({link.keyframe_b, link.keyframe_a, link.a_from_b.inverse()});
+    } else {
+      continue;
+    }
+    const Place& from = places_.at(between.back().keyframe_a);
+    const Place& to = places_.at(between.back().keyframe_b);
+    implied.push_back(from.world_from_camera * between.back().a_from_b *
+                      to.world_from_camera.inverse());
+    positions.push_back(to.world_from_camera.translation());
+  }
+  const LinkAgreement agreement = AgreeingLinks(implied, positions, options_.links);
+  if (agreement.agreeing.size() < static_cast<size_t>(options_.links.min_links)) {
+    return std::nullopt;
+  }
+  std::vector<Link> agreeing;
+  for (size_t j : agreement.agreeing) agreeing.push_back(between[j]);
+  SegmentCorrection correction = Join(older, younger, implied[agreement.centre], agreeing);
+  SegmentSummary& summary = segments_[static_cast<size_t>(younger)].summary;
+  summary.join = SegmentJoin::kLinked;
+  summary.joined_to = places_.at(between[agreement.centre].keyframe_a).segment;
+  summary.joined_time = time;
+  summary.links = static_cast<int>(agreeing.size());
+  return correction;
+}
+
+SegmentCorrection MapSegments::Join(int older, int younger,
+                                    const Eigen::Isometry3d& older_from_younger,
+                                    const std::vector<Link>& agreeing) {
+  // The two groups' places in id order: the older held, the younger moved rigidly first.
+  PoseGraphProblem problem;
+  std::vector<int> ids;
+  std::map<int, int> node_of;
+  for (const auto& [id, place] : places_) {
+    const int root = Root(place.segment);
+    if (root != older && root != younger) continue;
+    node_of[id] = static_cast<int>(ids.size());
+    ids.push_back(id);
+    problem.world_from_node.push_back(root == older ? place.world_from_camera
+                                                    : older_from_younger * place.world_from_camera);
+    problem.fixed.push_back(root == older);
+  }
+  // Each segment's chain of keyframes, as its tracking had them, and the agreeing links.
+  std::map<int, int> last_of_segment;  // segment -> its last node so far
+  for (size_t n = 0; n < ids.size(); ++n) {
+    const int segment = places_.at(ids[n]).segment;
+    const auto last = last_of_segment.find(segment);
+    if (last != last_of_segment.end()) {
+      problem.edges.push_back(EdgeBetween(
+          last->second, static_cast<int>(n),
+          problem.world_from_node[static_cast<size_t>(last->second)], problem.world_from_node[n]));
+    }
+    last_of_segment[segment] = static_cast<int>(n);
+  }
+  for (const Link& link : agreeing) {
+    problem.edges.push_back({node_of.at(link.keyframe_a), node_of.at(link.keyframe_b),
+                             link.a_from_b, options_.link_weight});
+  }
+  const PoseGraphResult result = SolvePoseGraph(problem, options_.pose_graph);
+  SegmentCorrection correction;
+  correction.rigid = older_from_younger;
+  for (size_t n = 0; n < ids.size(); ++n) {
+    if (problem.fixed[n]) continue;
+    Place& place = places_.at(ids[n]);
+    place.world_from_camera = result.world_from_node[n];
+    correction.world_from_keyframe.emplace(ids[n], place.world_from_camera);
+  }
+  for (const Segment& segment : segments_) {
+    if (Root(segment.summary.id) == younger) correction.segments.push_back(segment.summary.id);
+  }
+  segments_[static_cast<size_t>(younger)].parent = older;
+  return correction;
+}
+
+std::vector<SegmentSummary> MapSegments::Summaries() const {
+  std::vector<SegmentSummary> out;
+  for (const Segment& segment : segments_) {
+    out.push_back(segment.summary);
+    out.back().in_map = InMap(segment.summary.id);
+  }
+  return out;
+}
+
+size_t MapSegments::MemoryBytes() const {
+  size_t bytes = index_.MemoryBytes();
+  for (const auto& [id, place] : places_) bytes += sizeof(Place) + place.keyframe.MemoryBytes();
+  return bytes;
+}
+
+}  // namespace stillmap
