@@ -179,6 +179,7 @@ void TakeLoopFigures(LoopResult loop, BuildResult* result) {
   result->tracking = std::move(loop.tracking);
   result->selection = loop.selection;
   result->segments = std::move(loop.segments);
+  result->segment_links = loop.segment_links;
   result->masking.statistics = loop.masking;
   result->frames.depth_median_m = loop.depth_median_m;
   result->frames.depth_95th_percentile_m = loop.depth_95th_percentile_m;

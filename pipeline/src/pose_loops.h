@@ -49,6 +49,7 @@ struct LoopResult {
   std::optional<TrackingFigures> tracking;  // tracked runs
   SelectionFigures selection;               // tracked runs
   std::vector<SegmentSummary> segments;     // tracked runs: every map segment
+  SegmentLinkFigures segment_links;         // tracked runs
   std::vector<ApartSegment> apart;          // the segments never joined, to be written apart
   MaskingStatistics masking;
   double depth_median_m = 0.0, depth_95th_percentile_m = 0.0;  // every depth reading's

@@ -389,7 +389,14 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
             : fmt::format("not written: {}=false", OptionKey(&GridOptions::enabled));
   }
   if (result.tracking) report["tracking"] = TrackingJson(*result.tracking, config.tracking);
-  if (!result.segments.empty()) report["segments"] = SegmentsJson(result.segments);
+  if (!result.segments.empty()) {
+    report["segments"] = SegmentsJson(result.segments);
+    const SegmentLinkFigures& links = result.segment_links;
+    report["segment_links"] = {{"candidates", links.candidates},
+                               {"verified", links.verified},
+                               {"loops", links.loops},
+                               {"settles", links.settles}};
+  }
   report["warnings"] = result.warnings;
   report["threads"] = result.threads;
   report["timing"] = RunTimingJson(result);

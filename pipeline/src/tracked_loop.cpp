@@ -68,6 +68,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   Trajectory trajectory = tracker.TrackedTrajectory();
   result->apart = segments.TakeApart(fuser, &trajectory);
   result->segments = segments.Summaries();
+  result->segment_links = segments.segments().figures();
   PosedFrames posed{std::move(trajectory), fuser.fused_poses(), fuser.TakeSessionKeyframes(),
                     fuser.depth_unit_m()};
   if (posed.trajectory.empty()) {

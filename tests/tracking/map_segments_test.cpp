@@ -76,7 +76,7 @@ TEST_F(MapSegmentsTest, AgreeingLinksJoinASegmentWhereItBelongs) {
       correction = joined;
     }
   }
-  ASSERT_TRUE(correction) << segments.verified_links() << " links verified";
+  ASSERT_TRUE(correction) << segments.figures().verified << " links verified";
   EXPECT_EQ(correction->segments, std::vector<int>{1});
   // Every keyframe of the second segment placed back at its true pose.
   for (const auto& [id, world_from_camera] : correction->world_from_keyframe) {

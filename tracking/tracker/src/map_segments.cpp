@@ -1,6 +1,7 @@
 #include "stillmap/tracking/map_segments.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace stillmap {
 namespace {
@@ -69,12 +70,10 @@ std::optional<SegmentCorrection> MapSegments::AddKeyframe(
   ++segments_[static_cast<size_t>(segment)].summary.keyframes;
   index_.Add(keyframe_id, place.keyframe.descriptors());
   const int root = Root(segment);
-  const bool alone = std::all_of(segments_.begin(), segments_.end(),
-                                 [&](const Segment& s) { return Root(s.summary.id) == root; });
-  if (alone) return std::nullopt;  // nothing to link to
+  if (segments_.size() < 2) return std::nullopt;  // nothing to link to
   const std::vector<PlaceCandidate> candidates =
       index_.Query(place.keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
-                   [&](int id) { return Root(places_.at(id).segment) == root; });
+                   [&](int id) { return places_.at(id).segment == segment; });
   for (const PlaceCandidate& candidate : candidates) {
     if (candidate.votes < options_.place_min_votes) break;  // ranked by votes
     ++candidates_;
@@ -82,6 +81,7 @@ std::optional<SegmentCorrection> MapSegments::AddKeyframe(
     const auto link = VerifyLink(earlier.keyframe, place.keyframe, options_.fx, options_.links);
     if (!link) continue;
     links_.push_back({candidate.keyframe_id, keyframe_id, link->c_from_q});
+    if (Root(earlier.segment) == root) return TakeLoop(links_.back(), root);
     return TryJoin(Root(earlier.segment), root, time);
   }
   return std::nullopt;
@@ -124,6 +124,7 @@ std::optional<SegmentCorrection> MapSegments::TryJoin(int root_a, int root_b, do
   }
   std::vector<Link> agreeing;
   for (size_t j : agreement.agreeing) agreeing.push_back(between[j]);
+  taken_.insert(taken_.end(), agreeing.begin(), agreeing.end());
   SegmentCorrection correction = Join(older, younger, implied[agreement.centre], agreeing);
   SegmentSummary& summary = segments_[static_cast<size_t>(younger)].summary;
   summary.join = SegmentJoin::kLinked;
@@ -178,6 +179,62 @@ SegmentCorrection MapSegments::Join(int older, int younger,
     if (Root(segment.summary.id) == younger) correction.segments.push_back(segment.summary.id);
   }
   segments_[static_cast<size_t>(younger)].parent = older;
+  return correction;
+}
+
+std::optional<SegmentCorrection> MapSegments::TakeLoop(const Link& link, int root) {
+  const Place& a = places_.at(link.keyframe_a);
+  const Place& b = places_.at(link.keyframe_b);
+  // Where the link puts b, against where the group has it.
+  const Eigen::Isometry3d b_moved = a.world_from_camera * link.a_from_b;
+  const Eigen::Isometry3d change = b.world_from_camera.inverse() * b_moved;
+  const double degrees = Eigen::AngleAxisd(change.linear()).angle() * 180.0 / M_PI;
+  if (change.translation().norm() > options_.loop_max_m || degrees > options_.loop_max_deg) {
+    return std::nullopt;  // a look-alike place, or more drift than a loop corrects
+  }
+  taken_.push_back(link);
+  ++loop_links_;
+  if (++loops_since_settle_ < static_cast<size_t>(options_.settle_after_loops)) return std::nullopt;
+  return Settle(root);
+}
+
+SegmentCorrection MapSegments::Settle(int root) {
+  loops_since_settle_ = 0;
+  ++settles_;
+  PoseGraphProblem problem;
+  std::vector<int> ids;
+  std::map<int, int> node_of;
+  std::map<int, int> last_of_segment;  // segment -> its last node so far
+  for (const auto& [id, place] : places_) {
+    if (Root(place.segment) != root) continue;
+    const int node = static_cast<int>(ids.size());
+    node_of[id] = node;
+    ids.push_back(id);
+    problem.world_from_node.push_back(place.world_from_camera);
+    problem.fixed.push_back(ids.size() == 1);
+    const auto last = last_of_segment.find(place.segment);
+    if (last != last_of_segment.end()) {
+      problem.edges.push_back(EdgeBetween(
+          last->second, node, problem.world_from_node[static_cast<size_t>(last->second)],
+          place.world_from_camera));
+    }
+    last_of_segment[place.segment] = node;
+  }
+  for (const Link& link : taken_) {
+    const auto a = node_of.find(link.keyframe_a), b = node_of.find(link.keyframe_b);
+    if (a == node_of.end() || b == node_of.end()) continue;
+    problem.edges.push_back({a->second, b->second, link.a_from_b, options_.link_weight});
+  }
+  const PoseGraphResult result = SolvePoseGraph(problem, options_.pose_graph);
+  SegmentCorrection correction;
+  for (size_t n = 0; n < ids.size(); ++n) {
+    Place& place = places_.at(ids[n]);
+    place.world_from_camera = result.world_from_node[n];
+    correction.world_from_keyframe.emplace(ids[n], place.world_from_camera);
+  }
+  for (const Segment& segment : segments_) {
+    if (Root(segment.summary.id) == root) correction.segments.push_back(segment.summary.id);
+  }
   return correction;
 }
 

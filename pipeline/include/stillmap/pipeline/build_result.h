@@ -169,6 +169,7 @@ struct BuildResult {
   // Tracked builds: every map segment (a new one after each loss relocalization did not undo),
   // how it was joined, and whether it is in the map or was written apart under segments/<id>/.
   std::vector<SegmentSummary> segments;
+  SegmentLinkFigures segment_links;
   MaskingFigures masking;
   MapFigures map;
   MapFrameFigures map_frame;

@@ -7,8 +7,10 @@
 // (place_links.h) and the links between two groups of segments are checked against each other
 // with the merge's rule (min_links links agreeing on where one group lies in the other). Then the
 // younger group is joined to the older: moved by the links' transform, and settled by a pose graph
-// (its own keyframes' chain and the agreeing links, the older group held). The group of the first
-// segment is the map; a segment never joined to it is written apart by the build.
+// (its own keyframes' chain and the agreeing links, the older group held). Links found later
+// between segments of one group are loops: the group's pose graph (every segment's chain, every
+// link) is solved again over them. The group of the first segment is the map; a segment never
+// joined to it is written apart by the build.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -32,7 +34,13 @@ struct MapSegmentOptions {
   PlaceLinkOptions links;       // verification and agreement (merge.*)
   PoseGraphOptions pose_graph;  // tracking.pose_graph_*
   double link_weight = 1.0;     // a link's edge against a segment's own (merge.link_weight)
-  double fx = 525.0;            // the camera's focal length [px]: the features' pixel noise
+  // Once joined, a link between two segments of a group is a loop: taken when it asks for no more
+  // than this correction (drift, not a look-alike place), and every settle_after_loops of them
+  // the group's pose graph is solved again with all its links.
+  double loop_max_m = 0.5;
+  double loop_max_deg = 5.0;
+  int settle_after_loops = 5;
+  double fx = 525.0;  // the camera's focal length [px]: the features' pixel noise
 };
 
 enum class SegmentJoin {
@@ -52,6 +60,14 @@ struct SegmentSummary {
   double joined_time = 0.0;  // the time of the keyframe whose link joined it [s]
   int links = 0;             // the agreeing links that joined it
   bool in_map = false;       // in the first segment's group (by now)
+};
+
+// What place recognition between segments did.
+struct SegmentLinkFigures {
+  size_t candidates = 0;  // places of other segments verified
+  size_t verified = 0;    // of them, verified links
+  size_t loops = 0;       // links within a group taken as loops
+  size_t settles = 0;     // the group's pose graph solved again over its loops
 };
 
 // A join: the new poses (camera-to-world) of the keyframes of the segments that moved.
@@ -85,8 +101,7 @@ class MapSegments {
   // The segment is in the first segment's group: its keyframes belong in the map.
   bool InMap(int segment) const { return Root(segment) == 0; }
   std::vector<SegmentSummary> Summaries() const;
-  size_t verified_links() const { return links_.size(); }
-  size_t candidates() const { return candidates_; }
+  SegmentLinkFigures figures() const { return {candidates_, links_.size(), loop_links_, settles_}; }
   size_t MemoryBytes() const;
 
  private:
@@ -112,13 +127,21 @@ class MapSegments {
   // graph; returns its keyframes' new poses.
   SegmentCorrection Join(int older, int younger, const Eigen::Isometry3d& older_from_younger,
                          const std::vector<Link>& agreeing);
+  // A link between two segments of one group: a loop when it asks for little correction, and the
+  // group settled again when enough have come.
+  std::optional<SegmentCorrection> TakeLoop(const Link& link, int root);
+  // The pose graph of the group `root`: every segment's chain and every link taken, its first
+  // place held. Returns the places that moved.
+  SegmentCorrection Settle(int root);
 
   MapSegmentOptions options_;
   std::vector<Segment> segments_;
   std::map<int, Place> places_;  // by keyframe id
   PlaceIndex index_;
-  std::vector<Link> links_;
+  std::vector<Link> links_;  // every verified link
+  std::vector<Link> taken_;  // the links of joins and the loops: the pose graphs' edges
   size_t candidates_ = 0;
+  size_t loop_links_ = 0, loops_since_settle_ = 0, settles_ = 0;
 };
 
 }  // namespace stillmap
