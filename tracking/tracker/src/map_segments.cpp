@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 namespace stillmap {
 namespace {
@@ -134,47 +135,67 @@ std::optional<SegmentCorrection> MapSegments::TryJoin(int root_a, int root_b, do
   return correction;
 }
 
+PoseGraphProblem MapSegments::ChainGraph(
+    const std::function<std::optional<Eigen::Isometry3d>(const Place&)>& pose_of,
+    const std::function<bool(int root, size_t node)>& held, const std::vector<Link>& links,
+    std::vector<int>* ids) const {
+  PoseGraphProblem problem;
+  std::map<int, int> node_of;
+  std::map<int, int> last_of_segment;  // segment -> its last node so far
+  for (const auto& [id, place] : places_) {
+    const std::optional<Eigen::Isometry3d> pose = pose_of(place);
+    if (!pose) continue;
+    const int node = static_cast<int>(ids->size());
+    node_of[id] = node;
+    ids->push_back(id);
+    problem.world_from_node.push_back(*pose);
+    problem.fixed.push_back(held(Root(place.segment), static_cast<size_t>(node)));
+    const auto last = last_of_segment.find(place.segment);
+    if (last != last_of_segment.end()) {
+      problem.edges.push_back(EdgeBetween(
+          last->second, node, problem.world_from_node[static_cast<size_t>(last->second)], *pose));
+    }
+    last_of_segment[place.segment] = node;
+  }
+  for (const Link& link : links) {
+    const auto a = node_of.find(link.keyframe_a), b = node_of.find(link.keyframe_b);
+    if (a == node_of.end() || b == node_of.end()) continue;
+    problem.edges.push_back({a->second, b->second, link.a_from_b, options_.link_weight});
+  }
+  return problem;
+}
+
+std::map<int, Eigen::Isometry3d> MapSegments::SolveChainGraph(const PoseGraphProblem& problem,
+                                                              const std::vector<int>& ids,
+                                                              bool with_held) {
+  const PoseGraphResult result = SolvePoseGraph(problem, options_.pose_graph);
+  std::map<int, Eigen::Isometry3d> moved;
+  for (size_t n = 0; n < ids.size(); ++n) {
+    if (problem.fixed[n] && !with_held) continue;
+    Place& place = places_.at(ids[n]);
+    place.world_from_camera = result.world_from_node[n];
+    moved.emplace(ids[n], place.world_from_camera);
+  }
+  return moved;
+}
+
 SegmentCorrection MapSegments::Join(int older, int younger,
                                     const Eigen::Isometry3d& older_from_younger,
                                     const std::vector<Link>& agreeing) {
-  // The two groups' places in id order: the older held, the younger moved rigidly first.
-  PoseGraphProblem problem;
+  // The two groups' places: the older held, the younger moved rigidly first; each segment's
+  // chain as its tracking had it, and the agreeing links.
   std::vector<int> ids;
-  std::map<int, int> node_of;
-  for (const auto& [id, place] : places_) {
-    const int root = Root(place.segment);
-    if (root != older && root != younger) continue;
-    node_of[id] = static_cast<int>(ids.size());
-    ids.push_back(id);
-    problem.world_from_node.push_back(root == older ? place.world_from_camera
-                                                    : older_from_younger * place.world_from_camera);
-    problem.fixed.push_back(root == older);
-  }
-  // Each segment's chain of keyframes, as its tracking had them, and the agreeing links.
-  std::map<int, int> last_of_segment;  // segment -> its last node so far
-  for (size_t n = 0; n < ids.size(); ++n) {
-    const int segment = places_.at(ids[n]).segment;
-    const auto last = last_of_segment.find(segment);
-    if (last != last_of_segment.end()) {
-      problem.edges.push_back(EdgeBetween(
-          last->second, static_cast<int>(n),
-          problem.world_from_node[static_cast<size_t>(last->second)], problem.world_from_node[n]));
-    }
-    last_of_segment[segment] = static_cast<int>(n);
-  }
-  for (const Link& link : agreeing) {
-    problem.edges.push_back({node_of.at(link.keyframe_a), node_of.at(link.keyframe_b),
-                             link.a_from_b, options_.link_weight});
-  }
-  const PoseGraphResult result = SolvePoseGraph(problem, options_.pose_graph);
+  const PoseGraphProblem problem = ChainGraph(
+      [&](const Place& place) -> std::optional<Eigen::Isometry3d> {
+        const int root = Root(place.segment);
+        if (root == older) return place.world_from_camera;
+        if (root == younger) return older_from_younger * place.world_from_camera;
+        return std::nullopt;
+      },
+      [older](int root, size_t) { return root == older; }, agreeing, &ids);
   SegmentCorrection correction;
   correction.rigid = older_from_younger;
-  for (size_t n = 0; n < ids.size(); ++n) {
-    if (problem.fixed[n]) continue;
-    Place& place = places_.at(ids[n]);
-    place.world_from_camera = result.world_from_node[n];
-    correction.world_from_keyframe.emplace(ids[n], place.world_from_camera);
-  }
+  correction.world_from_keyframe = SolveChainGraph(problem, ids, false);
   for (const Segment& segment : segments_) {
     if (Root(segment.summary.id) == younger) correction.segments.push_back(segment.summary.id);
   }
@@ -201,37 +222,15 @@ std::optional<SegmentCorrection> MapSegments::TakeLoop(const Link& link, int roo
 SegmentCorrection MapSegments::Settle(int root) {
   loops_since_settle_ = 0;
   ++settles_;
-  PoseGraphProblem problem;
   std::vector<int> ids;
-  std::map<int, int> node_of;
-  std::map<int, int> last_of_segment;  // segment -> its last node so far
-  for (const auto& [id, place] : places_) {
-    if (Root(place.segment) != root) continue;
-    const int node = static_cast<int>(ids.size());
-    node_of[id] = node;
-    ids.push_back(id);
-    problem.world_from_node.push_back(place.world_from_camera);
-    problem.fixed.push_back(ids.size() == 1);
-    const auto last = last_of_segment.find(place.segment);
-    if (last != last_of_segment.end()) {
-      problem.edges.push_back(EdgeBetween(
-          last->second, node, problem.world_from_node[static_cast<size_t>(last->second)],
-          place.world_from_camera));
-    }
-    last_of_segment[place.segment] = node;
-  }
-  for (const Link& link : taken_) {
-    const auto a = node_of.find(link.keyframe_a), b = node_of.find(link.keyframe_b);
-    if (a == node_of.end() || b == node_of.end()) continue;
-    problem.edges.push_back({a->second, b->second, link.a_from_b, options_.link_weight});
-  }
-  const PoseGraphResult result = SolvePoseGraph(problem, options_.pose_graph);
+  const PoseGraphProblem problem = ChainGraph(
+      [&](const Place& place) -> std::optional<Eigen::Isometry3d> {
+        if (Root(place.segment) != root) return std::nullopt;
+        return place.world_from_camera;
+      },
+      [](int, size_t node) { return node == 0; }, taken_, &ids);
   SegmentCorrection correction;
-  for (size_t n = 0; n < ids.size(); ++n) {
-    Place& place = places_.at(ids[n]);
-    place.world_from_camera = result.world_from_node[n];
-    correction.world_from_keyframe.emplace(ids[n], place.world_from_camera);
-  }
+  correction.world_from_keyframe = SolveChainGraph(problem, ids, true);
   for (const Segment& segment : segments_) {
     if (Root(segment.summary.id) == root) correction.segments.push_back(segment.summary.id);
   }

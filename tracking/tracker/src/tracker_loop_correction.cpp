@@ -113,8 +113,8 @@ void Tracker::Impl::MoveKeyframes(const std::map<int, Eigen::Isometry3d>& world_
   if (correction.empty()) return;
   ++stats.segment_moves;
   const auto& [newest, at_newest] = *correction.rbegin();
-  const bool current_map = std::find(map_keyframes.begin(), map_keyframes.end(), newest) !=
-                           map_keyframes.end();
+  const bool current_map =
+      std::find(map_keyframes.begin(), map_keyframes.end(), newest) != map_keyframes.end();
   if (!current_map) return;  // older segments keep no landmarks
   // The rest of the current map moves with the keyframe moved nearest before it (the keyframes
   // made since the newest one moved, those culled meanwhile), each landmark with its maker.

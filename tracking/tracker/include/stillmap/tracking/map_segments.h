@@ -15,6 +15,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <string>
@@ -127,6 +128,17 @@ class MapSegments {
   // graph; returns its keyframes' new poses.
   SegmentCorrection Join(int older, int younger, const Eigen::Isometry3d& older_from_younger,
                          const std::vector<Link>& agreeing);
+  // The pose graph over the places `pose_of` gives a pose (nothing: left out): each segment's
+  // chain of places at those poses, and `links` between two of them; `held(root, node)` says
+  // which nodes stay. *ids gets the places in node order.
+  PoseGraphProblem ChainGraph(
+      const std::function<std::optional<Eigen::Isometry3d>(const Place&)>& pose_of,
+      const std::function<bool(int root, size_t node)>& held, const std::vector<Link>& links,
+      std::vector<int>* ids) const;
+  // Solves it and moves the places not held (and the held ones too, `with_held`) to the result;
+  // returns their new poses by keyframe id.
+  std::map<int, Eigen::Isometry3d> SolveChainGraph(const PoseGraphProblem& problem,
+                                                   const std::vector<int>& ids, bool with_held);
   // A link between two segments of one group: a loop when it asks for little correction, and the
   // group settled again when enough have come.
   std::optional<SegmentCorrection> TakeLoop(const Link& link, int root);

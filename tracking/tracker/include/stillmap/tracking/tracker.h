@@ -103,7 +103,7 @@ struct TrackerStatistics {
   double loop_correction_deg = 0.0;
   double loop_ms = 0.0;        // place queries and verification, on the tracking thread
   double loop_solve_ms = 0.0;  // pose graphs, on whichever thread ran them
-  size_t segment_moves = 0;  // keyframes moved from outside (MoveKeyframes)
+  size_t segment_moves = 0;    // keyframes moved from outside (MoveKeyframes)
   size_t global_bundle_adjustments = 0;
   double global_bundle_adjustment_ms = 0.0;
   double place_index_mib = 0.0;  // memory of the place index
