@@ -9,6 +9,7 @@
 #include "report_parts.h"
 #include "report_poses.h"
 #include "report_timing.h"
+#include "report_tracking.h"
 #include "stillmap/io/option_names.h"
 #include "stillmap/pipeline/build_request.h"
 
@@ -232,76 +233,6 @@ json GridJson(const OccupancyGrid& grid) {
 }
 
 namespace {
-
-json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& options) {
-  if (!options.matching.depth_self_calibration) return {{"enabled", false}};
-  const auto& p = t.depth_correction.coefficients;
-  const DepthCorrectionFit& last = t.last_depth_calibration;
-  return {{"enabled", true},
-          {"model", "z_true = z (1 + p1 x + p2 y + p3 x^2 + p4 y^2 + p5 x y), x, y normalized"},
-          {"coefficients", {p[0], p[1], p[2], p[3], p[4]}},
-          {"fits_accepted", t.depth_calibrations},
-          {"fits_refused", t.depth_calibrations_refused},
-          {"last_fit",
-           {{"accepted", last.ok},
-            {"pairs", last.pairs},
-            {"pairs_used", last.pairs_used},
-            {"spread_before_m", last.spread_before_m},
-            {"spread_after_m", last.spread_after_m}}}};
-}
-
-// The smallest, 5th-percentile and median share over the frames.
-json ShareJson(std::vector<double> shares) {
-  if (shares.empty()) return nullptr;
-  std::sort(shares.begin(), shares.end());
-  return {{"min", shares.front()},
-          {"p5", shares[shares.size() / 20]},
-          {"median", shares[shares.size() / 2]}};
-}
-
-json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options) {
-  const TrackerStatistics& t = tracking.statistics;
-  return {{"frames", t.frames},
-          {"tracked", t.tracked},
-          {"lost", t.lost},
-          {"relocalized", t.relocalized},
-          {"new_maps", t.new_maps},
-          {"status_counts", tracking.status_counts},
-          {"lost_frame_times", tracking.lost_times},
-          {"occluded", t.occluded},
-          {"predicted", t.predicted},
-          {"flagged_frame_times", tracking.flagged_times},
-          {"relocalizations_refused", t.relocalizations_refused},
-          {"static_depth_share", ShareJson(tracking.static_depth_share)},
-          {"keyframes", t.keyframes},
-          {"keyframes_culled", t.keyframes_culled},
-          {"landmarks_alive", t.landmarks},
-          {"landmarks_merged", t.landmarks_merged},
-          {"loops",
-           {{"candidates", t.loop_candidates},
-            {"verified", t.loops_verified},
-            {"accepted", t.loops_accepted},
-            {"rejected", t.loops_rejected},
-            {"refused_implausible_drift", t.loops_implausible},
-            {"largest_correction_m", t.loop_correction_m},
-            {"largest_correction_deg", t.loop_correction_deg},
-            {"fused_keyframes_moved", tracking.refused_keyframes_moved},
-            {"compact_keyframes_mib", tracking.refusion_store_mib},
-            {"place_index_mib", t.place_index_mib}}},
-          {"landmarks_created", t.landmarks_created},
-          {"landmarks_culled", t.landmarks_culled},
-          {"bundle_adjustments", t.bundle_adjustments},
-          {"bundle_adjustment_observations_rejected", t.observations_rejected},
-          {"depth_self_calibration", DepthCalibrationJson(t, options)},
-          {"bundle_adjustment_thread", tracking.bundle_adjustment_thread}};
-}
-
-json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options) {
-  const TrackerStatistics& t = tracking.statistics;
-  json out = TrackerJson(tracking, options);
-  if (tracking.prior) out["carried_by_given_poses"] = t.carried;
-  return out;
-}
 
 void AddTrajectoryError(const EvaluationFigures& evaluation, const BuildConfig& config,
                         json* report) {

@@ -9,6 +9,7 @@
 #include <iostream>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <utility>
 
 #include "rendered_sequence.h"
 #include "stillmap/io/evaluation.h"
@@ -214,6 +215,42 @@ TEST_F(TrackerTest, AnOccludedLensIsRiddenThroughByTheMotionModel) {
   EXPECT_EQ(stats.predicted, 3u);
   EXPECT_EQ(stats.lost, 0u);
   EXPECT_EQ(stats.relocalized, 0u);
+}
+
+// A featureless stretch: frames 10-14 show a uniform grey image over their true depth, so that
+// ORB finds nothing. The dense RGB-D odometry poses them from the room's geometry alone, close to
+// the rendering poses, and feature tracking resumes after. Without it (the default) they are
+// lost.
+TEST_F(TrackerTest, AFeaturelessStretchIsPosedByRgbdOdometry) {
+  const cv::Mat grey(grays_[0].size(), CV_8UC1, cv::Scalar(128));
+  auto track = [&](const TrackerOptions& options) {
+    Tracker tracker(sequence_->camera(), options);
+    std::vector<TrackResult> results;
+    for (size_t i = 0; i < 20; ++i) {
+      const bool blank = i >= 10 && i < 15;
+      results.push_back(
+          tracker.Track(i, frames_[i].time, blank ? grey : grays_[i], frames_[i].depth_m));
+    }
+    tracker.Finish();
+    return std::make_pair(results, tracker.TrackedTrajectory());
+  };
+  TrackerOptions on = Deterministic();
+  on.rgbd_odometry.enabled = true;
+  const auto [results, trajectory] = track(on);
+  for (size_t i = 10; i < 15; ++i) EXPECT_EQ(results[i].status, TrackStatus::kRgbdOdometry) << i;
+  EXPECT_EQ(results[15].status, TrackStatus::kTracked);
+  ASSERT_EQ(trajectory.size(), 20u);
+  for (size_t i = 10; i < 20; ++i) {
+    const Eigen::Isometry3d truth = Truth(0).inverse() * Truth(i);
+    EXPECT_LT((trajectory.poses()[i].world_from_camera.translation() - truth.translation()).norm(),
+              0.003)
+        << i;
+  }
+  TrackerOptions off = Deterministic();
+  off.relocalization.max_predicted_frames = 0;
+  const auto [results_off, trajectory_off] = track(off);
+  EXPECT_EQ(results_off[10].status, TrackStatus::kLost);
+  EXPECT_LT(trajectory_off.size(), 20u);
 }
 
 // A relocalization farther from the last good pose than the options allow is refused: with a

@@ -28,6 +28,8 @@ const char* TrackStatusName(TrackStatus status) {
       return "predicted";
     case TrackStatus::kCarried:
       return "carried";
+    case TrackStatus::kRgbdOdometry:
+      return "rgbd_odometry";
     case TrackStatus::kLost:
       return "lost";
   }
@@ -97,6 +99,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   TrackResult result;
   FrameData frame(ExtractFeatures(gray, depth_m, camera, ignore_mask, options.features), camera);
   frame.SetImages(depth_m, ignore_mask);
+  current_images = {gray, depth_m, ignore_mask};
   result.features = static_cast<int>(frame.size());
   result.static_depth_share = StaticDepthShare(depth_m, ignore_mask);
   result.timings.extract_ms = MillisecondsSince(start);
@@ -143,7 +146,11 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
     }
     Accept(estimate.camera_from_world, time, association.landmark, &result);
   } else {
-    TrackWithoutPose(predicted, frame, with_depth, frame_index, time, lock, &result);
+    TrackWithoutPose(predicted, local, frame, with_depth, frame_index, time, lock, &result);
+  }
+  if (result.tracked()) {
+    reference_images = current_images;
+    reference_time = time;
   }
   next_prior.reset();
   result.timings.keyframe_ms = MillisecondsSince(stage);
@@ -179,10 +186,11 @@ Tracker::Impl::PoseEstimate Tracker::Impl::FindPose(const Eigen::Isometry3d& pre
     estimate = Relocalize(frame, association);
     relocalizing = true;
   }
-  // A pose found after losing track (or against keyframes instead of the motion model) must be
-  // near where the camera was last seen.
-  if (estimate.ok && relocalizing && !NearLastGoodPose(estimate.camera_from_world, time)) {
-    ++stats.relocalizations_refused;
+  // Any pose must be near where the camera was last seen: a pose found after losing track (or
+  // against keyframes instead of the motion model), and one from few matches on a repeating
+  // pattern (floor tiles below a blank wall), which can jump by metres.
+  if (estimate.ok && !NearLastGoodPose(estimate.camera_from_world, time)) {
+    ++(relocalizing ? stats.relocalizations_refused : stats.jumps_refused);
     ClearMatches(*association);
     estimate = {};
   }
@@ -207,9 +215,10 @@ void Tracker::Impl::TakePose(const PoseEstimate& estimate, const LocalSet& local
   consecutive_predicted = 0;
 }
 
-void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameData& frame,
-                                     int with_depth, size_t frame_index, double time,
-                                     std::unique_lock<std::mutex>& lock, TrackResult* result) {
+void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const LocalSet& local,
+                                     FrameData& frame, int with_depth, size_t frame_index,
+                                     double time, std::unique_lock<std::mutex>& lock,
+                                     TrackResult* result) {
   const bool occluded = result->static_depth_share < options.relocalization.min_static_depth_share;
   if (HasPriorMotion()) {  // the given poses carry the frame where vision failed
     ++stats.carried;
@@ -224,6 +233,10 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameDa
     ++stats.predicted;
     result->status = TrackStatus::kPredicted;
     Accept(predicted, time, {}, result);
+    return;
+  }
+  if (!occluded &&
+      TrackByRgbdOdometry(predicted, local, frame, with_depth, frame_index, time, lock, result)) {
     return;
   }
   ++consecutive_lost;

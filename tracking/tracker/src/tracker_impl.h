@@ -18,6 +18,7 @@
 #include <deque>
 #include <exception>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -30,6 +31,7 @@
 #include "stillmap/io/timing.h"
 #include "stillmap/tracking/loop_closure.h"
 #include "stillmap/tracking/pose_graph.h"
+#include "stillmap/tracking/rgbd_odometry.h"
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
@@ -203,9 +205,16 @@ struct Tracker::Impl {
                         const FrameData& frame, double time, Association* association);
   void TakePose(const PoseEstimate& estimate, const LocalSet& local, const FrameData& frame,
                 Association* association, TrackResult* result);
-  void TrackWithoutPose(const Eigen::Isometry3d& predicted, FrameData& frame, int with_depth,
-                        size_t frame_index, double time, std::unique_lock<std::mutex>& lock,
-                        TrackResult* result);
+  void TrackWithoutPose(const Eigen::Isometry3d& predicted, const LocalSet& local, FrameData& frame,
+                        int with_depth, size_t frame_index, double time,
+                        std::unique_lock<std::mutex>& lock, TrackResult* result);
+  // Features found no pose: the frame's depth aligned to the last posed frame's
+  // (rgbd_odometry.h), from the prediction. On success the frame is posed (kDepth), becomes a
+  // keyframe every rgbd_odometry.keyframe_interval frames (with the local landmarks found by
+  // projection from that pose) and true is returned (tracker_rgbd_odometry.cpp).
+  bool TrackByRgbdOdometry(const Eigen::Isometry3d& predicted, const LocalSet& local,
+                           FrameData& frame, int with_depth, size_t frame_index, double time,
+                           std::unique_lock<std::mutex>& lock, TrackResult* result);
   // The next frame's predicted camera_from_world: constant velocity from `last`, else the
   // prior's motion since the last posed frame (tracker_prior.cpp).
   Eigen::Isometry3d Predict(const Eigen::Isometry3d& last) const;
@@ -428,6 +437,11 @@ struct Tracker::Impl {
   double last_good_time = 0.0;
   int frames_since_keyframe = 0;
   std::vector<int> last_frame_landmarks;
+  // This frame's images, and the last posed frame's (its pose: last_good_camera_from_world)
+  // with the camera's cells, made on first use: what TrackByRgbdOdometry aligns.
+  RgbdImages current_images, reference_images;
+  double reference_time = 0.0;
+  std::unique_ptr<CellCamera> cell_camera;
   // Where this frame's projection search found a second landmark for a feature besides the one
   // it kept: candidates for MergeDuplicates.
   struct Duplicate {

@@ -108,6 +108,27 @@ void LocalMapOptions::Validate() const {
           key(landmark_merge_distance_m));
 }
 
+void RgbdOdometryOptions::Validate() const {
+  const OptionKeys key(*this);
+  Require(cell_px >= 1 && cell_px <= 64 && iterations >= 1 && keyframe_interval >= 1,
+          "{} must be 1..64, {} and {} at least 1", key(cell_px), key(iterations),
+          key(keyframe_interval));
+  Require(min_pair_distance_m > 0.0 && max_pair_distance_m >= min_pair_distance_m,
+          "{} must be positive and at most {}", key(min_pair_distance_m), key(max_pair_distance_m));
+  Require(max_normal_angle_deg > 0.0 && max_normal_angle_deg <= 90.0, "{} must lie in (0, 90]",
+          key(max_normal_angle_deg));
+  Require(max_depth_m > 0.0 && sigma_depth_m > 0.0 && sigma_intensity > 0.0 && max_rmse_m > 0.0 &&
+              max_weakest_sigma_m > 0.0,
+          "{}, {}, {}, {} and {} must be positive", key(max_depth_m), key(sigma_depth_m),
+          key(sigma_intensity), key(max_rmse_m), key(max_weakest_sigma_m));
+  Require(min_intensity_correlation >= -1.0 && min_intensity_correlation <= 1.0,
+          "{} must lie in [-1, 1]", key(min_intensity_correlation));
+  Require(
+      min_paired_share >= 0.0 && min_paired_share <= 1.0 && min_gradient >= 0.0 && max_gap_s >= 0.0,
+      "{} must lie in [0, 1], {} and {} not be negative", key(min_paired_share), key(min_gradient),
+      key(max_gap_s));
+}
+
 void RelocalizationOptions::Validate() const {
   const OptionKeys key(*this);
   Require(min_tracked >= 6 && min_relocalized >= min_tracked,
@@ -185,6 +206,7 @@ void TrackerOptions::Validate() const {
           "{} and {} must be positive", key(bundle_adjustment.chi2_without_depth),
           key(bundle_adjustment.chi2_with_depth));
   relocalization.Validate();
+  rgbd_odometry.Validate();
   loops.Validate();
   // Across the parts: a loop is verified with at least a tracked frame's inliers.
   Require(loops.loop_min_inliers >= relocalization.min_tracked, "{} must be at least {}",

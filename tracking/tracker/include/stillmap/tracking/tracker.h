@@ -33,12 +33,13 @@ namespace stillmap {
 enum class TrackStatus {
   kInitialized,  // first frame of the first local map (identity pose)
   kTracked,
-  kRelocalized,  // tracked again after being lost, against a recent keyframe
-  kNewMap,       // a new local map chained to the last good pose
-  kOccluded,     // too little static depth: posed from what remains, no keyframe
-  kPredicted,    // too little static depth and nothing to track: the motion model's pose
-  kCarried,      // vision failed: the given poses' motion carried the pose (SetPrior)
-  kLost,         // no pose: nothing is written for this frame
+  kRelocalized,   // tracked again after being lost, against a recent keyframe
+  kNewMap,        // a new local map chained to the last good pose
+  kOccluded,      // too little static depth: posed from what remains, no keyframe
+  kPredicted,     // too little static depth and nothing to track: the motion model's pose
+  kCarried,       // vision failed: the given poses' motion carried the pose (SetPrior)
+  kRgbdOdometry,  // features found no pose: dense RGB-D alignment to the last posed frame
+  kLost,          // no pose: nothing is written for this frame
 };
 const char* TrackStatusName(TrackStatus status);
 
@@ -86,7 +87,11 @@ struct TrackerStatistics {
   size_t new_maps = 0;                 // local maps started after the first
   size_t occluded = 0, predicted = 0;  // frames with too little static depth (TrackStatus)
   size_t carried = 0;                  // frames the given poses carried (TrackStatus::kCarried)
+  size_t rgbd_posed = 0;               // frames posed by dense RGB-D odometry (kRgbdOdometry)
+  size_t rgbd_refused = 0;             // its alignments tried and refused (rgbd_odometry.h)
+  double rgbd_odometry_ms = 0.0;       // their time, on the tracking thread
   size_t relocalizations_refused = 0;  // too far from the last good pose
+  size_t jumps_refused = 0;            // tracked poses as far: refused, the frame is not tracked
   size_t keyframes = 0;
   size_t keyframes_culled = 0;  // keyframes culled when final: their view was covered
   size_t landmarks = 0;         // alive now

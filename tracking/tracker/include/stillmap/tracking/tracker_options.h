@@ -10,6 +10,7 @@
 #include "stillmap/tracking/loop_closure.h"
 #include "stillmap/tracking/pose_estimation.h"
 #include "stillmap/tracking/pose_refinement.h"
+#include "stillmap/tracking/rgbd_odometry.h"
 
 namespace stillmap {
 
@@ -215,9 +216,10 @@ struct RelocalizationOptions {
   // ("predicted", for at most max_predicted_frames in a row).
   double min_static_depth_share = 0.1;
   int max_predicted_frames = 15;
-  // A relocalized pose is taken only within this distance of where the camera was last seen
-  // [m], plus relocalization_max_speed_mps for each second since then: a match on a look-alike
-  // view elsewhere would put a jump in the trajectory.
+  // A pose from vision (relocalized or tracked) is taken only within this distance of where the
+  // camera was last seen [m], plus relocalization_max_speed_mps for each second since then: a
+  // match on a look-alike view elsewhere, or a few matches on a repeating pattern, would put a
+  // jump in the trajectory.
   double relocalization_max_distance_m = 0.3;
   double relocalization_max_speed_mps = 1.5;
   int min_initial_points = 100;
@@ -239,7 +241,8 @@ struct RelocalizationOptions {
     visit("max_predicted_frames", self.max_predicted_frames,
           "occluded frames posed by the motion model at most this many in a row");
     visit("relocalization_max_distance_m", self.relocalization_max_distance_m,
-          "relocalized poses farther than this from the last good one are refused [m]");
+          "poses from vision (relocalized or tracked) farther than this from the last good one "
+          "are refused [m]");
     visit("relocalization_max_speed_mps", self.relocalization_max_speed_mps,
           "... plus this much per second since it [m/s]");
     visit("min_initial_points", self.min_initial_points,
@@ -255,6 +258,7 @@ struct TrackerOptions {
   MatchingOptions matching;
   LocalMapOptions local_map;
   RelocalizationOptions relocalization;
+  RgbdOdometryOptions rgbd_odometry;
   LoopClosureOptions loops;
 
   // Throws InputError naming the first impossible value: each part's, the solvers', and the
@@ -271,6 +275,7 @@ struct TrackerOptions {
     visit.Nested("", self.matching);
     visit.Nested("", self.local_map);
     visit.Nested("", self.relocalization);
+    visit.Nested("rgbd_odometry_", self.rgbd_odometry);
     visit.Nested("", self.loops);
   }
 };
