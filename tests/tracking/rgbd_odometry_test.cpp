@@ -17,13 +17,8 @@ struct Plane {
   bool tiled = false;  // 30 cm tiles with dark 1 cm joints, else blank
 };
 
-Camera TestCamera() {
-  Camera camera;
-  camera.fx = camera.fy = 525.0;
-  camera.cx = 319.5;
-  camera.cy = 239.5;
-  return camera;
-}
+// Undistorted, fx = fy = 525 px, 640 x 480.
+Camera TestCamera() { return CameraPreset("ros_default"); }
 
 // The gray level of a plane at `point`: blank, or tiles whose joints run along the plane's two
 // other axes.
