@@ -186,9 +186,9 @@ struct Tracker::Impl {
 
   // ---- Per frame: the pose, the bookkeeping of a tracked frame, observations (tracker.cpp)
   double OctaveScale(int octave) const;
-  // The i-th feature as an observation, its depth corrected (depth_correction.h) or raw.
-  // A relocalized pose is plausible: near the last good pose, given the time since (options).
+  // A pose from vision is plausible: near the last good pose, given the time since (options).
   bool NearLastGoodPose(const Eigen::Isometry3d& camera_from_world, double time) const;
+  // The i-th feature as an observation, its depth corrected (depth_correction.h) or raw.
   RgbdObservation Observation(const FrameFeatures& features, size_t i,
                               bool raw_depth = false) const;
   double DepthFactor(const Eigen::Vector2d& normalized) const;
