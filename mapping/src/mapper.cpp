@@ -80,6 +80,10 @@ void Mapper::Reset() {
   projector_ = DepthBackProjector(camera_, options_.back_projection);
   cameras_.resize(1);
   views_.clear();
+  voxel_bytes_ = cloud_.MemoryBytes();
+  views_bytes_ = 0;
+  insertions_ = 0;
+  CountOccupancyBytes();
   statistics_.frames = 0;
   statistics_.points = 0;
   ++statistics_.refusions;
@@ -99,6 +103,8 @@ void Mapper::BeginLaterSession(const Camera& camera) {
     earlier_ = std::move(occupancy_);
   }
   occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
+  insertions_ = 0;
+  CountOccupancyBytes();
 }
 
 void Mapper::WaitForOccupancy() {
@@ -123,6 +129,15 @@ void Mapper::Integrate(const MapperFrame& frame) {
   });
 }
 
+void Mapper::CountOccupancyBytes() {
+  if (insertions_++ % 16 != 0) return;
+  size_t bytes = occupancy_ ? occupancy_->MemoryBytes() : 0;
+  if (earlier_) bytes += earlier_->MemoryBytes();
+  occupancy_bytes_ = bytes;
+}
+
+MapperMemory Mapper::memory() const { return {voxel_bytes_, occupancy_bytes_, views_bytes_}; }
+
 void Mapper::AddBackgroundCpu(double ms) {
   const std::lock_guard<std::mutex> lock(cpu_mutex_);
   statistics_.background_cpu_ms += ms;
@@ -145,6 +160,7 @@ void Mapper::Fuse(const MapperFrame& frame) {
       const auto job_start = std::chrono::steady_clock::now();
       const double cpu = ThreadCpuMs();
       occupancy_->InsertScan(occupancy_points_, origin);
+      CountOccupancyBytes();
       statistics_.occupancy_ms += MillisecondsSince(job_start);
       if (options_.in_background) AddBackgroundCpu(ThreadCpuMs() - cpu);
     };
@@ -159,9 +175,12 @@ void Mapper::Fuse(const MapperFrame& frame) {
     views_.push_back(MakeKeyframeView(frame.depth_m, frame.mask, frame.world_from_camera));
     views_.back().session = session_;
     views_.back().camera = static_cast<int>(cameras_.size()) - 1;
+    const cv::Mat& view = views_.back().depth_m;
+    views_bytes_ += sizeof(KeyframeView) + view.total() * view.elemSize();
   }
   start = std::chrono::steady_clock::now();
   cloud_.Insert(scratch_);
+  voxel_bytes_ = cloud_.MemoryBytes();
   statistics_.voxel_ms += MillisecondsSince(start);
   ++statistics_.frames;
   statistics_.points += scratch_.size();
@@ -169,6 +188,13 @@ void Mapper::Fuse(const MapperFrame& frame) {
 
 MapCleaningResult FinishedMap::CleanCloud(const MapCleaningOptions& options) {
   return stillmap::CleanCloud(options, occupancy.get(), cameras, views, &cloud);
+}
+
+void FinishedMap::ReleaseCloud() {
+  VoxelCloudOptions options;
+  options.leaf_size = cloud.leaf_size();
+  cloud = VoxelCloud(options);
+  views = {};
 }
 
 void FinishedMap::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {

@@ -17,6 +17,7 @@
 #include "map_finish.h"
 #include "map_outputs.h"
 #include "mask_setup.h"
+#include "memory_ledger.h"
 #include "merge_links.h"
 #include "pose_loops.h"
 #include "segment_output.h"
@@ -174,6 +175,27 @@ void Append(std::vector<std::string> from, std::vector<std::string>* to) {
   for (std::string& line : from) to->push_back(std::move(line));
 }
 
+// What the finished map's owners hold [bytes] (memory_ledger.h); `cloud` its points, once taken,
+// and the keyframes for session.bin until it is written.
+std::vector<std::pair<std::string, size_t>> FinishingOwners(const FinishedMap& map,
+                                                            const std::vector<VoxelPoint>& cloud,
+                                                            const PosedFrames& posed) {
+  size_t session = 0;
+  for (const SessionKeyframeBlocks& blocks : posed.session_keyframes) {
+    session += blocks.depth_png.capacity() + blocks.color_jpeg.capacity() +
+               blocks.keyframe.features.capacity() * sizeof(SessionFeature);
+  }
+  size_t views = 0;
+  for (const KeyframeView& view : map.views) {
+    views += sizeof(KeyframeView) + view.depth_m.total() * view.depth_m.elemSize();
+  }
+  return {{"voxel_cloud", map.cloud.MemoryBytes()},
+          {"octomap", map.occupancy ? map.occupancy->MemoryBytes() : 0},
+          {"map_cleaning_views", views},
+          {"cloud_points", cloud.capacity() * sizeof(VoxelPoint)},
+          {"keyframe_copies", session}};
+}
+
 // The frame loop's figures into the result.
 void TakeLoopFigures(LoopResult loop, BuildResult* result) {
   result->tracking = std::move(loop.tracking);
@@ -207,14 +229,16 @@ void AddOutputFolderWarnings(const OutputSet& outputs, std::vector<std::string>*
 // frame, and so does finished->cloud.
 void WriteOutputs(const BuildRequest& request, const BuildInputs& inputs,
                   FinishedBuildMap* finished, PosedFrames* posed, OutputSet& outputs,
-                  BuildResult* result) {
+                  BuildResult* result, MemoryLedger& memory) {
   result->map = finished->figures;
   result->map_frame = finished->frame;
   result->grid = std::move(finished->grid);
   result->timings.map_cleaning_ms = finished->cleaning_ms;
   result->timings.grid_ms = finished->grid_ms;
+  memory.Phase("writing the map files (cloud, OctoMap and mesh at once)");
   result->mesh = WriteMapFiles(finished->map, &finished->cloud, finished->frame, result->grid,
                                MapFileOptionsOf(request), outputs, &result->timings);
+  memory.Phase("writing session.bin, the trajectory and config.yaml");
   WriteBuildFiles(posed, finished->frame, inputs, request.config, request.sequence_dir,
                   result->poses, outputs);
   result->frames.fused = result->map.statistics.frames;
@@ -256,7 +280,11 @@ BuildResult RunBuild(const BuildRequest& request) {
   result.given_poses = opened.given;
   Append(std::move(opened.warnings), &result.warnings);
   result.camera = inputs.camera;
+  MemoryLedger memory;
+  memory.Phase("setting up: the detector");
+  const double before_masks_mib = ResidentMemoryMib();
   MaskSetup masks = SetUpMasks(MaskOptionsOf(request), inputs.camera);
+  memory.AddFixed("detector_models", ResidentMemoryMib() - before_masks_mib);
   result.masking = masks.figures;
   Append(std::move(masks.warnings), &result.warnings);
 
@@ -268,21 +296,30 @@ BuildResult RunBuild(const BuildRequest& request) {
   mapper_options.in_background = mapper_options.in_background && request.threads() > 1;
   Mapper mapper(inputs.camera, mapper_options);
   const double loop_cpu_start = ThreadCpuMs();
-  LoopResult loop = RunPoseLoop(inputs, LoopOptionsOf(request), *masks.stage, mapper);
+  memory.Phase("frame loop (its end: fusing moved keyframes again)");
+  LoopResult loop = RunPoseLoop(inputs, LoopOptionsOf(request), *masks.stage, mapper, memory);
   PosedFrames posed = std::move(loop.posed);
   std::vector<ApartSegment> apart = std::move(loop.apart);
   const double depth_unit_m = posed.session_depth_unit_m;  // of the kept keyframes' depth
   TakeLoopFigures(std::move(loop), &result);
   const double finish_cpu_start = ThreadCpuMs();
   result.timings.frame_loop_cpu_ms = finish_cpu_start - loop_cpu_start;
+  memory.Phase("finishing: the last fusion");
   FinishedMap map = mapper.Finish();
   result.timings.processing_ms = SecondsSince(start) * 1000.0;
+  memory.Sample("finishing: the map handed over", FinishingOwners(map, {}, posed));
 
   const Clock::time_point write_start = Clock::now();
+  memory.Phase("finishing: cleaning, floor and grid");
   FinishedBuildMap finished =
       FinishMapInFrame(std::move(map), posed, inputs, result.masking, MapFinishOptionsOf(request));
-  WriteOutputs(request, inputs, &finished, &posed, outputs, &result);
+  memory.Sample("finishing: the map cleaned and in its frame",
+                FinishingOwners(finished.map, finished.cloud, posed));
+  WriteOutputs(request, inputs, &finished, &posed, outputs, &result, memory);
+  memory.Sample("finishing: the map files written",
+                FinishingOwners(finished.map, finished.cloud, posed));
   if (!apart.empty()) {
+    memory.Phase("writing the segments kept apart");
     const SegmentOutputContext context{inputs,
                                        request.config,
                                        request.sequence_dir,
@@ -298,6 +335,7 @@ BuildResult RunBuild(const BuildRequest& request) {
   result.timings.core_busy = CoreBusyShares(cores_at_start, ReadCoreTimes());
   result.wall_time_s = SecondsSince(start);
   result.frames_per_second = static_cast<double>(result.frames.pairs_used) / result.wall_time_s;
+  result.memory = memory.Finish();  // its readings lie within the peak read after it
   result.peak_memory_mib = PeakMemoryMib();
 
   // Not counted in the speed above.

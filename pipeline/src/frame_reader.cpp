@@ -32,6 +32,10 @@ PreparedFrame FrameReader::Get(size_t k) {
     frame = Prepare(indices_[k]);
   }
   wait_ms_ += MillisecondsSince(start);
+  frame_bytes_ = 0;
+  for (const cv::Mat* image : {&frame.frame.color, &frame.frame.depth_m, &frame.gray}) {
+    frame_bytes_ += image->total() * image->elemSize();
+  }
   if (frame.flow) flow_ms_.push_back(frame.flow->ms);
   if (read_ahead_) ahead_cpu_ms_ += frame.cpu_ms;
   return frame;

@@ -47,6 +47,8 @@ class FrameReader {
   // CPU time of decoding and preparing the frames on the reading thread (read_ahead) [ms].
   double ahead_cpu_ms() const { return ahead_cpu_ms_; }
   const std::vector<double>& flow_ms() const { return flow_ms_; }
+  // The frames queued ahead, at the decoded size of the last one taken [bytes].
+  size_t ahead_bytes() const { return ahead_.size() * frame_bytes_; }
   // What the frames show of the streams' plausibility (call after the last frame's Get).
   const StreamChecks& checks() const { return checks_; }
 
@@ -61,6 +63,7 @@ class FrameReader {
   std::deque<std::future<PreparedFrame>> ahead_;  // queued in order, at most kFramesAhead
   double wait_ms_ = 0.0;
   double ahead_cpu_ms_ = 0.0;
+  size_t frame_bytes_ = 0;  // colour, depth and grey of the last frame taken
   std::vector<double> flow_ms_;
   StreamChecks checks_;  // updated by Prepare, frames in order
   // The reading thread (last: it ends first, after the frames queued, before what they use).

@@ -39,6 +39,11 @@ PosedFrames RunGivenPoseLoop(const BuildInputs& inputs, const LoopOptions& optio
     const cv::Mat mask =
         stages.masks.Compute(frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, pose);
     if (plan.reference[k]) stages.masks.AddReference(frame, mask, pose, -1);
+    if (j % kMemorySampleFrames == 0) {
+      SampleLoopMemory(
+          stages, frame.time,
+          {{"keyframes_held", fuser.held_bytes()}, {"keyframe_copies", fuser.stored_bytes()}});
+    }
     if (!plan.fuse[k]) continue;
     if (session) session->Offer(frame, prepared.gray, mask, pose);
     FinalKeyframe keyframe;

@@ -38,6 +38,7 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& opt
     const cv::Mat mask =
         stages.masks.Compute(frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, pose);
     if (reference) stages.masks.AddReference(frame, mask, pose, -1);
+    if (j % kMemorySampleFrames == 0) SampleLoopMemory(stages, frame.time);
     if (fuse) {
       stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose});
       fused.push_back(inputs.known_poses[k]);

@@ -214,6 +214,18 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
   return moved;
 }
 
+size_t KeyframeFuser::held_bytes() const {
+  size_t bytes = 0;
+  for (const auto& [id, waiting] : waiting_) {
+    // The reference shares the frame's depth.
+    for (const cv::Mat* image :
+         {&waiting.frame.color, &waiting.frame.depth_m, &waiting.reference.mask}) {
+      bytes += image->total() * image->elemSize();
+    }
+  }
+  return bytes;
+}
+
 SelectionFigures KeyframeFuser::figures() const {
   return {selector_.invalid(), selector_.redundant(), recheck_additions_,
           revisits_.cells_left_out()};

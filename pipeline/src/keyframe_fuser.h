@@ -72,6 +72,8 @@ class KeyframeFuser {
   double fuse_ms() const { return fuse_ms_; }
   double refuse_ms() const { return refuse_ms_; }
   size_t stored_bytes() const;
+  // The images of the keyframes held until their poses are final [bytes].
+  size_t held_bytes() const;
 
  private:
   struct Waiting {

@@ -73,6 +73,7 @@ FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
   out.figures = MapFiguresOf(finished, cleaning);
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
   out.cloud = finished.cloud.Points();
+  finished.ReleaseCloud();
   if (out.cloud.size() < static_cast<size_t>(options.mapping.min_map_points)) {
     throw std::runtime_error(
         EmptyMapMessage(out.cloud.size(), out.figures, options.mapping, masking));

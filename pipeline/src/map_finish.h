@@ -25,7 +25,7 @@ struct MapFinishOptions {
 };
 
 struct FinishedBuildMap {
-  FinishedMap map;                // cleaned
+  FinishedMap map;                // cleaned; its voxel table and views released (cloud has them)
   std::vector<VoxelPoint> cloud;  // its points, in the poses' frame
   MapFigures figures;
   MapFrameFigures frame;

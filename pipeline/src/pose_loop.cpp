@@ -1,9 +1,21 @@
+#include <fmt/format.h>
+
 #include "pose_loops.h"
 
 namespace stillmap {
 
+void SampleLoopMemory(const LoopStages& stages, double time,
+                      std::vector<std::pair<std::string, size_t>> owners) {
+  const MapperMemory map = stages.mapper.memory();
+  owners.emplace_back("voxel_cloud", map.voxel_cloud);
+  owners.emplace_back("octomap", map.occupancy);
+  owners.emplace_back("map_cleaning_views", map.views);
+  owners.emplace_back("frames_read_ahead", stages.reader.ahead_bytes());
+  stages.memory.Sample(fmt::format("frame loop, frame at {:.3f} s", time), owners);
+}
+
 LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, MaskStage& masks,
-                       Mapper& mapper) {
+                       Mapper& mapper, MemoryLedger& memory) {
   LoopResult result;
   ProgressLine progress("stillmap build", inputs.frame_indices.size(), options.show_progress);
   std::optional<FlowTracker> flow;
@@ -20,7 +32,7 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
     for (const size_t k : plan.read) indices.push_back(inputs.frame_indices[k]);
   }
   FrameReader reader(inputs.sequence, std::move(indices), options.read_ahead, std::move(flow));
-  const LoopStages stages{reader, masks, mapper, progress};
+  const LoopStages stages{reader, masks, mapper, progress, memory};
   if (tracked) {
     result.posed = RunTrackedLoop(inputs, options, stages, &result);
   } else if (options.poses == PoseSource::kGiven && !options.FusesEveryFrame()) {

@@ -7,6 +7,7 @@
 #include "build_inputs.h"
 #include "frame_reader.h"
 #include "keyframe_fuser.h"
+#include "memory_ledger.h"
 #include "segment_keeper.h"
 #include "stillmap/io/session_record.h"
 #include "stillmap/io/trajectory.h"
@@ -62,7 +63,7 @@ struct LoopResult {
 // Reads, masks, poses and fuses every frame of `inputs` (the masks' and mapper's state carries
 // on). Throws std::runtime_error when no frame could be tracked.
 LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, MaskStage& masks,
-                       Mapper& mapper);
+                       Mapper& mapper, MemoryLedger& memory);
 
 // The steps every loop shares.
 struct LoopStages {
@@ -70,7 +71,14 @@ struct LoopStages {
   MaskStage& masks;
   Mapper& mapper;
   ProgressLine& progress;
+  MemoryLedger& memory;
 };
+
+// The frame loops sample the memory (memory_ledger.h) on every this many frames read.
+constexpr size_t kMemorySampleFrames = 30;
+// Samples the memory: the mapper's and the reader's owners, with `owners` the loop's own [bytes].
+void SampleLoopMemory(const LoopStages& stages, double time,
+                      std::vector<std::pair<std::string, size_t>> owners = {});
 
 // With known poses, which frames are read, masked and fused (positions in inputs.frame_indices):
 // every n-th frame is a depth-check reference, and every frame is fused (or, with a keyframe

@@ -120,6 +120,26 @@ json CpuJson(const BuildResult& result) {
           {"by_thread_s", stages}};
 }
 
+// Where the memory went: the owners at the highest sample, what they leave unexplained there
+// (code, libraries, stacks, the allocator's free lists, uncounted owners), and each one's largest.
+json MemoryJson(const MemoryFigures& memory) {
+  json at_peak = json::object(), largest = json::object();
+  double counted = 0.0;
+  for (const MemoryOwner& owner : memory.at_peak) {
+    at_peak[owner.name] = owner.mib;
+    counted += owner.mib;
+  }
+  for (const MemoryOwner& owner : memory.largest) largest[owner.name] = owner.mib;
+  return {{"highest_mib", memory.peak_watched_mib},
+          {"highest_phase", memory.peak_watched_phase},
+          {"samples", memory.samples},
+          {"highest_sample_mib", memory.peak_sample_mib},
+          {"highest_sample_when", memory.peak_when},
+          {"owners_at_highest_sample_mib", at_peak},
+          {"not_counted_at_highest_sample_mib", std::max(0.0, memory.peak_sample_mib - counted)},
+          {"owners_largest_mib", largest}};
+}
+
 }  // namespace
 
 // Everything that depends on the machine and the moment rather than on the input and options,
@@ -129,6 +149,7 @@ json RunTimingJson(const BuildResult& result) {
                  {"wall_time_s", result.wall_time_s},
                  {"frames_per_second", result.frames_per_second},
                  {"peak_memory_mib", result.peak_memory_mib},
+                 {"memory", MemoryJson(result.memory)},
                  {"stages_ms", TimingsJson(result)},
                  {"cpu", CpuJson(result)},
                  {"map_evaluation_s", result.evaluation.map_evaluation_s}};

@@ -22,6 +22,19 @@ void Record(const TrackResult& result, double time, TrackingFigures* figures) {
   figures->static_depth_share.push_back(result.static_depth_share);
 }
 
+// What the tracked loop's own owners hold [bytes] (memory_ledger.h).
+std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker,
+                                                          const KeyframeFuser& fuser,
+                                                          const SegmentKeeper& segments) {
+  const TrackerMemory memory = tracker.memory();
+  return {{"tracker_keyframes", memory.keyframes},
+          {"landmarks", memory.landmarks},
+          {"place_index", memory.place_index + segments.segments().MemoryBytes()},
+          {"tracked_frame_records", memory.frames},
+          {"keyframes_held", fuser.held_bytes()},
+          {"keyframe_copies", fuser.stored_bytes()}};
+}
+
 }  // namespace
 
 PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options, LoopStages stages,
@@ -40,6 +53,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     PreparedFrame prepared = stages.reader.Get(k);
     Frame& frame = prepared.frame;
+    const double time = frame.time;
     if (!inputs.prior_poses.empty()) tracker.SetPrior(inputs.prior_poses[k]);
     const cv::Mat mask = stages.masks.Compute(
         frame, prepared.gray, prepared.flow ? &*prepared.flow : nullptr, tracker.PredictedPose());
@@ -58,6 +72,9 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
       fuser.Hold(tracked.keyframe_id, std::move(frame), mask, tracked.world_from_camera);
     }
     fuse_final();
+    if (k % kMemorySampleFrames == 0) {
+      SampleLoopMemory(stages, time, TrackedOwners(tracker, fuser, segments));
+    }
     stages.progress.Update(k + 1);
   }
   tracker.Finish();

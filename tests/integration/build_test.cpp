@@ -125,6 +125,16 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   EXPECT_EQ(report["map"]["voxels_written"], cloud.size());
   EXPECT_GT(report["timing"]["frames_per_second"].get<double>(), 0.0);
   EXPECT_GT(report["timing"]["peak_memory_mib"].get<double>(), 0.0);
+  // The memory breakdown: the voxel table as the map section counts it, and the highest reading
+  // within the process's peak.
+  const nlohmann::json& memory = report["timing"]["memory"];
+  EXPECT_GT(memory["samples"].get<int>(), 2);
+  EXPECT_NEAR(memory["owners_largest_mib"]["voxel_cloud"].get<double>(),
+              report["map"]["voxel_table_mib"].get<double>(), 1e-9);
+  EXPECT_LE(memory["highest_mib"].get<double>(),
+            report["timing"]["peak_memory_mib"].get<double>() + 1.0);
+  EXPECT_GE(memory["highest_mib"].get<double>(), memory["highest_sample_mib"].get<double>() - 1.0);
+  EXPECT_FALSE(memory["highest_phase"].get<std::string>().empty());
   EXPECT_NE(testing::ReadText(dir / "out/config.yaml").find("voxel_leaf_size: 0.02"),
             std::string::npos);
 }

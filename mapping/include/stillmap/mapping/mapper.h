@@ -2,6 +2,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <atomic>
 #include <future>
 #include <memory>
 #include <mutex>
@@ -73,6 +74,14 @@ struct MapperStatistics {
   size_t refusions = 0;  // times the map was emptied to be fused again (Reset)
 };
 
+// What a Mapper holds [bytes], for the run report's memory breakdown: as of the last frame fused
+// (the OctoMap's as of its last count, every 16th insertion: counting walks the tree).
+struct MapperMemory {
+  size_t voxel_cloud = 0;  // the voxel table (VoxelCloud::MemoryBytes)
+  size_t occupancy = 0;    // the OctoMap's nodes (OccupancyMap::MemoryBytes)
+  size_t views = 0;        // the fused frames' views kept for the map cleaning
+};
+
 // The map a Mapper built, handed out once by Mapper::Finish.
 struct FinishedMap {
   VoxelCloud cloud;
@@ -86,6 +95,10 @@ struct FinishedMap {
   MapCleaningResult CleanCloud(const MapCleaningOptions& options);
   // Writes map.ply/map.pcd of the cloud (tests; the pipeline writes the points it took out).
   void WriteCloud(const std::string& ply_path, const std::string& pcd_path) const;
+  // Frees the voxel table and the views once the cloud's points are out (VoxelCloud::Points) and
+  // cleaned: the files are written from those points, and the mesh is made while the map files
+  // are written (the floor's peak, 4.4 GiB with both still held). The OctoMap stays.
+  void ReleaseCloud();
   // Writes map.bt/map.ot when there is an OctoMap.
   void WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const;
 };
@@ -119,6 +132,8 @@ class Mapper {
   FinishedMap Finish();
 
   const MapperOptions& options() const { return options_; }
+  // Safe to call from any thread while frames are fused.
+  MapperMemory memory() const;
 
  private:
   MapperOptions options_;
@@ -137,6 +152,11 @@ class Mapper {
   void WaitForFusion();
   void AddBackgroundCpu(double ms);  // from either job's thread
   bool finished_ = false;
+
+  void CountOccupancyBytes();  // after an insertion, on its thread
+  // memory(): set by the jobs, read by any thread.
+  std::atomic<size_t> voxel_bytes_{0}, occupancy_bytes_{0}, views_bytes_{0};
+  size_t insertions_ = 0;  // OctoMap insertions, on the insertion's thread
 
   std::future<void> fusion_job_;     // back-projection and voxels of the last frame handed over
   std::future<void> occupancy_job_;  // its OctoMap insertion (started by the fusion job)

@@ -155,6 +155,23 @@ struct MapFrameFigures {
   bool floor_found = false;  // a fitted or given plane; false: the cameras' mean up (gravity)
 };
 
+// Where the memory went (report.json timing.memory): what each owner held at the sample taken at
+// the highest resident memory, and each owner's largest over all samples (pipeline/src/
+// memory_ledger.h).
+struct MemoryOwner {
+  std::string name;
+  double mib = 0.0;
+};
+struct MemoryFigures {
+  double peak_watched_mib = 0.0;     // the highest resident memory read every 50 ms
+  std::string peak_watched_phase;    // the phase the build was in then
+  std::string peak_when;             // the phase of the highest sample
+  double peak_sample_mib = 0.0;      // resident memory at that sample
+  std::vector<MemoryOwner> at_peak;  // the owners at that sample, largest first
+  std::vector<MemoryOwner> largest;  // each owner's largest, largest first
+  size_t samples = 0;
+};
+
 struct BuildResult {
   std::string sequence_dir;
   std::string command_line;  // BuildRequest::command_line
@@ -184,6 +201,7 @@ struct BuildResult {
   double wall_time_s = 0.0;        // up to the written outputs (evaluation and renders aside)
   double frames_per_second = 0.0;  // frames.pairs_used / wall_time_s
   double peak_memory_mib = 0.0;
+  MemoryFigures memory;
 
   bool tracked() const { return poses == PoseSource::kTracking; }
   // ATE RMSE [m] of the tracked trajectory, when it was evaluated.

@@ -131,6 +131,15 @@ struct TrackerStatistics {
   double depth_calibration_ms = 0.0;  // total, on the tracking thread
 };
 
+// What the tracker holds [bytes], for the run report's memory breakdown: the containers'
+// capacities and the images' sizes, not the allocator's overhead.
+struct TrackerMemory {
+  size_t keyframes = 0;    // features, descriptors and seen depth of every keyframe kept
+  size_t landmarks = 0;    // landmarks with their observations
+  size_t place_index = 0;  // the loop closure's place index
+  size_t frames = 0;       // every tracked frame's pose relative to its keyframe
+};
+
 class Tracker {
  public:
   Tracker(const Camera& camera, const TrackerOptions& options);
@@ -170,6 +179,7 @@ class Tracker {
   // moved (KeyframePoses).
   size_t pose_corrections() const;
   TrackerStatistics statistics() const;
+  TrackerMemory memory() const;
   // The depth sensor's correction as the self-calibration has it now (statistics() without the
   // rest, cheap enough for every frame).
   DepthCorrection depth_correction() const;

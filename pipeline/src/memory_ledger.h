@@ -1,0 +1,52 @@
+// Where a build's memory goes. A watcher thread reads the process's resident memory every 50 ms
+// and keeps the highest reading with the phase the build was in (Phase); at chosen points the
+// build also samples what each owner holds (Sample), and the sample taken at the highest resident
+// memory is the one report.json breaks down (timing.memory). The rest of the resident memory is
+// code, libraries, stacks, the allocator's free lists and what no owner counts.
+#pragma once
+
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "stillmap/pipeline/build_result.h"
+
+namespace stillmap {
+
+class MemoryLedger {
+ public:
+  MemoryLedger();
+  ~MemoryLedger();
+  MemoryLedger(const MemoryLedger&) = delete;
+  MemoryLedger& operator=(const MemoryLedger&) = delete;
+
+  // The phase the build enters (e.g. "frame loop", "writing the map files").
+  void Phase(const std::string& name);
+  // Owners counted once and added to every sample (the detector's models, measured as the
+  // resident memory their loading took).
+  void AddFixed(const std::string& name, double mib);
+  // The resident memory now and what each owner holds now [bytes], taken `when` (e.g. "frame
+  // loop, frame at 312.4 s").
+  void Sample(const std::string& when, const std::vector<std::pair<std::string, size_t>>& owners);
+  // Stops the watcher and returns what it and the samples found.
+  MemoryFigures Finish();
+
+ private:
+  void Watch();
+  void Stop();  // ends the watcher (once; later calls do nothing)
+
+  std::mutex mutex_;  // guards the phase, the watcher's figures and stopping_
+  std::condition_variable wake_;
+  bool stopping_ = false;
+  std::string phase_;
+  std::vector<MemoryOwner> fixed_;
+  MemoryFigures figures_;
+  std::thread watcher_;  // last: starts after the rest is made
+};
+
+// The resident memory of the process now [MiB] (/proc/self/statm).
+double ResidentMemoryMib();
+
+}  // namespace stillmap
