@@ -72,7 +72,7 @@ FinishedMap Mapper::Finish() {
 void Mapper::Reset() {
   if (finished_) throw std::logic_error("Mapper::Reset called after Finish");
   if (fusion_job_.valid() || occupancy_job_.valid()) WaitForFusion();
-  cloud_ = VoxelCloud(options_.voxel);
+  cloud_.Clear();
   if (occupancy_) occupancy_ = std::make_unique<OccupancyMap>(options_.occupancy);
   earlier_.reset();
   session_ = 0;

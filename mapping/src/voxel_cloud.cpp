@@ -54,6 +54,13 @@ size_t VoxelCloud::FindSlot(std::uint64_t key) const {
   return slot;
 }
 
+void VoxelCloud::Clear() {
+  std::fill(slots_.begin(), slots_.end(), Slot{kEmpty, {}, {}, 0});
+  size_ = 0;
+  removed_ = 0;
+  rejected_ = 0;
+}
+
 void VoxelCloud::Grow() {
   const std::vector<Slot> old = std::move(slots_);
   slots_.assign(old.size() * 2, Slot{kEmpty, {}, {}, 0});

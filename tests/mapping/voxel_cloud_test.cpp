@@ -104,6 +104,38 @@ TEST(VoxelCloudTest, MatchesAReferenceMapOnRandomPoints) {
   }
 }
 
+TEST(VoxelCloudTest, ACloudClearedAndFilledAgainEqualsANewOneAndKeepsItsTable) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> coordinate(-2.0f, 2.0f);
+  auto random_points = [&](int n) {
+    std::vector<Eigen::Vector3f> positions;
+    for (int i = 0; i < n; ++i) positions.emplace_back(coordinate(rng), coordinate(rng), 0.0f);
+    return MakePoints(positions);
+  };
+  const ColoredPoints before = random_points(200000), after = random_points(50000);
+  VoxelCloud cloud;
+  cloud.Insert(before);
+  cloud.Insert(MakePoints({{20000.0f, 0.0f, 0.0f}}));
+  cloud.RemoveIf([](const VoxelPoint& p) { return p.position.x() < 0.0f; });
+  const size_t table = cloud.MemoryBytes();
+  cloud.Clear();
+  EXPECT_EQ(cloud.size(), 0u);
+  EXPECT_EQ(cloud.rejected_count(), 0u);
+  EXPECT_TRUE(cloud.Points().empty());
+  EXPECT_EQ(cloud.MemoryBytes(), table);
+  cloud.Insert(after);
+  VoxelCloud fresh;
+  fresh.Insert(after);
+  const std::vector<VoxelPoint> a = cloud.Points(), b = fresh.Points();
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].position, b[i].position);
+    EXPECT_EQ(a[i].rgb, b[i].rgb);
+    EXPECT_EQ(a[i].count, b[i].count);
+  }
+  EXPECT_EQ(cloud.MemoryBytes(), table);  // no table grown anew
+}
+
 TEST(VoxelCloudTest, PointsBeyondTheKeyRangeAreCountedNotWrapped) {
   VoxelCloud cloud;
   cloud.Insert(MakePoints({{20000.0f, 0.0f, 0.0f}, {1.0f, 1.0f, 1.0f}}));

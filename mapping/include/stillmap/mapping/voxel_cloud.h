@@ -52,6 +52,10 @@ class VoxelCloud {
   // order. A removed voxel that receives points again starts afresh. Returns how many it removed.
   size_t RemoveIf(const std::function<bool(const VoxelPoint&)>& drop);
 
+  // Empties the cloud and keeps the table's capacity: a map fused again (loop corrections) does
+  // not grow a new table through every doubling, with the old and the new one held at each.
+  void Clear();
+
   // The same points as a vector (tests and small clouds).
   std::vector<VoxelPoint> Points() const;
 
