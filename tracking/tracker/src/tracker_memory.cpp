@@ -11,9 +11,10 @@ size_t CapacityBytes(const std::vector<T>& values) {
 
 size_t MatBytes(const cv::Mat& image) { return image.total() * image.elemSize(); }
 
-size_t KeyframeBytes(const Keyframe& keyframe) {
+// What a keyframe holds beyond its own struct.
+size_t KeyframeDataBytes(const Keyframe& keyframe) {
   const FrameFeatures& features = keyframe.features;
-  return sizeof(Keyframe) + CapacityBytes(features.keypoints) + MatBytes(features.descriptors) +
+  return CapacityBytes(features.keypoints) + MatBytes(features.descriptors) +
          CapacityBytes(features.normalized) + CapacityBytes(features.depth_m) +
          CapacityBytes(keyframe.descriptors) + CapacityBytes(keyframe.landmark_of_feature) +
          MatBytes(keyframe.seen_depth);
@@ -29,8 +30,7 @@ TrackerMemory Tracker::memory() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
   TrackerMemory memory;
   for (const auto& [id, keyframe] : impl_->keyframes) {
-    memory.keyframes +=
-        kNodeBytes<std::pair<const int, Keyframe>> - sizeof(Keyframe) + KeyframeBytes(keyframe);
+    memory.keyframes += kNodeBytes<std::pair<const int, Keyframe>> + KeyframeDataBytes(keyframe);
   }
   memory.landmarks = impl_->landmarks.bucket_count() * sizeof(void*);
   for (const auto& [id, landmark] : impl_->landmarks) {
