@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <type_traits>
@@ -72,17 +73,17 @@ json CameraJson(const Camera& camera) {
   return out;
 }
 
-json HeaderJson(const SessionRecord& record, const std::vector<SessionKeyframeBlocks>& blocks) {
+json HeaderJson(const SessionRecord& record, const std::vector<SessionBlockSizes>& rows) {
   const SessionMapFrame& frame = record.map_frame;
   json keyframes = json::array();
-  for (const SessionKeyframeBlocks& block : blocks) {
-    const SessionKeyframe& keyframe = block.keyframe;
+  for (const SessionBlockSizes& row : rows) {
+    const SessionKeyframe& keyframe = *row.keyframe;
     keyframes.push_back({{"id", keyframe.id},
                          {"time", keyframe.time},
                          {"map_from_camera", PoseJson(keyframe.map_from_camera)},
-                         {"features", keyframe.features.size()},
-                         {"depth_png_bytes", block.depth_png.size()},
-                         {"color_jpeg_bytes", block.color_jpeg.size()}});
+                         {"features", row.features},
+                         {"depth_png_bytes", row.depth_png},
+                         {"color_jpeg_bytes", row.color_jpeg}});
   }
   json header = {{"camera", CameraJson(record.camera)},
                  {"map_frame",
@@ -99,30 +100,6 @@ json HeaderJson(const SessionRecord& record, const std::vector<SessionKeyframeBl
                  {"keyframes", keyframes}};
   if (!record.poses.empty()) header["poses"] = record.poses;
   return header;
-}
-
-void AppendFeatures(const std::vector<SessionFeature>& features, std::vector<unsigned char>* out) {
-  for (const SessionFeature& f : features) {
-    for (const float value : {f.u, f.v, f.x, f.y, f.depth_m}) Put(out, value);
-    out->push_back(f.octave);
-    out->insert(out->end(), f.descriptor.begin(), f.descriptor.end());
-  }
-}
-
-std::vector<SessionFeature> ParseFeatures(const std::vector<unsigned char>& bytes) {
-  std::vector<SessionFeature> features(bytes.size() / kFeatureBytes);
-  const unsigned char* at = bytes.data();
-  for (SessionFeature& f : features) {
-    float* fields[] = {&f.u, &f.v, &f.x, &f.y, &f.depth_m};
-    for (float* field : fields) {
-      *field = Get<float>(at);
-      at += 4;
-    }
-    f.octave = *at++;
-    std::memcpy(f.descriptor.data(), at, f.descriptor.size());
-    at += f.descriptor.size();
-  }
-  return features;
 }
 
 // The header's values, each checked: a missing or mistyped key names the key.
@@ -268,7 +245,7 @@ SessionRecord ParseRecord(const json& header, std::uint64_t offset, std::uint64_
     if (count > (file_size - offset) / kFeatureBytes)
       read.Fail("a feature block runs past the end of the file");
     const std::uint64_t feature_bytes = count * kFeatureBytes;
-    keyframe.features = ParseFeatures(read_block(offset, feature_bytes));
+    keyframe.features = ParseSessionFeatures(read_block(offset, feature_bytes));
     for (const SessionFeature& f : keyframe.features) {
       if (!std::isfinite(f.u) || !std::isfinite(f.v) || !std::isfinite(f.x) ||
           !std::isfinite(f.y) || !std::isfinite(f.depth_m)) {
@@ -287,27 +264,73 @@ SessionRecord ParseRecord(const json& header, std::uint64_t offset, std::uint64_
 
 }  // namespace
 
+void AppendSessionFeatures(const std::vector<SessionFeature>& features,
+                           std::vector<unsigned char>* out) {
+  for (const SessionFeature& f : features) {
+    for (const float value : {f.u, f.v, f.x, f.y, f.depth_m}) Put(out, value);
+    out->push_back(f.octave);
+    out->insert(out->end(), f.descriptor.begin(), f.descriptor.end());
+  }
+}
+
+std::vector<SessionFeature> ParseSessionFeatures(const std::vector<unsigned char>& bytes) {
+  std::vector<SessionFeature> features(bytes.size() / kFeatureBytes);
+  const unsigned char* at = bytes.data();
+  for (SessionFeature& f : features) {
+    float* fields[] = {&f.u, &f.v, &f.x, &f.y, &f.depth_m};
+    for (float* field : fields) {
+      *field = Get<float>(at);
+      at += 4;
+    }
+    f.octave = *at++;
+    std::memcpy(f.descriptor.data(), at, f.descriptor.size());
+    at += f.descriptor.size();
+  }
+  return features;
+}
+
 void WriteSessionRecord(const std::string& path, const SessionRecord& record,
-                        const std::vector<SessionKeyframeBlocks>& keyframes) {
-  const std::string header = HeaderJson(record, keyframes).dump();
+                        const std::vector<SessionBlockSizes>& rows,
+                        const std::function<SessionBlockBytes(size_t index)>& load) {
+  const std::string header = HeaderJson(record, rows).dump();
   std::vector<unsigned char> preamble(kMagic, kMagic + sizeof(kMagic));
   Put(&preamble, SessionRecord::kVersion);
   Put(&preamble, static_cast<std::uint64_t>(header.size()));
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  auto write = [&out](const void* data, size_t size) {
-    out.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+  auto write = [&out](const std::vector<unsigned char>& bytes) {
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
   };
-  write(preamble.data(), preamble.size());
-  write(header.data(), header.size());
-  std::vector<unsigned char> features;
-  for (const SessionKeyframeBlocks& block : keyframes) {
-    features.clear();
-    AppendFeatures(block.keyframe.features, &features);
-    write(features.data(), features.size());
-    write(block.depth_png.data(), block.depth_png.size());
-    write(block.color_jpeg.data(), block.color_jpeg.size());
+  write(preamble);
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  for (size_t index = 0; index < rows.size(); ++index) {
+    const SessionBlockBytes blocks = load(index);
+    if (blocks.features.size() != rows[index].features * kFeatureBytes ||
+        blocks.depth_png.size() != rows[index].depth_png ||
+        blocks.color_jpeg.size() != rows[index].color_jpeg) {
+      throw std::logic_error("WriteSessionRecord: a keyframe's blocks differ from its sizes");
+    }
+    write(blocks.features);
+    write(blocks.depth_png);
+    write(blocks.color_jpeg);
   }
   if (!out.flush()) throw std::runtime_error(WriteFailure(path, "the session record"));
+}
+
+void WriteSessionRecord(const std::string& path, const SessionRecord& record,
+                        const std::vector<SessionKeyframeBlocks>& keyframes) {
+  std::vector<SessionBlockSizes> rows;
+  rows.reserve(keyframes.size());
+  for (const SessionKeyframeBlocks& block : keyframes) {
+    rows.push_back({&block.keyframe, block.keyframe.features.size(), block.depth_png.size(),
+                    block.color_jpeg.size()});
+  }
+  WriteSessionRecord(path, record, rows, [&keyframes](size_t index) {
+    const SessionKeyframeBlocks& block = keyframes[index];
+    SessionBlockBytes bytes{{}, block.depth_png, block.color_jpeg};
+    AppendSessionFeatures(block.keyframe.features, &bytes.features);
+    return bytes;
+  });
 }
 
 SessionRecordReader::SessionRecordReader(const std::string& path) : path_(path) {

@@ -46,8 +46,8 @@ bool ViewMissesBox(const KeyframeView& view, const PixelProjection& projection, 
   if (distorted || min_z < 0.1f) return false;
   const Eigen::Vector2f a = projection(min_n.x(), min_n.y()), b = projection(max_n.x(), max_n.y());
   const float slack = 2.0f;
-  const float cols = 2.0f * static_cast<float>(view.depth_m.cols);
-  const float rows = 2.0f * static_cast<float>(view.depth_m.rows);
+  const float cols = 2.0f * static_cast<float>(view.depth.cols);
+  const float rows = 2.0f * static_cast<float>(view.depth.rows);
   return std::max(a.x(), b.x()) < -slack || std::min(a.x(), b.x()) > cols + slack ||
          std::max(a.y(), b.y()) < -slack || std::min(a.y(), b.y()) > rows + slack;
 }
@@ -64,11 +64,11 @@ Verdict Judge(const KeyframeView& view, const PixelProjection& projection,
   // projects to +-1e30; NaN fails both tests).
   const float half_u = std::floor((pixel.x() + 0.5f) * 0.5f);
   const float half_v = std::floor((pixel.y() + 0.5f) * 0.5f);
-  if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth_m.cols) && half_v >= 0.0f &&
-        half_v < static_cast<float>(view.depth_m.rows))) {
+  if (!(half_u >= 0.0f && half_u < static_cast<float>(view.depth.cols) && half_v >= 0.0f &&
+        half_v < static_cast<float>(view.depth.rows))) {
     return Verdict::kNone;
   }
-  const float reading = view.depth_m.at<float>(static_cast<int>(half_v), static_cast<int>(half_u));
+  const float reading = view.Reading(static_cast<int>(half_v), static_cast<int>(half_u));
   if (!(reading > 0.0f)) return Verdict::kNone;
   const float margin = margin_m + margin_sigmas * KinectDepthSigma(q.z());
   if (reading > q.z() + margin) return Verdict::kThrough;
@@ -156,11 +156,10 @@ KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
   CV_Assert(depth_m.type() == CV_32FC1 && (mask.empty() || mask.size() == depth_m.size()));
   // Each 2 x 2 block keeps its nearest reading (a voxel at an object's edge is not seen through
   // by the view that saw the object), or 0 when any of it is masked or none has a reading.
-  KeyframeView view;
-  view.depth_m.create((depth_m.rows + 1) / 2, (depth_m.cols + 1) / 2, CV_32FC1);
-  for (int v = 0; v < view.depth_m.rows; ++v) {
-    float* out = view.depth_m.ptr<float>(v);
-    for (int u = 0; u < view.depth_m.cols; ++u) {
+  cv::Mat nearest_m((depth_m.rows + 1) / 2, (depth_m.cols + 1) / 2, CV_32FC1);
+  for (int v = 0; v < nearest_m.rows; ++v) {
+    float* out = nearest_m.ptr<float>(v);
+    for (int u = 0; u < nearest_m.cols; ++u) {
       float nearest = 0.0f;
       bool masked = false;
       for (int r = 2 * v; r < std::min(2 * v + 2, depth_m.rows); ++r) {
@@ -173,6 +172,13 @@ KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
       out[u] = masked ? 0.0f : nearest;
     }
   }
+  KeyframeView view;
+  double largest_m = 0.0;
+  cv::minMaxLoc(nearest_m, nullptr, &largest_m);
+  view.depth_unit_m = largest_m > 0.0 ? static_cast<float>(largest_m / 65535.0) : 1e-4f;
+  // Rounded to the nearest step; a reading never rounds to 0 (no reading).
+  nearest_m.convertTo(view.depth, CV_16U, 1.0 / view.depth_unit_m);
+  view.depth.setTo(1, (view.depth == 0) & (nearest_m > 0.0f));
   view.camera_from_world = world_from_camera.inverse().cast<float>();
   return view;
 }

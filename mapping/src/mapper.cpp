@@ -175,8 +175,7 @@ void Mapper::Fuse(const MapperFrame& frame) {
     views_.push_back(MakeKeyframeView(frame.depth_m, frame.mask, frame.world_from_camera));
     views_.back().session = session_;
     views_.back().camera = static_cast<int>(cameras_.size()) - 1;
-    const cv::Mat& view = views_.back().depth_m;
-    views_bytes_ += sizeof(KeyframeView) + view.total() * view.elemSize();
+    views_bytes_ += views_.back().MemoryBytes();
   }
   start = std::chrono::steady_clock::now();
   cloud_.Insert(scratch_);

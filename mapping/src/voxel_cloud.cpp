@@ -42,30 +42,36 @@ void VoxelCloudOptions::Validate() const {
 VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)
     : leaf_size_(options.leaf_size),
       inverse_leaf_(1.0 / options.leaf_size),
-      min_points_(static_cast<std::uint32_t>(std::max(1, options.min_points))) {
+      min_points_(static_cast<std::uint32_t>(std::max(1, options.min_points))),
+      shards_(kShards) {
   options.Validate();
-  slots_.assign(1 << 16, Slot{kEmpty, {}, {}, 0});
+  for (Shard& shard : shards_) shard.slots.assign(1 << 10, Slot{kEmpty, {}, {}, 0});
 }
 
-size_t VoxelCloud::FindSlot(std::uint64_t key) const {
-  const size_t mask = slots_.size() - 1;
-  size_t slot = Mix(key) & mask;
-  while (slots_[slot].key != kEmpty && slots_[slot].key != key) slot = (slot + 1) & mask;
+size_t VoxelCloud::FindSlot(const Shard& shard, std::uint64_t key, std::uint64_t mixed) {
+  const size_t mask = shard.slots.size() - 1;
+  size_t slot = mixed & mask;
+  while (shard.slots[slot].key != kEmpty && shard.slots[slot].key != key) {
+    slot = (slot + 1) & mask;
+  }
   return slot;
 }
 
 void VoxelCloud::Clear() {
-  std::fill(slots_.begin(), slots_.end(), Slot{kEmpty, {}, {}, 0});
+  for (Shard& shard : shards_) {
+    std::fill(shard.slots.begin(), shard.slots.end(), Slot{kEmpty, {}, {}, 0});
+    shard.size = 0;
+  }
   size_ = 0;
   removed_ = 0;
   rejected_ = 0;
 }
 
-void VoxelCloud::Grow() {
-  const std::vector<Slot> old = std::move(slots_);
-  slots_.assign(old.size() * 2, Slot{kEmpty, {}, {}, 0});
+void VoxelCloud::Grow(Shard* shard) {
+  const std::vector<Slot> old = std::move(shard->slots);
+  shard->slots.assign(old.size() * 2, Slot{kEmpty, {}, {}, 0});
   for (const Slot& slot : old) {
-    if (slot.key != kEmpty) slots_[FindSlot(slot.key)] = slot;
+    if (slot.key != kEmpty) shard->slots[FindSlot(*shard, slot.key, Mix(slot.key))] = slot;
   }
 }
 
@@ -78,7 +84,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
   std::uint64_t keys[kBatch];
   float offsets[kBatch][3];
   std::uint64_t last_key = kEmpty;
-  size_t last_slot = 0;
+  Slot* last_slot = nullptr;
   for (size_t begin = 0; begin < points.size(); begin += kBatch) {
     const size_t count = std::min(kBatch, points.size() - begin);
     for (size_t b = 0; b < count; ++b) {
@@ -98,7 +104,9 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
       keys[b] = (static_cast<std::uint64_t>(index[0] + kAxisOffset) << (2 * kAxisBits)) |
                 (static_cast<std::uint64_t>(index[1] + kAxisOffset) << kAxisBits) |
                 static_cast<std::uint64_t>(index[2] + kAxisOffset);
-      __builtin_prefetch(&slots_[Mix(keys[b]) & (slots_.size() - 1)], 1);
+      const std::uint64_t mixed = Mix(keys[b]);
+      const Shard& shard = shards_[mixed >> (64 - kShardBits)];
+      __builtin_prefetch(&shard.slots[mixed & (shard.slots.size() - 1)], 1);
     }
     for (size_t b = 0; b < count; ++b) {
       const std::uint64_t key = keys[b];
@@ -107,15 +115,18 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
         continue;
       }
       if (key != last_key) {
-        if (4 * (size_ + 1) > 3 * slots_.size()) Grow();  // load factor <= 0.75
-        last_slot = FindSlot(key);
-        if (slots_[last_slot].key == kEmpty) {
-          slots_[last_slot] = Slot{key, {}, {}, 0};
+        const std::uint64_t mixed = Mix(key);
+        Shard& shard = shards_[mixed >> (64 - kShardBits)];
+        if (4 * (shard.size + 1) > 3 * shard.slots.size()) Grow(&shard);  // load factor <= 0.75
+        last_slot = &shard.slots[FindSlot(shard, key, mixed)];
+        if (last_slot->key == kEmpty) {
+          *last_slot = Slot{key, {}, {}, 0};
+          ++shard.size;
           ++size_;
         }
         last_key = key;
       }
-      Slot& slot = slots_[last_slot];
+      Slot& slot = *last_slot;
       if (slot.count == 0 && slot.color_sum[0] == kRemoved) {  // removed, seen again
         slot.color_sum[0] = 0;
         --removed_;
@@ -135,9 +146,12 @@ std::vector<size_t> VoxelCloud::SortedOutputSlots() const {
   // every comparison a cache miss (Bonn, 6 M voxels: 3.5 s to write the outputs).
   std::vector<std::pair<std::uint64_t, size_t>> used;
   used.reserve(size());
-  for (size_t i = 0; i < slots_.size(); ++i) {
-    if (slots_[i].key != kEmpty && slots_[i].count >= min_points_) {
-      used.emplace_back(slots_[i].key, i);
+  for (size_t s = 0; s < kShards; ++s) {
+    const std::vector<Slot>& slots = shards_[s].slots;
+    for (size_t i = 0; i < slots.size(); ++i) {
+      if (slots[i].key != kEmpty && slots[i].count >= min_points_) {
+        used.emplace_back(slots[i].key, s << 40 | i);
+      }
     }
   }
   std::sort(used.begin(), used.end());
@@ -161,13 +175,13 @@ VoxelPoint VoxelCloud::PointOf(const Slot& slot) const {
 }
 
 void VoxelCloud::ForEachPoint(const std::function<void(const VoxelPoint&)>& visit) const {
-  for (const size_t index : SortedOutputSlots()) visit(PointOf(slots_[index]));
+  for (const size_t position : SortedOutputSlots()) visit(PointOf(SlotAt(position)));
 }
 
 size_t VoxelCloud::RemoveIf(const std::function<bool(const VoxelPoint&)>& drop) {
   size_t removed = 0;
-  for (const size_t index : SortedOutputSlots()) {
-    Slot& slot = slots_[index];
+  for (const size_t position : SortedOutputSlots()) {
+    Slot& slot = SlotAt(position);
     if (!drop(PointOf(slot))) continue;
     slot = Slot{slot.key, {}, {kRemoved, 0, 0}, 0};
     ++removed;
@@ -186,10 +200,16 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
 size_t VoxelCloud::OutputSize() const {
   if (min_points_ <= 1) return size();  // every voxel kept is written: no scan of the table
   size_t count = 0;
-  for (const Slot& slot : slots_) count += slot.key != kEmpty && slot.count >= min_points_;
+  for (const Shard& shard : shards_) {
+    for (const Slot& slot : shard.slots) count += slot.key != kEmpty && slot.count >= min_points_;
+  }
   return count;
 }
 
-size_t VoxelCloud::MemoryBytes() const { return slots_.size() * sizeof(Slot); }
+size_t VoxelCloud::MemoryBytes() const {
+  size_t bytes = 0;
+  for (const Shard& shard : shards_) bytes += shard.slots.size() * sizeof(Slot);
+  return bytes;
+}
 
 }  // namespace stillmap

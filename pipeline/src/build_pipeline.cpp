@@ -180,20 +180,15 @@ void Append(std::vector<std::string> from, std::vector<std::string>* to) {
 std::vector<std::pair<std::string, size_t>> FinishingOwners(const FinishedMap& map,
                                                             const std::vector<VoxelPoint>& cloud,
                                                             const PosedFrames& posed) {
-  size_t session = 0;
-  for (const SessionKeyframeBlocks& blocks : posed.session_keyframes) {
-    session += blocks.depth_png.capacity() + blocks.color_jpeg.capacity() +
-               blocks.keyframe.features.capacity() * sizeof(SessionFeature);
-  }
   size_t views = 0;
   for (const KeyframeView& view : map.views) {
-    views += sizeof(KeyframeView) + view.depth_m.total() * view.depth_m.elemSize();
+    views += view.MemoryBytes();
   }
   return {{"voxel_cloud", map.cloud.MemoryBytes()},
           {"octomap", map.occupancy ? map.occupancy->MemoryBytes() : 0},
           {"map_cleaning_views", views},
           {"cloud_points", cloud.capacity() * sizeof(VoxelPoint)},
-          {"keyframe_copies", session}};
+          {"keyframe_copies", posed.session_keyframes.MemoryBytes()}};
 }
 
 // The frame loop's figures into the result.
@@ -296,7 +291,7 @@ BuildResult RunBuild(const BuildRequest& request) {
   mapper_options.in_background = mapper_options.in_background && request.threads() > 1;
   Mapper mapper(inputs.camera, mapper_options);
   const double loop_cpu_start = ThreadCpuMs();
-  memory.Phase("frame loop (its end: fusing moved keyframes again)");
+  memory.Phase("frame loop");
   LoopResult loop = RunPoseLoop(inputs, LoopOptionsOf(request), *masks.stage, mapper, memory);
   PosedFrames posed = std::move(loop.posed);
   std::vector<ApartSegment> apart = std::move(loop.apart);

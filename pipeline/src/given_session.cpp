@@ -20,8 +20,8 @@ GivenSessionKeeper::GivenSessionKeeper(const Camera& camera, const FeatureOption
 
 void GivenSessionKeeper::Offer(const Frame& frame, const cv::Mat& gray, const cv::Mat& mask,
                                const Eigen::Isometry3d& world_from_camera) {
-  if (!kept_.empty() && !MovedOrTurned(kept_.back().keyframe.map_from_camera, world_from_camera,
-                                       kSessionDistanceM, kSessionAngleDeg)) {
+  if (!kept_.empty() &&
+      !MovedOrTurned(last_kept_, world_from_camera, kSessionDistanceM, kSessionAngleDeg)) {
     return;
   }
   SessionKeyframeBlocks blocks;
@@ -35,7 +35,8 @@ void GivenSessionKeeper::Offer(const Frame& frame, const cv::Mat& gray, const cv
   if (!mask.empty()) depth.setTo(0, mask);
   cv::imencode(".png", depth, blocks.depth_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
   cv::imencode(".jpg", frame.color, blocks.color_jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
-  kept_.push_back(std::move(blocks));
+  kept_.Add(blocks);
+  last_kept_ = world_from_camera;
 }
 
 }  // namespace stillmap

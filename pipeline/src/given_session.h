@@ -8,7 +8,7 @@
 
 #include "stillmap/io/camera.h"
 #include "stillmap/io/sequence.h"
-#include "stillmap/io/session_record.h"
+#include "stillmap/io/session_keyframes.h"
 #include "stillmap/tracking/features.h"
 
 namespace stillmap {
@@ -20,14 +20,15 @@ class GivenSessionKeeper {
   // Keeps a fused frame when it lies far enough from the last kept one.
   void Offer(const Frame& frame, const cv::Mat& gray, const cv::Mat& mask,
              const Eigen::Isometry3d& world_from_camera);
-  std::vector<SessionKeyframeBlocks> Take() { return std::move(kept_); }
+  SessionKeyframeList Take() { return std::move(kept_); }
   double depth_unit_m() const { return depth_unit_m_; }
 
  private:
   Camera camera_;
   FeatureOptions features_;
   double depth_unit_m_;
-  std::vector<SessionKeyframeBlocks> kept_;
+  SessionKeyframeList kept_;  // parked in a temporary file
+  Eigen::Isometry3d last_kept_ = Eigen::Isometry3d::Identity();
 };
 
 }  // namespace stillmap

@@ -8,6 +8,15 @@
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
+namespace {
+
+std::vector<unsigned char> EncodePng(const cv::Mat& image) {
+  std::vector<unsigned char> bytes;
+  cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1});
+  return bytes;
+}
+
+}  // namespace
 
 KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
                              const MaskStage& masks, Mapper* mapper)
@@ -17,6 +26,7 @@ KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
       // The stored depth's step: the range the back-projection uses in 60000 steps (0.07 mm at
       // 4 m), far below any sensor's noise.
       depth_unit_m_(options.max_depth_m / 60000.0),
+      parked_(std::make_shared<SpillFile>("the fused keyframes' compact copies")),
       selector_(options.selection),
       revisits_(camera, options.selection.revisit, options.min_depth_m, options.max_depth_m),
       factors_(camera) {
@@ -100,7 +110,7 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
     MapperFrame input = Decode(stored);  // moving pixels are 0 in its depth
     const cv::Mat seen = SeenBefore(stored.keyframe_id, input);
     if (!seen.empty()) {
-      cv::imencode(".png", seen, stored.seen_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
+      stored.seen_png = parked_->Append(EncodePng(seen));
       input.mask = seen;
     }
     mapper_.Integrate(input);
@@ -113,13 +123,12 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
   return joined;
 }
 
-std::vector<SessionKeyframeBlocks> KeyframeFuser::TakeApart(
-    const std::function<bool(int keyframe_id)>& take) {
-  std::vector<SessionKeyframeBlocks> out;
+SessionKeyframeList KeyframeFuser::TakeApart(const std::function<bool(int keyframe_id)>& take) {
+  SessionKeyframeList out(parked_);
   std::vector<Stored> kept;
   for (Stored& stored : stored_) {
     if (stored.apart && take(stored.keyframe_id)) {
-      out.push_back(Blocks(std::move(stored)));
+      AddTo(stored, &out);
     } else {
       kept.push_back(std::move(stored));
     }
@@ -131,10 +140,12 @@ std::vector<SessionKeyframeBlocks> KeyframeFuser::TakeApart(
 MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
   MapperFrame input;
   input.time = stored.time;
-  input.color = cv::imdecode(stored.color_jpeg, cv::IMREAD_COLOR);
-  cv::imdecode(stored.depth_png, cv::IMREAD_UNCHANGED)
+  input.color = cv::imdecode(parked_->Read(stored.color_jpeg), cv::IMREAD_COLOR);
+  cv::imdecode(parked_->Read(stored.depth_png), cv::IMREAD_UNCHANGED)
       .convertTo(input.depth_m, CV_32F, depth_unit_m_);
-  if (!stored.seen_png.empty()) input.mask = cv::imdecode(stored.seen_png, cv::IMREAD_UNCHANGED);
+  if (stored.seen_png.size > 0) {
+    input.mask = cv::imdecode(parked_->Read(stored.seen_png), cv::IMREAD_UNCHANGED);
+  }
   input.world_from_camera = stored.world_from_camera;
   return input;
 }
@@ -149,46 +160,48 @@ cv::Mat KeyframeFuser::SeenBefore(int keyframe_id, const MapperFrame& input) {
 
 void KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& input,
                           const cv::Mat& seen, bool apart) {
-  Stored stored{keyframe.id, input.time, input.world_from_camera, {}, {}, {}, {}, apart};
+  Stored stored;
+  stored.keyframe_id = keyframe.id;
+  stored.time = input.time;
+  stored.world_from_camera = input.world_from_camera;
+  stored.apart = apart;
   cv::Mat depth;
   input.depth_m.convertTo(depth, CV_16U, 1.0 / depth_unit_m_);  // saturates beyond the range
   if (!input.mask.empty()) depth.setTo(0, input.mask);
-  cv::imencode(".png", depth, stored.depth_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
-  if (!seen.empty()) cv::imencode(".png", seen, stored.seen_png, {cv::IMWRITE_PNG_COMPRESSION, 1});
-  cv::imencode(".jpg", input.color, stored.color_jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
-  if (keep_for_session_ || apart) stored.features = SessionFeatures(keyframe.features);
-  stored_.push_back(std::move(stored));
+  stored.depth_png = parked_->Append(EncodePng(depth));
+  if (!seen.empty()) stored.seen_png = parked_->Append(EncodePng(seen));
+  std::vector<unsigned char> bytes;
+  cv::imencode(".jpg", input.color, bytes, {cv::IMWRITE_JPEG_QUALITY, 95});
+  stored.color_jpeg = parked_->Append(bytes);
+  if (keep_for_session_ || apart) {
+    bytes.clear();
+    AppendSessionFeatures(SessionFeatures(keyframe.features), &bytes);
+    stored.features = parked_->Append(bytes);
+    stored.feature_count = keyframe.features.size();
+  }
+  stored_.push_back(stored);
 }
 
-std::vector<SessionKeyframeBlocks> KeyframeFuser::TakeSessionKeyframes() {
-  std::vector<SessionKeyframeBlocks> out;
+SessionKeyframeList KeyframeFuser::TakeSessionKeyframes() {
+  SessionKeyframeList out(parked_);
   if (!keep_for_session_) return out;
-  for (Stored& stored : stored_) {
-    if (!stored.apart) out.push_back(Blocks(std::move(stored)));
+  for (const Stored& stored : stored_) {
+    if (!stored.apart) AddTo(stored, &out);
   }
   stored_.clear();
   return out;
 }
 
-SessionKeyframeBlocks KeyframeFuser::Blocks(Stored stored) {
-  SessionKeyframeBlocks blocks;
-  blocks.keyframe.id = stored.keyframe_id;
-  blocks.keyframe.time = stored.time;
-  blocks.keyframe.map_from_camera = stored.world_from_camera;
-  blocks.keyframe.features = std::move(stored.features);
-  blocks.depth_png = std::move(stored.depth_png);
-  blocks.color_jpeg = std::move(stored.color_jpeg);
-  return blocks;
+void KeyframeFuser::AddTo(const Stored& stored, SessionKeyframeList* list) {
+  SessionKeyframe keyframe;
+  keyframe.id = stored.keyframe_id;
+  keyframe.time = stored.time;
+  keyframe.map_from_camera = stored.world_from_camera;
+  list->AddParked(std::move(keyframe), stored.feature_count, stored.features, stored.depth_png,
+                  stored.color_jpeg);
 }
 
-size_t KeyframeFuser::stored_bytes() const {
-  size_t bytes = 0;
-  for (const Stored& stored : stored_) {
-    bytes += stored.depth_png.size() + stored.seen_png.size() + stored.color_jpeg.size() +
-             stored.features.size() * sizeof(SessionFeature);
-  }
-  return bytes;
-}
+size_t KeyframeFuser::stored_bytes() const { return stored_.capacity() * sizeof(Stored); }
 
 size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
   const auto start = std::chrono::steady_clock::now();

@@ -8,7 +8,9 @@
 #include <vector>
 
 #include "stillmap/io/sequence.h"
+#include "stillmap/io/session_keyframes.h"
 #include "stillmap/io/session_record.h"
+#include "stillmap/io/spill_file.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/keyframe_selection.h"
 #include "stillmap/mapping/mapper.h"
@@ -53,17 +55,18 @@ class KeyframeFuser {
                     const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // Hands over the keyframes kept apart that `take` says yes to, in the session record's form
   // (poses in the tracker's world, features always kept).
-  std::vector<SessionKeyframeBlocks> TakeApart(const std::function<bool(int keyframe_id)>& take);
+  SessionKeyframeList TakeApart(const std::function<bool(int keyframe_id)>& take);
 
   // After loop corrections: when a fused keyframe's pose in `world_from_keyframe` (by keyframe
   // id) differs from the one it was fused at (by more than 1 mm or 0.05 degrees), the map is
   // emptied and every fused keyframe fused again at its final pose, from the compact copies kept
-  // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG). Returns how many moved.
+  // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG, parked in a temporary file:
+  // spill_file.h). Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
   // The fused keyframes in the session record's form (poses as fused, in the tracker's world),
   // handed over once at the end: empty when the build keeps no session record.
-  std::vector<SessionKeyframeBlocks> TakeSessionKeyframes();
+  SessionKeyframeList TakeSessionKeyframes();
 
   // The keyframes fused, with the poses they were fused at.
   const std::vector<StampedPose>& fused_poses() const { return fused_poses_; }
@@ -71,7 +74,9 @@ class KeyframeFuser {
   double depth_unit_m() const { return depth_unit_m_; }  // of the kept depth PNGs
   double fuse_ms() const { return fuse_ms_; }
   double refuse_ms() const { return refuse_ms_; }
+  // What the compact copies hold in memory, and in their temporary file [bytes].
   size_t stored_bytes() const;
+  std::uint64_t parked_bytes() const { return parked_->size(); }
   // The images of the keyframes held until their poses are final [bytes].
   size_t held_bytes() const;
 
@@ -83,18 +88,20 @@ class KeyframeFuser {
   cv::Mat Recheck(const FinalKeyframe& keyframe, std::map<int, Waiting>::iterator it,
                   bool* changed);
 
-  // A fused keyframe in compact form, for Refuse.
+  // A fused keyframe in compact form, for Refuse, its blocks in parked_.
   struct Stored {
     int keyframe_id = 0;
     double time = 0.0;
     Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-    std::vector<unsigned char> depth_png;   // CV_16UC1 in depth_unit_m_, 0 = none or moving
-    std::vector<unsigned char> seen_png;    // CV_8UC1 cells seen on an earlier visit, or empty
-    std::vector<unsigned char> color_jpeg;  // BGR
-    std::vector<SessionFeature> features;   // for the session record
-    bool apart = false;                     // kept apart: not in the map (Fuse's in_map)
+    SpillFile::Block depth_png;   // CV_16UC1 in depth_unit_m_, 0 = none or moving
+    SpillFile::Block seen_png;    // CV_8UC1 cells seen on an earlier visit, or empty
+    SpillFile::Block color_jpeg;  // BGR
+    SpillFile::Block features;    // for the session record (AppendSessionFeatures), or empty
+    size_t feature_count = 0;
+    bool apart = false;  // kept apart: not in the map (Fuse's in_map)
   };
-  static SessionKeyframeBlocks Blocks(Stored stored);
+  // Adds `stored` to `list` (its blocks stay where they are).
+  static void AddTo(const Stored& stored, SessionKeyframeList* list);
   // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
   void Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
              bool apart = false);
@@ -111,6 +118,7 @@ class KeyframeFuser {
   bool keep_for_refusion_ = false;  // loop closure may move fused keyframes
   bool keep_for_session_ = false;   // the build writes a session record
   double depth_unit_m_ = 0.0;
+  std::shared_ptr<SpillFile> parked_;
   std::vector<Stored> stored_;
   double refuse_ms_ = 0.0;
   std::optional<MapRecheck> recheck_;

@@ -9,7 +9,7 @@
 #include "keyframe_fuser.h"
 #include "memory_ledger.h"
 #include "segment_keeper.h"
-#include "stillmap/io/session_record.h"
+#include "stillmap/io/session_keyframes.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/pipeline/progress.h"
@@ -21,7 +21,7 @@ struct PosedFrames {
   Trajectory trajectory;                 // every frame with a pose
   std::vector<StampedPose> fused_poses;  // the frames fused, with the poses they were fused at
   // The fused keyframes for session.bin (poses in the poses' frame; empty without a record).
-  std::vector<SessionKeyframeBlocks> session_keyframes;
+  SessionKeyframeList session_keyframes;
   double session_depth_unit_m = 0.0;  // the step of their depth PNGs [m]
 };
 

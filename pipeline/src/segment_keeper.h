@@ -19,7 +19,7 @@ namespace stillmap {
 struct ApartSegment {
   SegmentSummary summary;
   Trajectory trajectory;
-  std::vector<SessionKeyframeBlocks> keyframes;
+  SessionKeyframeList keyframes;
 };
 
 class SegmentKeeper {

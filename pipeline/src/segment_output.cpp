@@ -10,12 +10,12 @@ namespace stillmap {
 namespace {
 
 // The segment's keyframes fused into a map of its own.
-FinishedMap MapOf(const std::vector<SessionKeyframeBlocks>& keyframes,
-                  const SegmentOutputContext& context) {
+FinishedMap MapOf(const SessionKeyframeList& keyframes, const SegmentOutputContext& context) {
   MapperOptions options = context.config.mapping;
   options.in_background = false;
   Mapper mapper(context.inputs.camera, options);
-  for (const SessionKeyframeBlocks& blocks : keyframes) {
+  for (size_t k = 0; k < keyframes.size(); ++k) {
+    const SessionKeyframeBlocks blocks = keyframes.Load(k);
     MapperFrame input;
     input.time = blocks.keyframe.time;
     input.color = cv::imdecode(blocks.color_jpeg, cv::IMREAD_COLOR);
@@ -33,8 +33,9 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
   OutputSet outputs(dir, "build", BuildOutputNames());
   PosedFrames posed;
   posed.trajectory = std::move(segment.trajectory);
-  for (const SessionKeyframeBlocks& blocks : segment.keyframes) {
-    posed.fused_poses.push_back({blocks.keyframe.time, blocks.keyframe.map_from_camera});
+  for (size_t k = 0; k < segment.keyframes.size(); ++k) {
+    const SessionKeyframe& keyframe = segment.keyframes.keyframe(k);
+    posed.fused_poses.push_back({keyframe.time, keyframe.map_from_camera});
   }
   posed.session_depth_unit_m = context.depth_unit_m;
   std::string failure;

@@ -4,12 +4,12 @@
 
 namespace stillmap {
 
-void WriteSessionFile(std::vector<SessionKeyframeBlocks> keyframes, double depth_unit_m,
+void WriteSessionFile(SessionKeyframeList keyframes, double depth_unit_m,
                       const MapFrameFigures& frame, const BuildInputs& inputs,
                       const std::string& sequence, const std::string& path) {
   const Eigen::Isometry3d map_from_poses = frame.poses_from_map.inverse();
-  for (SessionKeyframeBlocks& blocks : keyframes) {
-    SessionKeyframe& keyframe = blocks.keyframe;
+  for (size_t k = 0; k < keyframes.size(); ++k) {
+    SessionKeyframe& keyframe = keyframes.keyframe(k);
     keyframe.map_from_camera = map_from_poses * keyframe.map_from_camera;
   }
   SessionRecord record;
@@ -32,7 +32,7 @@ void WriteSessionFile(std::vector<SessionKeyframeBlocks> keyframes, double depth
   out.floor_found = frame.floor_found;
   out.floor_source = frame.floor.source;
   out.map_from_floor = frame.map_from_floor;
-  WriteSessionRecord(path, record, keyframes);
+  keyframes.Write(path, record);
 }
 
 }  // namespace stillmap

@@ -5,14 +5,14 @@
 #include <vector>
 
 #include "build_inputs.h"
-#include "stillmap/io/session_record.h"
+#include "stillmap/io/session_keyframes.h"
 #include "stillmap/pipeline/build_result.h"
 
 namespace stillmap {
 
 // Writes `keyframes` (poses in the poses' frame, depth PNGs in steps of depth_unit_m) to `path`
 // with their poses and the floor in the outputs' frame `frame`.
-void WriteSessionFile(std::vector<SessionKeyframeBlocks> keyframes, double depth_unit_m,
+void WriteSessionFile(SessionKeyframeList keyframes, double depth_unit_m,
                       const MapFrameFigures& frame, const BuildInputs& inputs,
                       const std::string& sequence, const std::string& path);
 

@@ -77,11 +77,13 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
     }
     stages.progress.Update(k + 1);
   }
+  stages.memory.Phase("frame loop's end: the tracker's last loop corrections and adjustment");
   tracker.Finish();
   fuse_final();
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
+  stages.memory.Phase("frame loop's end: fusing moved keyframes again");
   const size_t moved = fuser.Refuse(tracker.KeyframePoses());
-  const double store_mib = static_cast<double>(fuser.stored_bytes()) / (1024.0 * 1024.0);
+  const double store_mib = static_cast<double>(fuser.parked_bytes()) / (1024.0 * 1024.0);
   Trajectory trajectory = tracker.TrackedTrajectory();
   result->apart = segments.TakeApart(fuser, &trajectory);
   result->segments = segments.Summaries();

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "stillmap/io/error.h"
+#include "stillmap/io/session_keyframes.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -155,6 +156,25 @@ TEST_F(SessionRecordTest, WhatIsWrittenReadsBack) {
     EXPECT_EQ(cv::norm(images.depth_m, depths_[k], cv::NORM_INF), 0.0);
     EXPECT_LE(cv::norm(images.color, colors_[k], cv::NORM_INF), 2.0);  // JPEG at quality 100
   }
+}
+
+// The keyframes parked in a temporary file and written one at a time give the same file, byte
+// for byte, and read back whole.
+TEST_F(SessionRecordTest, ParkedKeyframesWriteTheSameFile) {
+  SessionKeyframeList list;
+  for (const SessionKeyframeBlocks& blocks : blocks_) list.Add(blocks);
+  ASSERT_EQ(list.size(), 3u);
+  EXPECT_TRUE(list.keyframe(1).features.empty());  // in the file, not in memory
+  const std::string parked = dir_.path() + "/parked.bin";
+  list.Write(parked, TestRecord());
+  EXPECT_EQ(ReadBytes(parked), ReadBytes(path_));
+  const SessionKeyframeBlocks loaded = list.Load(2);
+  EXPECT_EQ(loaded.depth_png, blocks_[2].depth_png);
+  EXPECT_EQ(loaded.color_jpeg, blocks_[2].color_jpeg);
+  ASSERT_EQ(loaded.keyframe.features.size(), blocks_[2].keyframe.features.size());
+  EXPECT_EQ(loaded.keyframe.features.back().descriptor,
+            blocks_[2].keyframe.features.back().descriptor);
+  EXPECT_EQ(loaded.keyframe.features.back().depth_m, blocks_[2].keyframe.features.back().depth_m);
 }
 
 TEST_F(SessionRecordTest, AnotherVersionIsRefusedByName) {

@@ -25,7 +25,9 @@ const char* SegmentJoinName(SegmentJoin join) {
 }
 
 MapSegments::MapSegments(const MapSegmentOptions& options)
-    : options_(options), index_(options.place, kSegmentPlaceSeed) {}
+    : options_(options),
+      parked_(std::make_unique<SpillFile>("the map segments' places")),
+      index_(options.place, kSegmentPlaceSeed) {}
 
 int MapSegments::Begin(int first_keyframe_id, double time) {
   Segment segment;
@@ -64,22 +66,23 @@ std::optional<SegmentCorrection> MapSegments::AddKeyframe(
     std::vector<SessionFeature> features) {
   const int segment = SegmentOf(keyframe_id);
   if (segment < 0 || places_.count(keyframe_id) > 0) return std::nullopt;
-  const Place& place = places_
-                           .emplace(keyframe_id, Place{segment, world_from_camera,
-                                                       LinkKeyframe(std::move(features))})
-                           .first->second;
+  const LinkKeyframe keyframe(std::move(features));
+  std::vector<unsigned char> bytes;
+  AppendSessionFeatures(keyframe.features(), &bytes);
+  places_.emplace(keyframe_id, Place{segment, world_from_camera, parked_->Append(bytes)});
   ++segments_[static_cast<size_t>(segment)].summary.keyframes;
-  index_.Add(keyframe_id, place.keyframe.descriptors());
+  index_.Add(keyframe_id, keyframe.descriptors());
   const int root = Root(segment);
   if (segments_.size() < 2) return std::nullopt;  // nothing to link to
   const std::vector<PlaceCandidate> candidates =
-      index_.Query(place.keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
+      index_.Query(keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
                    [&](int id) { return places_.at(id).segment == segment; });
   for (const PlaceCandidate& candidate : candidates) {
     if (candidate.votes < options_.place_min_votes) break;  // ranked by votes
     ++candidates_;
     const Place& earlier = places_.at(candidate.keyframe_id);
-    const auto link = VerifyLink(earlier.keyframe, place.keyframe, options_.fx, options_.links);
+    const LinkKeyframe earlier_keyframe(ParseSessionFeatures(parked_->Read(earlier.features)));
+    const auto link = VerifyLink(earlier_keyframe, keyframe, options_.fx, options_.links);
     if (!link) continue;
     links_.push_back({candidate.keyframe_id, keyframe_id, link->c_from_q});
     if (Root(earlier.segment) == root) return TakeLoop(links_.back(), root);
@@ -248,7 +251,8 @@ std::vector<SegmentSummary> MapSegments::Summaries() const {
 
 size_t MapSegments::MemoryBytes() const {
   size_t bytes = index_.MemoryBytes();
-  for (const auto& [id, place] : places_) bytes += sizeof(Place) + place.keyframe.MemoryBytes();
+  // The map's nodes: four pointers beside the key and the place (an estimate).
+  bytes += places_.size() * (sizeof(std::pair<const int, Place>) + 4 * sizeof(void*));
   return bytes;
 }
 

@@ -16,6 +16,7 @@
 #include <array>
 #include <cstdint>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
@@ -86,6 +87,28 @@ struct SessionKeyframeBlocks {
 // Writes the record to `path`. Throws std::runtime_error when it cannot be written.
 void WriteSessionRecord(const std::string& path, const SessionRecord& record,
                         const std::vector<SessionKeyframeBlocks>& keyframes);
+
+// A keyframe's row in the header: its metadata (features not read) and its blocks' sizes.
+struct SessionBlockSizes {
+  const SessionKeyframe* keyframe = nullptr;
+  std::uint64_t features = 0;                   // how many
+  std::uint64_t depth_png = 0, color_jpeg = 0;  // bytes
+};
+// A keyframe's blocks as the file holds them (features by AppendSessionFeatures).
+struct SessionBlockBytes {
+  std::vector<unsigned char> features, depth_png, color_jpeg;
+};
+// The same, with each keyframe's blocks asked for (`load`) only when they are written, so that
+// they need not all be in memory at once. Throws std::logic_error when a block's size differs
+// from its row's.
+void WriteSessionRecord(const std::string& path, const SessionRecord& record,
+                        const std::vector<SessionBlockSizes>& rows,
+                        const std::function<SessionBlockBytes(size_t index)>& load);
+
+// Features in the file's form (fixed-size little-endian records), appended to `out`, and back.
+void AppendSessionFeatures(const std::vector<SessionFeature>& features,
+                           std::vector<unsigned char>* out);
+std::vector<SessionFeature> ParseSessionFeatures(const std::vector<unsigned char>& bytes);
 
 // Reads a session record: the header and features at once, a keyframe's images on request.
 class SessionRecordReader {

@@ -32,7 +32,9 @@ struct VoxelCloudOptions {
 };
 
 // Hash-keyed voxel grid with open addressing (linear probing, power-of-two capacity, load factor
-// at most 0.75: 40 bytes a slot, about 53 bytes a voxel). Written
+// at most 0.75: 40 bytes a slot, about 53 bytes a voxel), in kShards tables chosen by the hash's
+// top bits, each growing on its own: a table that doubles holds its old copy beside the new one,
+// and one of 64 doubling costs 1/64 of what the whole cloud's would (640 MiB on the floor). Written
 // here rather than taken from PCL: PCL's VoxelGrid works on a finished cloud, needs a second pass
 // and returns its input unfiltered when the grid's index range overflows (large extents at 1 cm);
 // this grid accumulates frame by frame in O(1) per point and its key range is ±10 km at 1 cm.
@@ -77,19 +79,31 @@ class VoxelCloud {
     std::uint32_t color_sum[3];
     std::uint32_t count;
   };
+  struct Shard {
+    std::vector<Slot> slots;
+    size_t size = 0;  // keys stored, removed ones included
+  };
+  static constexpr int kShardBits = 6;
+  static constexpr size_t kShards = size_t{1} << kShardBits;
   static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
   static constexpr std::uint32_t kRemoved = ~std::uint32_t{0};  // color_sum[0] of a removed voxel
 
-  void Grow();
-  size_t FindSlot(std::uint64_t key) const;
-  // Table indices of the output voxels, sorted by key.
+  static void Grow(Shard* shard);
+  // The slot of `key` in its shard (whose hash is `mixed`): its own or the empty one it would take.
+  static size_t FindSlot(const Shard& shard, std::uint64_t key, std::uint64_t mixed);
+  // The output voxels, sorted by key, as (shard << 40 | slot index).
   std::vector<size_t> SortedOutputSlots() const;
+  Slot& SlotAt(size_t position) { return shards_[position >> 40].slots[position & kSlotMask]; }
+  const Slot& SlotAt(size_t position) const {
+    return shards_[position >> 40].slots[position & kSlotMask];
+  }
+  static constexpr size_t kSlotMask = (size_t{1} << 40) - 1;
   VoxelPoint PointOf(const Slot& slot) const;
 
   double leaf_size_;
   double inverse_leaf_;
   std::uint32_t min_points_;
-  std::vector<Slot> slots_;
+  std::vector<Shard> shards_;
   size_t size_ = 0;     // keys stored, removed ones included
   size_t removed_ = 0;  // stored keys emptied by RemoveIf (count 0)
   size_t rejected_ = 0;

@@ -17,11 +17,13 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "stillmap/io/session_record.h"
+#include "stillmap/io/spill_file.h"
 #include "stillmap/tracking/place_index.h"
 #include "stillmap/tracking/place_links.h"
 #include "stillmap/tracking/pose_graph.h"
@@ -114,7 +116,9 @@ class MapSegments {
   struct Place {
     int segment = 0;
     Eigen::Isometry3d world_from_camera;
-    LinkKeyframe keyframe;
+    // Its features (AppendSessionFeatures) in parked_: read back only to verify a link, so that
+    // the places of a long recording are not all in memory.
+    SpillFile::Block features;
   };
   struct Link {
     int keyframe_a = 0, keyframe_b = 0;  // a: the earlier place, b: the keyframe that asked
@@ -149,6 +153,7 @@ class MapSegments {
   MapSegmentOptions options_;
   std::vector<Segment> segments_;
   std::map<int, Place> places_;  // by keyframe id
+  std::unique_ptr<SpillFile> parked_;
   PlaceIndex index_;
   std::vector<Link> links_;  // every verified link
   std::vector<Link> taken_;  // the links of joins and the loops: the pose graphs' edges
