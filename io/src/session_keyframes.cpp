@@ -24,13 +24,17 @@ void SessionKeyframeList::AddParked(SessionKeyframe keyframe, size_t feature_cou
   entries_.push_back({std::move(keyframe), feature_count, features, depth_png, color_jpeg});
 }
 
+SessionBlockBytes SessionKeyframeList::Read(const Entry& entry) const {
+  return {file_->Read(entry.features), file_->Read(entry.depth_png), file_->Read(entry.color_jpeg)};
+}
+
 SessionKeyframeBlocks SessionKeyframeList::Load(size_t index) const {
-  const Entry& entry = entries_[index];
+  SessionBlockBytes bytes = Read(entries_[index]);
   SessionKeyframeBlocks blocks;
-  blocks.keyframe = entry.keyframe;
-  blocks.keyframe.features = ParseSessionFeatures(file_->Read(entry.features));
-  blocks.depth_png = file_->Read(entry.depth_png);
-  blocks.color_jpeg = file_->Read(entry.color_jpeg);
+  blocks.keyframe = entries_[index].keyframe;
+  blocks.keyframe.features = ParseSessionFeatures(bytes.features);
+  blocks.depth_png = std::move(bytes.depth_png);
+  blocks.color_jpeg = std::move(bytes.color_jpeg);
   return blocks;
 }
 
@@ -41,11 +45,7 @@ void SessionKeyframeList::Write(const std::string& path, const SessionRecord& re
     rows.push_back(
         {&entry.keyframe, entry.feature_count, entry.depth_png.size, entry.color_jpeg.size});
   }
-  WriteSessionRecord(path, record, rows, [this](size_t index) {
-    const Entry& entry = entries_[index];
-    return SessionBlockBytes{file_->Read(entry.features), file_->Read(entry.depth_png),
-                             file_->Read(entry.color_jpeg)};
-  });
+  WriteSessionRecord(path, record, rows, [this](size_t index) { return Read(entries_[index]); });
 }
 
 size_t SessionKeyframeList::MemoryBytes() const { return entries_.capacity() * sizeof(Entry); }

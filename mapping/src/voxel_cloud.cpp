@@ -82,6 +82,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
   constexpr size_t kBatch = 32;
   const float leaf = static_cast<float>(leaf_size_);
   std::uint64_t keys[kBatch];
+  std::uint64_t mixed_keys[kBatch];  // Mix(key), computed once for the prefetch and the lookup
   float offsets[kBatch][3];
   std::uint64_t last_key = kEmpty;
   Slot* last_slot = nullptr;
@@ -104,7 +105,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
       keys[b] = (static_cast<std::uint64_t>(index[0] + kAxisOffset) << (2 * kAxisBits)) |
                 (static_cast<std::uint64_t>(index[1] + kAxisOffset) << kAxisBits) |
                 static_cast<std::uint64_t>(index[2] + kAxisOffset);
-      const std::uint64_t mixed = Mix(keys[b]);
+      const std::uint64_t mixed = mixed_keys[b] = Mix(keys[b]);
       const Shard& shard = shards_[mixed >> (64 - kShardBits)];
       __builtin_prefetch(&shard.slots[mixed & (shard.slots.size() - 1)], 1);
     }
@@ -115,7 +116,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
         continue;
       }
       if (key != last_key) {
-        const std::uint64_t mixed = Mix(key);
+        const std::uint64_t mixed = mixed_keys[b];
         Shard& shard = shards_[mixed >> (64 - kShardBits)];
         if (4 * (shard.size + 1) > 3 * shard.slots.size()) Grow(&shard);  // load factor <= 0.75
         last_slot = &shard.slots[FindSlot(shard, key, mixed)];

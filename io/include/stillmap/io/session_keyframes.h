@@ -44,6 +44,9 @@ class SessionKeyframeList {
     size_t feature_count = 0;
     SpillFile::Block features, depth_png, color_jpeg;
   };
+  // An entry's blocks as the file holds them.
+  SessionBlockBytes Read(const Entry& entry) const;
+
   std::shared_ptr<SpillFile> file_;
   std::vector<Entry> entries_;
 };
