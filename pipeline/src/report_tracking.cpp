@@ -52,6 +52,8 @@ json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options)
           {"rgbd_odometry",
            {{"posed", t.rgbd_posed},
             {"refused", t.rgbd_refused},
+            {"feature_poses_checked", t.rgbd_checked},
+            {"feature_poses_replaced", t.rgbd_replaced},
             {"time_ms_total", t.rgbd_odometry_ms}}},
           {"static_depth_share", ShareJson(tracking.static_depth_share)},
           {"keyframes", t.keyframes},

@@ -9,6 +9,7 @@
 #include <iostream>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <tuple>
 #include <utility>
 
 #include "rendered_sequence.h"
@@ -251,6 +252,56 @@ TEST_F(TrackerTest, AFeaturelessStretchIsPosedByRgbdOdometry) {
   const auto [results_off, trajectory_off] = track(off);
   EXPECT_EQ(results_off[10].status, TrackStatus::kLost);
   EXPECT_LT(trajectory_off.size(), 20u);
+}
+
+// The check of weak feature poses by dense alignment. With every pose checked and no difference
+// allowed, each tracked frame after the first takes the dense pose and the matches that fit it:
+// each frame-to-frame motion, as tracked, is within 1 mm of the rendering poses' (a chain of
+// dense alignments drifts: 5.5 mm by frame 19 here) and tracking goes on with those matches.
+// With differences of a metre allowed, every frame is checked, none replaced, and the trajectory
+// is the one without the check.
+TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
+  auto track = [&](const TrackerOptions& options) {
+    Tracker tracker(sequence_->camera(), options);
+    std::vector<TrackResult> results;
+    for (size_t i = 0; i < 20; ++i) {
+      results.push_back(tracker.Track(i, frames_[i].time, grays_[i], frames_[i].depth_m));
+    }
+    tracker.Finish();
+    return std::make_tuple(results, tracker.TrackedTrajectory(), tracker.statistics());
+  };
+  TrackerOptions always = Deterministic();
+  always.rgbd_odometry.check_below_inliers = 100000;
+  always.rgbd_odometry.check_max_difference_m = 0.0;
+  always.rgbd_odometry.check_max_difference_deg = 0.0;
+  const auto [results, trajectory, stats] = track(always);
+  EXPECT_EQ(stats.rgbd_checked, 19u);
+  EXPECT_GE(stats.rgbd_replaced, 15u);
+  EXPECT_EQ(stats.rgbd_replaced + stats.rgbd_refused, 19u);  // each one taken or refused
+  ASSERT_EQ(trajectory.size(), 20u);
+  for (size_t i = 1; i < 20; ++i) {
+    EXPECT_EQ(results[i].status, TrackStatus::kTracked) << i;
+    EXPECT_GE(results[i].inliers, 50) << i;
+    const Eigen::Isometry3d truth = Truth(i - 1).inverse() * Truth(i);
+    const Eigen::Isometry3d step =
+        results[i - 1].world_from_camera.inverse() * results[i].world_from_camera;
+    EXPECT_LT((step.translation() - truth.translation()).norm(), 0.001) << i;
+  }
+  TrackerOptions loose = Deterministic();
+  loose.rgbd_odometry.check_below_inliers = 100000;
+  loose.rgbd_odometry.check_max_difference_m = 1.0;
+  loose.rgbd_odometry.check_max_difference_deg = 90.0;
+  const auto [loose_results, loose_trajectory, loose_stats] = track(loose);
+  EXPECT_EQ(loose_stats.rgbd_checked, 19u);
+  EXPECT_EQ(loose_stats.rgbd_replaced, 0u);
+  const auto [off_results, off_trajectory, off_stats] = track(Deterministic());
+  EXPECT_EQ(off_stats.rgbd_checked, 0u);
+  ASSERT_EQ(off_trajectory.size(), loose_trajectory.size());
+  for (size_t i = 0; i < off_trajectory.size(); ++i) {
+    EXPECT_TRUE(off_trajectory.poses()[i].world_from_camera.isApprox(
+        loose_trajectory.poses()[i].world_from_camera, 1e-12))
+        << i;
+  }
 }
 
 // A relocalization farther from the last good pose than the options allow is refused: with a

@@ -116,8 +116,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
 
   if (!have_map) {
     TrackWithoutMap(frame, with_depth, frame_index, time, lock, &result);
-    next_prior.reset();
-    result.timings.total_ms = MillisecondsSince(start);
+    EndFrame(time, start, &result);
     return result;
   }
 
@@ -132,7 +131,8 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   result.timings.match_ms = MillisecondsSince(stage);
 
   stage = Clock::now();
-  const PoseEstimate estimate = FindPose(predicted, local, frame, time, &association);
+  PoseEstimate estimate = FindPose(predicted, local, frame, time, &association);
+  if (estimate.ok) CheckByRgbdOdometry(predicted, local, frame, time, &estimate, &association);
   const bool occluded = result.static_depth_share < options.relocalization.min_static_depth_share;
   result.timings.pose_ms = MillisecondsSince(stage);
   result.matches = estimate.matches;
@@ -148,14 +148,18 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   } else {
     TrackWithoutPose(predicted, local, frame, with_depth, frame_index, time, lock, &result);
   }
-  if (result.tracked()) {
+  result.timings.keyframe_ms = MillisecondsSince(stage);
+  EndFrame(time, start, &result);
+  return result;
+}
+
+void Tracker::Impl::EndFrame(double time, Clock::time_point start, TrackResult* result) {
+  if (result->tracked()) {  // the next frame's reference for dense alignment
     reference_images = current_images;
     reference_time = time;
   }
   next_prior.reset();
-  result.timings.keyframe_ms = MillisecondsSince(stage);
-  result.timings.total_ms = MillisecondsSince(start);
-  return result;
+  result->timings.total_ms = MillisecondsSince(start);
 }
 
 void Tracker::Impl::TrackWithoutMap(FrameData& frame, int with_depth, size_t frame_index,

@@ -198,7 +198,9 @@ struct Tracker::Impl {
   // Track's steps: the first map (while there is none); the frame's pose against the local map,
   // else by relocalization near the last good pose; the bookkeeping of a frame with a pose; and
   // of one without (carried by the motion model behind an occluder, else lost, a new map after
-  // options.relocalization.new_map_after_lost frames).
+  // options.relocalization.new_map_after_lost frames); the frame's end (a tracked frame becomes
+  // the reference for dense alignment, the prior is used up, the total time).
+  void EndFrame(double time, Clock::time_point start, TrackResult* result);
   void TrackWithoutMap(FrameData& frame, int with_depth, size_t frame_index, double time,
                        std::unique_lock<std::mutex>& lock, TrackResult* result);
   PoseEstimate FindPose(const Eigen::Isometry3d& predicted, const LocalSet& local,
@@ -215,6 +217,17 @@ struct Tracker::Impl {
   bool TrackByRgbdOdometry(const Eigen::Isometry3d& predicted, const LocalSet& local,
                            FrameData& frame, int with_depth, size_t frame_index, double time,
                            std::unique_lock<std::mutex>& lock, TrackResult* result);
+  // The frame's camera_from_world by dense alignment to the last posed frame, from the
+  // prediction; none when there is no such frame, it is older than rgbd_odometry.max_gap_s or
+  // the alignment is refused.
+  std::optional<Eigen::Isometry3d> DensePose(const Eigen::Isometry3d& predicted, double time);
+  // A weak feature pose (fewer inliers than rgbd_odometry.check_below_inliers) checked against
+  // the dense alignment to the last posed frame: where they disagree, the dense pose replaces
+  // it and the frame's matches are those found by projection from that pose that fit it
+  // (tracker_rgbd_odometry.cpp).
+  void CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, const LocalSet& local,
+                           const FrameData& frame, double time, PoseEstimate* estimate,
+                           Association* association);
   // The next frame's predicted camera_from_world: constant velocity from `last`, else the
   // prior's motion since the last posed frame (tracker_prior.cpp).
   Eigen::Isometry3d Predict(const Eigen::Isometry3d& last) const;

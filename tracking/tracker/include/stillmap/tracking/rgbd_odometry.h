@@ -41,6 +41,13 @@ struct RgbdOdometryOptions {
   double max_weakest_sigma_m = 0.002;
   double max_gap_s = 0.5;      // the reference frame is at most this old
   int keyframe_interval = 10;  // a frame posed this way becomes a keyframe every n frames
+  // The check of weak feature poses: a frame whose feature pose has fewer inliers than
+  // check_below_inliers is also aligned densely (0: never); where the alignment is taken and
+  // the two poses differ by more than check_max_difference_m or check_max_difference_deg, the
+  // dense pose replaces the feature pose (floor tiles below a blank wall match a shifted pose).
+  int check_below_inliers = 0;
+  double check_max_difference_m = 0.02;
+  double check_max_difference_deg = 1.0;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
@@ -73,6 +80,12 @@ struct RgbdOdometryOptions {
     visit("max_gap_s", self.max_gap_s, "the reference frame is at most this old [s]");
     visit("keyframe_interval", self.keyframe_interval,
           "a frame posed this way becomes a keyframe every n frames");
+    visit("check_below_inliers", self.check_below_inliers,
+          "feature poses with fewer inliers are checked by dense alignment (0: never)");
+    visit("check_max_difference_m", self.check_max_difference_m,
+          "a checked pose whose camera is farther from the dense one's is replaced by it [m]");
+    visit("check_max_difference_deg", self.check_max_difference_deg,
+          "... or that is turned more from it [deg]");
   }
 };
 
