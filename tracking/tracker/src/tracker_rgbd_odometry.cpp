@@ -57,7 +57,10 @@ void Tracker::Impl::CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, cons
                                         const FrameData& frame, double time, PoseEstimate* estimate,
                                         Association* association) {
   const RgbdOdometryOptions& odometry = options.rgbd_odometry;
-  if (estimate->inliers >= odometry.check_below_inliers) return;
+  if (estimate->inliers >= odometry.check_below_inliers || !have_last || consecutive_lost > 0 ||
+      time - reference_time > odometry.check_max_gap_s) {
+    return;
+  }
   ++stats.rgbd_checked;
   const std::optional<Eigen::Isometry3d> dense = DensePose(predicted, time);
   if (!dense) return;
