@@ -261,7 +261,12 @@ TEST_F(TrackerTest, AFeaturelessStretchIsPosedByRgbdOdometry) {
 // With differences of a metre allowed, every frame is checked, none replaced, and the trajectory
 // is the one without the check.
 TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
-  auto track = [&](const TrackerOptions& options) {
+  // Every pose checked (0: none), a pose replaced when it differs by more than max_m or max_deg.
+  auto track = [&](int below_inliers, double max_m, double max_deg) {
+    TrackerOptions options = Deterministic();
+    options.rgbd_odometry.check_below_inliers = below_inliers;
+    options.rgbd_odometry.check_max_difference_m = max_m;
+    options.rgbd_odometry.check_max_difference_deg = max_deg;
     Tracker tracker(sequence_->camera(), options);
     std::vector<TrackResult> results;
     for (size_t i = 0; i < 20; ++i) {
@@ -270,11 +275,7 @@ TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
     tracker.Finish();
     return std::make_tuple(results, tracker.TrackedTrajectory(), tracker.statistics());
   };
-  TrackerOptions always = Deterministic();
-  always.rgbd_odometry.check_below_inliers = 100000;
-  always.rgbd_odometry.check_max_difference_m = 0.0;
-  always.rgbd_odometry.check_max_difference_deg = 0.0;
-  const auto [results, trajectory, stats] = track(always);
+  const auto [results, trajectory, stats] = track(100000, 0.0, 0.0);
   EXPECT_EQ(stats.rgbd_checked, 19u);
   EXPECT_GE(stats.rgbd_replaced, 15u);
   EXPECT_EQ(stats.rgbd_replaced + stats.rgbd_refused, 19u);  // each one taken or refused
@@ -287,16 +288,10 @@ TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
         results[i - 1].world_from_camera.inverse() * results[i].world_from_camera;
     EXPECT_LT((step.translation() - truth.translation()).norm(), 0.001) << i;
   }
-  TrackerOptions loose = Deterministic();
-  loose.rgbd_odometry.check_below_inliers = 100000;
-  loose.rgbd_odometry.check_max_difference_m = 1.0;
-  loose.rgbd_odometry.check_max_difference_deg = 90.0;
-  const auto [loose_results, loose_trajectory, loose_stats] = track(loose);
+  const auto [loose_results, loose_trajectory, loose_stats] = track(100000, 1.0, 90.0);
   EXPECT_EQ(loose_stats.rgbd_checked, 19u);
   EXPECT_EQ(loose_stats.rgbd_replaced, 0u);
-  TrackerOptions off = Deterministic();
-  off.rgbd_odometry.check_below_inliers = 0;
-  const auto [off_results, off_trajectory, off_stats] = track(off);
+  const auto [off_results, off_trajectory, off_stats] = track(0, 0.02, 1.0);
   EXPECT_EQ(off_stats.rgbd_checked, 0u);
   ASSERT_EQ(off_trajectory.size(), loose_trajectory.size());
   for (size_t i = 0; i < off_trajectory.size(); ++i) {
