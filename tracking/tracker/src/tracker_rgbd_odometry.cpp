@@ -57,7 +57,8 @@ void Tracker::Impl::CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, cons
                                         const FrameData& frame, double time, PoseEstimate* estimate,
                                         Association* association) {
   const RgbdOdometryOptions& odometry = options.rgbd_odometry;
-  if (estimate->inliers >= odometry.check_below_inliers || !have_last || consecutive_lost > 0 ||
+  // Frame to frame: the frame before was posed (a lost frame clears have_last), recently.
+  if (estimate->inliers >= odometry.check_below_inliers || !have_last ||
       time - reference_time > odometry.check_max_gap_s) {
     return;
   }
