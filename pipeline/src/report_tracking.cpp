@@ -26,6 +26,18 @@ json DepthCalibrationJson(const TrackerStatistics& t, const TrackerOptions& opti
             {"spread_after_m", last.spread_after_m}}}};
 }
 
+// Each corrected loop: when, to which earlier time, by how much.
+json LoopsJson(const std::vector<CorrectedLoop>& loops) {
+  json out = json::array();
+  for (const CorrectedLoop& loop : loops) {
+    out.push_back({{"time_s", loop.time},
+                   {"earlier_time_s", loop.earlier_time},
+                   {"correction_m", loop.correction_m},
+                   {"correction_deg", loop.correction_deg}});
+  }
+  return out;
+}
+
 // The smallest, 5th-percentile and median share over the frames.
 json ShareJson(std::vector<double> shares) {
   if (shares.empty()) return nullptr;
@@ -68,6 +80,7 @@ json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options)
             {"refused_implausible_drift", t.loops_implausible},
             {"largest_correction_m", t.loop_correction_m},
             {"largest_correction_deg", t.loop_correction_deg},
+            {"corrected", LoopsJson(t.loops_corrected)},
             {"fused_keyframes_moved", tracking.refused_keyframes_moved},
             {"compact_keyframes_mib", tracking.refusion_store_mib},
             {"place_index_mib", t.place_index_mib}}},

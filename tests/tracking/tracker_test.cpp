@@ -291,7 +291,9 @@ TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
   const auto [loose_results, loose_trajectory, loose_stats] = track(100000, 1.0, 90.0);
   EXPECT_EQ(loose_stats.rgbd_checked, 19u);
   EXPECT_EQ(loose_stats.rgbd_replaced, 0u);
-  const auto [off_results, off_trajectory, off_stats] = track(0, 0.02, 1.0);
+  const RgbdOdometryOptions defaults;
+  const auto [off_results, off_trajectory, off_stats] =
+      track(0, defaults.check_max_difference_m, defaults.check_max_difference_deg);
   EXPECT_EQ(off_stats.rgbd_checked, 0u);
   ASSERT_EQ(off_trajectory.size(), loose_trajectory.size());
   for (size_t i = 0; i < off_trajectory.size(); ++i) {

@@ -4,10 +4,12 @@
 // look the same) scenarios with their rendering poses and static surface.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <iostream>
 
 #include "build_helpers.h"
+#include "stillmap/io/trajectory.h"
 #include "stillmap/synth/synthetic.h"
 #include "test_util.h"
 
@@ -93,6 +95,20 @@ TEST(RevisitTest, SyntheticLoopIsClosedAndTheMapRefused) {
   Print("loop, loop closure off", open);
   const TrackerStatistics& t = closed.tracking->statistics;
   EXPECT_GE(t.loops_accepted, 1u);
+  // Each loop in the report joined the same place: by the rendering poses, the two keyframes'
+  // cameras stood within 0.5 m and 30 degrees of each other, a lap (over 10 s) apart.
+  const Trajectory truth = Trajectory::ReadTum(dir / "seq/groundtruth.txt");
+  ASSERT_EQ(t.loops_corrected.size(), t.loops_accepted);
+  for (const CorrectedLoop& loop : t.loops_corrected) {
+    const auto now = truth.Interpolate(loop.time, 0.1);
+    const auto then = truth.Interpolate(loop.earlier_time, 0.1);
+    ASSERT_TRUE(now && then) << loop.time << " " << loop.earlier_time;
+    const Eigen::Isometry3d apart = then->inverse() * *now;
+    EXPECT_GT(loop.time - loop.earlier_time, 10.0);
+    EXPECT_LT(apart.translation().norm(), 0.5) << loop.time;
+    EXPECT_LT(Eigen::AngleAxisd(apart.linear()).angle() * 180.0 / M_PI, 30.0) << loop.time;
+    EXPECT_GT(loop.correction_m, 0.0);
+  }
   EXPECT_GE(t.global_bundle_adjustments, 1u);
   EXPECT_GT(closed.tracking->refused_keyframes_moved, 0u);
   for (const char* name : {"trajectory.txt", "keyframes.txt", "map.ply"}) {

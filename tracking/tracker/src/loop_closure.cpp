@@ -70,6 +70,7 @@ LoopCorrection LoopClosure::PrepareCorrection(
   problem.edges.push_back(EdgeBetween(node_of.at(candidate), node_of.at(keyframe_id),
                                       world_from_keyframe.at(candidate), world_from_loop_pose));
   loop.keyframe_id = keyframe_id;
+  loop.candidate = candidate;
   return loop;
 }
 

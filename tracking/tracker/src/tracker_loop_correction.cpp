@@ -69,9 +69,16 @@ void Tracker::Impl::ApplyLoopCorrection(const LoopCorrection& loop) {
     }
     if (moved != nullptr) landmark.position = *moved * landmark.position;
   }
-  stats.loop_correction_m = std::max(stats.loop_correction_m, at_loop.translation().norm());
-  stats.loop_correction_deg = std::max(stats.loop_correction_deg,
-                                       Eigen::AngleAxisd(at_loop.linear()).angle() * 180.0 / M_PI);
+  CorrectedLoop corrected;
+  corrected.correction_m = at_loop.translation().norm();
+  corrected.correction_deg = Eigen::AngleAxisd(at_loop.linear()).angle() * 180.0 / M_PI;
+  const auto keyframe = keyframes.find(loop.keyframe_id);
+  const auto earlier = keyframes.find(loop.candidate);
+  if (keyframe != keyframes.end()) corrected.time = keyframe->second.time;
+  if (earlier != keyframes.end()) corrected.earlier_time = earlier->second.time;
+  stats.loops_corrected.push_back(corrected);
+  stats.loop_correction_m = std::max(stats.loop_correction_m, corrected.correction_m);
+  stats.loop_correction_deg = std::max(stats.loop_correction_deg, corrected.correction_deg);
   // The frames tracked since are posed through their keyframes; the motion model's poses move
   // with the newest keyframe (its velocity is relative and stays).
   last_camera_from_world = last_camera_from_world * at_loop.inverse();

@@ -96,6 +96,7 @@ struct LoopCorrection {
   PoseGraphProblem problem;  // read by the solver; its initial poses give each correction
   std::vector<int> ids;      // keyframe id per node, ascending
   int keyframe_id = 0;       // the keyframe that closed the loop
+  int candidate = 0;         // the earlier place's keyframe
   std::vector<std::pair<size_t, int>> merges;  // (feature of keyframe_id, earlier landmark)
   size_t handover_serial = 0;                  // taken before the frame with this serial
   bool is_solved = false;

@@ -79,6 +79,14 @@ struct FinalKeyframe {
   FrameFeatures features;
 };
 
+// A loop the tracker corrected: the keyframe that closed it, the earlier place, the correction.
+struct CorrectedLoop {
+  double time = 0.0;          // the keyframe's timestamp [s]
+  double earlier_time = 0.0;  // the earlier place's keyframe's timestamp [s]
+  double correction_m = 0.0;  // the keyframe's correction
+  double correction_deg = 0.0;
+};
+
 struct TrackerStatistics {
   size_t frames = 0;
   size_t tracked = 0;
@@ -108,6 +116,7 @@ struct TrackerStatistics {
   size_t loops_implausible = 0;    // verified, but asking for more correction than drift explains
   double loop_correction_m = 0.0;  // largest keyframe correction of an accepted loop
   double loop_correction_deg = 0.0;
+  std::vector<CorrectedLoop> loops_corrected;  // in the order they were taken
   double loop_ms = 0.0;        // place queries and verification, on the tracking thread
   double loop_solve_ms = 0.0;  // pose graphs, on whichever thread ran them
   size_t segment_moves = 0;    // keyframes moved from outside (MoveKeyframes)
