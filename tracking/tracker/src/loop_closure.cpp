@@ -1,6 +1,8 @@
 #include "stillmap/tracking/loop_closure.h"
 
+#include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 
 #include "stillmap/io/timing.h"
@@ -41,6 +43,7 @@ bool LoopClosure::AcceptVerified(int verified, bool same_place_as_last) {
 
 LoopCorrection LoopClosure::PrepareCorrection(
     const std::map<int, Eigen::Isometry3d>& world_from_keyframe,
+    const std::map<int, int>& weakest_inliers,
     const std::map<std::pair<int, int>, int>& shared_pairs, int keyframe_id, int candidate,
     const Eigen::Isometry3d& world_from_loop_pose) const {
   // Every keyframe is a node, in id order; the oldest holds the gauge.
@@ -55,9 +58,11 @@ LoopCorrection LoopClosure::PrepareCorrection(
   problem.fixed.assign(loop.ids.size(), false);
   problem.fixed[0] = true;
   for (size_t n = 0; n + 1 < loop.ids.size(); ++n) {
-    problem.edges.push_back(EdgeBetween(static_cast<int>(n), static_cast<int>(n + 1),
-                                        problem.world_from_node[n],
-                                        problem.world_from_node[n + 1]));
+    const auto weakest = weakest_inliers.find(loop.ids[n + 1]);
+    problem.edges.push_back(
+        EdgeBetween(static_cast<int>(n), static_cast<int>(n + 1), problem.world_from_node[n],
+                    problem.world_from_node[n + 1],
+                    OdometryWeight(weakest == weakest_inliers.end() ? INT_MAX : weakest->second)));
   }
   for (const auto& [pair, count] : shared_pairs) {  // covisibility, beside the odometry chain
     if (count < options_.pose_graph_min_shared) continue;
@@ -72,6 +77,13 @@ LoopCorrection LoopClosure::PrepareCorrection(
   loop.keyframe_id = keyframe_id;
   loop.candidate = candidate;
   return loop;
+}
+
+double LoopClosure::OdometryWeight(int weakest_inliers) const {
+  if (weakest_inliers >= options_.pose_graph_full_weight_inliers) return 1.0;
+  const double share = static_cast<double>(std::max(weakest_inliers, 0)) /
+                       static_cast<double>(options_.pose_graph_full_weight_inliers);
+  return std::max(share * share, options_.pose_graph_min_weight);
 }
 
 void LoopClosure::Solve(LoopCorrection* correction) const {

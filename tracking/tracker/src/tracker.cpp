@@ -212,6 +212,7 @@ void Tracker::Impl::TakePose(const PoseEstimate& estimate, const LocalSet& local
   if (was_lost) ++stats.relocalized;
   if (occluded) ++stats.occluded;
   result->inliers = estimate.inliers;
+  weakest_inliers_since_keyframe = std::min(weakest_inliers_since_keyframe, estimate.inliers);
   result->reprojection_rmse_px = estimate.rmse_px;
   CountVisibility(estimate.camera_from_world, local, *association);
   MergeDuplicates(estimate.camera_from_world, frame, association);
@@ -235,6 +236,7 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
     // Nothing to track behind the occluder: the motion model carries the pose through.
     ++consecutive_predicted;
     ++stats.predicted;
+    weakest_inliers_since_keyframe = 0;
     result->status = TrackStatus::kPredicted;
     Accept(predicted, time, {}, result);
     return;
@@ -245,6 +247,7 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
   }
   ++consecutive_lost;
   ++stats.lost;
+  weakest_inliers_since_keyframe = 0;
   have_last = false;
   have_velocity = false;
   if (consecutive_lost >= options.relocalization.new_map_after_lost &&

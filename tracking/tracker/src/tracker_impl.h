@@ -67,6 +67,9 @@ struct Keyframe {
   FrameFeatures features;
   std::vector<Descriptor> descriptors;
   std::vector<int> landmark_of_feature;  // landmark id per feature, -1 none
+  // The fewest inliers of a frame tracked since the keyframe before (0: one was lost or posed
+  // by the motion model): how sure the pose graph's odometry edge to it is.
+  int weakest_inliers = INT_MAX;
   bool final = false;
   // Culled (CullIfRedundant): not fused, no place to recognise, but still a fixed anchor of the
   // bundle adjustment until EraseRetired takes it out.
@@ -449,6 +452,7 @@ struct Tracker::Impl {
   std::optional<Eigen::Isometry3d> next_prior, last_good_prior;
   double last_good_time = 0.0;
   int frames_since_keyframe = 0;
+  int weakest_inliers_since_keyframe = INT_MAX;  // Keyframe::weakest_inliers of the next one
   std::vector<int> last_frame_landmarks;
   // This frame's images, and the last posed frame's (its pose: last_good_camera_from_world)
   // with the camera's cells, made on first use: what TrackByRgbdOdometry aligns.

@@ -174,6 +174,14 @@ void Tracker::Impl::EraseCulled(size_t position) {
                        observations.end());
     if (observations.empty()) EraseLandmark(it->first);
   }
+  // The odometry edge to the keyframe after it now spans its frames too.
+  const auto next = keyframes.upper_bound(id);
+  if (next != keyframes.end()) {
+    next->second.weakest_inliers = std::min(next->second.weakest_inliers, keyframe.weakest_inliers);
+  } else {
+    weakest_inliers_since_keyframe =
+        std::min(weakest_inliers_since_keyframe, keyframe.weakest_inliers);
+  }
   keyframes.erase(id);
   map_keyframes.erase(map_keyframes.begin() + static_cast<std::ptrdiff_t>(position));
 }
@@ -195,6 +203,8 @@ int Tracker::Impl::InsertKeyframe(const Eigen::Isometry3d& camera_from_world, Fr
   keyframe.frame_index = frame_index;
   keyframe.time = time;
   keyframe.camera_from_world = camera_from_world;
+  keyframe.weakest_inliers = weakest_inliers_since_keyframe;
+  weakest_inliers_since_keyframe = INT_MAX;
   keyframe.landmark_of_feature.assign(frame.size(), -1);
   const Eigen::Isometry3d world_from_camera = camera_from_world.inverse();
   for (size_t i = 0; i < frame.size(); ++i) {

@@ -6,12 +6,14 @@ void Tracker::Impl::RequestLoopCorrection(int keyframe_id, int candidate,
                                           const Eigen::Isometry3d& camera_from_world,
                                           const Association& association) {
   std::map<int, Eigen::Isometry3d> world_from_keyframe;
+  std::map<int, int> weakest_inliers;
   for (const auto& [id, keyframe] : keyframes) {
     world_from_keyframe.emplace(id, keyframe.camera_from_world.inverse());
+    weakest_inliers.emplace(id, keyframe.weakest_inliers);
   }
   LoopCorrection loop =
-      loops.PrepareCorrection(world_from_keyframe, CovisibilityPairs(), keyframe_id, candidate,
-                              camera_from_world.inverse());
+      loops.PrepareCorrection(world_from_keyframe, weakest_inliers, CovisibilityPairs(),
+                              keyframe_id, candidate, camera_from_world.inverse());
   for (size_t f = 0; f < association.landmark.size(); ++f) {
     if (association.landmark[f] >= 0) loop.merges.emplace_back(f, association.landmark[f]);
   }

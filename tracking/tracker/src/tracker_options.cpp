@@ -169,6 +169,10 @@ void LoopClosureOptions::Validate() const {
           "{} must be at least 1, {} "
           "1..1000 and the pose graph's sigmas positive",
           key(pose_graph_min_shared), key(pose_graph.iterations));
+  Require(pose_graph_full_weight_inliers >= 1 && pose_graph_min_weight > 0.0 &&
+              pose_graph_min_weight <= 1.0,
+          "{} must be at least 1 and {} in (0, 1]", key(pose_graph_full_weight_inliers),
+          key(pose_graph_min_weight));
   Require(loop_handover_frames >= 0 && loop_handover_frames <= 1000 &&
               global_bundle_adjustment_handover_frames >= 0 &&
               global_bundle_adjustment_handover_frames <= 1000,

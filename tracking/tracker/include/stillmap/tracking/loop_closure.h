@@ -40,6 +40,13 @@ struct LoopClosureOptions {
   int loop_consistency = 2;
   int loop_min_separation = 10;
   int pose_graph_min_shared = 100;
+  // An odometry edge (a keyframe and the one before it) is as sure as the weakest frame tracked
+  // between them: full weight when every frame had pose_graph_full_weight_inliers inliers,
+  // (fewest / that)^2 below, and pose_graph_min_weight across frames that were lost or posed by
+  // the motion model. A loop's correction then goes where tracking was weak (a person across
+  // the lens in a corridor) instead of being spread evenly over the loop.
+  int pose_graph_full_weight_inliers = 120;
+  double pose_graph_min_weight = 0.001;
   PoseGraphOptions pose_graph;
   int loop_handover_frames = 5;
   bool loop_global_bundle_adjustment = true;
@@ -73,6 +80,11 @@ struct LoopClosureOptions {
           "a loop candidate is at least this many keyframes older than the keyframe");
     visit("pose_graph_min_shared", self.pose_graph_min_shared,
           "landmarks two keyframes share for a covisibility edge of the pose graph");
+    visit("pose_graph_full_weight_inliers", self.pose_graph_full_weight_inliers,
+          "pose graph: an odometry edge has full weight when every frame between its keyframes "
+          "had this many inliers, (fewest / this)^2 below");
+    visit("pose_graph_min_weight", self.pose_graph_min_weight,
+          "pose graph: weight of an odometry edge across lost frames (and the least of any)");
     visit.Nested("pose_graph_", self.pose_graph);
     visit("loop_handover_frames", self.loop_handover_frames,
           "frames after a loop is accepted when its pose graph's result is taken");
@@ -141,10 +153,13 @@ class LoopClosure {
   bool in_streak() const { return streak_ > 0; }
 
   // Corrections out: the pose graph over every keyframe (`world_from_keyframe`, by id: odometry
-  // edges in id order, the oldest fixed), covisibility edges between keyframes sharing
-  // pose_graph_min_shared landmarks (`shared_pairs`: (older, newer) -> landmarks), and the loop
-  // edge: `keyframe_id` at `world_from_loop_pose` as verified against `candidate`.
+  // edges in id order, the oldest fixed, each weighted by `weakest_inliers`: per keyframe, the
+  // fewest inliers of a frame tracked since the keyframe before, 0 when one was not), covisibility
+  // edges between keyframes sharing pose_graph_min_shared landmarks (`shared_pairs`: (older,
+  // newer) -> landmarks), and the loop edge: `keyframe_id` at `world_from_loop_pose` as verified
+  // against `candidate`.
   LoopCorrection PrepareCorrection(const std::map<int, Eigen::Isometry3d>& world_from_keyframe,
+                                   const std::map<int, int>& weakest_inliers,
                                    const std::map<std::pair<int, int>, int>& shared_pairs,
                                    int keyframe_id, int candidate,
                                    const Eigen::Isometry3d& world_from_loop_pose) const;
@@ -152,6 +167,8 @@ class LoopClosure {
   void Solve(LoopCorrection* correction) const;
   // Per keyframe id of the graph: world' = correction * world.
   static std::map<int, Eigen::Isometry3d> Corrections(const LoopCorrection& correction);
+  // The weight of an odometry edge whose frames had at fewest `weakest_inliers`.
+  double OdometryWeight(int weakest_inliers) const;
 
  private:
   LoopClosureOptions options_;
