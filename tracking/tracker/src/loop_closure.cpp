@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "stillmap/io/timing.h"
+#include "stillmap/io/trajectory.h"
 
 namespace stillmap {
 
@@ -23,7 +24,7 @@ std::vector<int> LoopClosure::RelocalizationCandidates(const cv::Mat& descriptor
 }
 
 bool LoopClosure::PlausibleDrift(double path_m, const Eigen::Isometry3d& correction) const {
-  const double angle_deg = Eigen::AngleAxisd(correction.linear()).angle() * 180.0 / M_PI;
+  const double angle_deg = RotationAngleDeg(correction);
   return correction.translation().norm() <=
              options_.loop_max_drift_m + options_.loop_max_drift_share * path_m &&
          angle_deg <= options_.loop_max_drift_deg + options_.loop_max_drift_deg_per_m * path_m;

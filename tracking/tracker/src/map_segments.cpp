@@ -4,6 +4,8 @@
 #include <cmath>
 #include <functional>
 
+#include "stillmap/io/trajectory.h"
+
 namespace stillmap {
 namespace {
 
@@ -212,7 +214,7 @@ std::optional<SegmentCorrection> MapSegments::TakeLoop(const Link& link, int roo
   // Where the link puts b, against where the group has it.
   const Eigen::Isometry3d b_moved = a.world_from_camera * link.a_from_b;
   const Eigen::Isometry3d change = b.world_from_camera.inverse() * b_moved;
-  const double degrees = Eigen::AngleAxisd(change.linear()).angle() * 180.0 / M_PI;
+  const double degrees = RotationAngleDeg(change);
   if (change.translation().norm() > options_.loop_max_m || degrees > options_.loop_max_deg) {
     return std::nullopt;  // a look-alike place, or more drift than a loop corrects
   }

@@ -73,7 +73,7 @@ void Tracker::Impl::ApplyLoopCorrection(const LoopCorrection& loop) {
   }
   CorrectedLoop corrected;
   corrected.correction_m = at_loop.translation().norm();
-  corrected.correction_deg = Eigen::AngleAxisd(at_loop.linear()).angle() * 180.0 / M_PI;
+  corrected.correction_deg = RotationAngleDeg(at_loop);
   const auto keyframe = keyframes.find(loop.keyframe_id);
   const auto earlier = keyframes.find(loop.candidate);
   if (keyframe != keyframes.end()) corrected.time = keyframe->second.time;

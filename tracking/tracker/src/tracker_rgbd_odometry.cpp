@@ -68,7 +68,7 @@ void Tracker::Impl::CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, cons
   const Eigen::Isometry3d difference = *dense * estimate->camera_from_world.inverse();
   const double apart_m =
       (dense->inverse().translation() - estimate->camera_from_world.inverse().translation()).norm();
-  const double turn_deg = Eigen::AngleAxisd(difference.linear()).angle() * 180.0 / M_PI;
+  const double turn_deg = RotationAngleDeg(difference);
   if (apart_m <= odometry.check_max_difference_m && turn_deg <= odometry.check_max_difference_deg) {
     return;
   }
