@@ -141,6 +141,8 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
   options.segments.links = LinkOptions(config.merge);
   options.segments.pose_graph = config.tracking.loops.pose_graph;
   options.segments.link_weight = config.merge.link_weight;
+  options.segments.full_weight_inliers = config.tracking.loops.pose_graph_full_weight_inliers;
+  options.segments.min_weight = config.tracking.loops.pose_graph_min_weight;
   options.groundtruth_reference_interval = config.groundtruth_reference_interval;
   if (options.poses == PoseSource::kGiven) {
     options.keyframe_distance_m = config.poses.keyframe_distance_m;

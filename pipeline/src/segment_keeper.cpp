@@ -14,8 +14,9 @@ void SegmentKeeper::Fuse(std::vector<FinalKeyframe> finals, Tracker& tracker,
   bool joined = false;
   for (const FinalKeyframe& keyframe : finals) {
     if (keyframe.culled) continue;
-    const std::optional<SegmentCorrection> correction = segments_.AddKeyframe(
-        keyframe.id, keyframe.time, keyframe.world_from_camera, SessionFeatures(keyframe.features));
+    const std::optional<SegmentCorrection> correction =
+        segments_.AddKeyframe(keyframe.id, keyframe.time, keyframe.world_from_camera,
+                              SessionFeatures(keyframe.features), keyframe.weakest_inliers);
     if (!correction) continue;
     tracker.MoveKeyframes(correction->world_from_keyframe);
     joined = true;

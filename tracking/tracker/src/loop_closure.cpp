@@ -81,10 +81,8 @@ LoopCorrection LoopClosure::PrepareCorrection(
 }
 
 double LoopClosure::OdometryWeight(int weakest_inliers) const {
-  if (weakest_inliers >= options_.pose_graph_full_weight_inliers) return 1.0;
-  const double share = static_cast<double>(std::max(weakest_inliers, 0)) /
-                       static_cast<double>(options_.pose_graph_full_weight_inliers);
-  return std::max(share * share, options_.pose_graph_min_weight);
+  return OdometryEdgeWeight(weakest_inliers, options_.pose_graph_full_weight_inliers,
+                            options_.pose_graph_min_weight);
 }
 
 void LoopClosure::Solve(LoopCorrection* correction) const {

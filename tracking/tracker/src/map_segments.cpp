@@ -65,13 +65,14 @@ int MapSegments::Root(int segment) const {
 
 std::optional<SegmentCorrection> MapSegments::AddKeyframe(
     int keyframe_id, double time, const Eigen::Isometry3d& world_from_camera,
-    std::vector<SessionFeature> features) {
+    std::vector<SessionFeature> features, int weakest_inliers) {
   const int segment = SegmentOf(keyframe_id);
   if (segment < 0 || places_.count(keyframe_id) > 0) return std::nullopt;
   const LinkKeyframe keyframe(std::move(features));
   std::vector<unsigned char> bytes;
   AppendSessionFeatures(keyframe.features(), &bytes);
-  places_.emplace(keyframe_id, Place{segment, world_from_camera, parked_->Append(bytes)});
+  places_.emplace(keyframe_id,
+                  Place{segment, world_from_camera, parked_->Append(bytes), weakest_inliers});
   ++segments_[static_cast<size_t>(segment)].summary.keyframes;
   index_.Add(keyframe_id, keyframe.descriptors());
   const int root = Root(segment);
@@ -158,7 +159,9 @@ PoseGraphProblem MapSegments::ChainGraph(
     const auto last = last_of_segment.find(place.segment);
     if (last != last_of_segment.end()) {
       problem.edges.push_back(EdgeBetween(
-          last->second, node, problem.world_from_node[static_cast<size_t>(last->second)], *pose));
+          last->second, node, problem.world_from_node[static_cast<size_t>(last->second)], *pose,
+          OdometryEdgeWeight(place.weakest_inliers, options_.full_weight_inliers,
+                             options_.min_weight)));
     }
     last_of_segment[place.segment] = node;
   }

@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace stillmap {
@@ -43,6 +44,13 @@ struct RelativePoseCost {
 PoseGraphEdge EdgeBetween(int from, int to, const Eigen::Isometry3d& world_from_from,
                           const Eigen::Isometry3d& world_from_to, double weight) {
   return {from, to, world_from_from.inverse() * world_from_to, weight};
+}
+
+double OdometryEdgeWeight(int weakest_inliers, int full_weight_inliers, double min_weight) {
+  if (weakest_inliers >= full_weight_inliers) return 1.0;
+  const double share =
+      static_cast<double>(std::max(weakest_inliers, 0)) / static_cast<double>(full_weight_inliers);
+  return std::max(share * share, min_weight);
 }
 
 PoseGraphResult SolvePoseGraph(const PoseGraphProblem& problem, const PoseGraphOptions& options) {

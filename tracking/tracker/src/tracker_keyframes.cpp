@@ -278,6 +278,7 @@ void Tracker::Impl::UpdateFinal(bool all) {
         if (id >= 0) done.landmarks.push_back(id);
       }
       done.features = keyframe.features;
+      done.weakest_inliers = keyframe.weakest_inliers;
       final_queue.push_back(std::move(done));
     }
     ++next_final;

@@ -37,6 +37,10 @@ struct MapSegmentOptions {
   PlaceLinkOptions links;       // verification and agreement (merge.*)
   PoseGraphOptions pose_graph;  // tracking.pose_graph_*
   double link_weight = 1.0;     // a link's edge against a segment's own (merge.link_weight)
+  // A segment's own edge between two places is as sure as the weakest frame tracked between
+  // them (OdometryEdgeWeight; tracking.pose_graph_full_weight_inliers and _min_weight).
+  int full_weight_inliers = 120;
+  double min_weight = 0.001;
   // Once joined, a link between two segments of a group is a loop: taken when it asks for no more
   // than this correction (drift, not a look-alike place), and every settle_after_loops of them
   // the group's pose graph is solved again with all its links.
@@ -93,11 +97,13 @@ class MapSegments {
   // A tracked frame of the current segment.
   void AddFrame(double time);
 
-  // A final keyframe (not culled) with its pose and features: a place of its segment. Returns
-  // a correction when its link joins two groups.
+  // A final keyframe (not culled) with its pose and features: a place of its segment;
+  // `weakest_inliers` (FinalKeyframe's) weighs the step from the segment's place before it.
+  // Returns a correction when its link joins two groups.
   std::optional<SegmentCorrection> AddKeyframe(int keyframe_id, double time,
                                                const Eigen::Isometry3d& world_from_camera,
-                                               std::vector<SessionFeature> features);
+                                               std::vector<SessionFeature> features,
+                                               int weakest_inliers);
   // Keyframe poses moved (the tracker's bundle adjustment or loops): the places follow.
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
@@ -119,6 +125,7 @@ class MapSegments {
     // Its features (AppendSessionFeatures) in parked_: read back only to verify a link, so that
     // the places of a long recording are not all in memory.
     SpillFile::Block features;
+    int weakest_inliers = 0;  // of the frames since the segment's place before
   };
   struct Link {
     int keyframe_a = 0, keyframe_b = 0;  // a: the earlier place, b: the keyframe that asked

@@ -54,4 +54,9 @@ PoseGraphResult SolvePoseGraph(const PoseGraphProblem& problem, const PoseGraphO
 PoseGraphEdge EdgeBetween(int from, int to, const Eigen::Isometry3d& world_from_from,
                           const Eigen::Isometry3d& world_from_to, double weight = 1.0);
 
+// The weight of an odometry edge whose frames had at fewest `weakest_inliers` inliers (0: one
+// was lost or posed by the motion model): 1 from `full_weight_inliers` on, (weakest / that)^2
+// below, never less than `min_weight`.
+double OdometryEdgeWeight(int weakest_inliers, int full_weight_inliers, double min_weight);
+
 }  // namespace stillmap

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <climits>
 #include <map>
 #include <memory>
 #include <opencv2/core.hpp>
@@ -77,6 +78,9 @@ struct FinalKeyframe {
   bool culled = false;
   // Its ORB features (not for culled keyframes): what place recognition across sessions matches.
   FrameFeatures features;
+  // The fewest inliers of a frame tracked since the keyframe before it, culled ones included
+  // (0: one was lost or posed by the motion model): how sure the step to it is.
+  int weakest_inliers = INT_MAX;
 };
 
 // A loop the tracker corrected: the keyframe that closed it, the earlier place, the correction.
