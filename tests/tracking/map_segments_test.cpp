@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <climits>
 #include <opencv2/imgproc.hpp>
 
 #include "stillmap/io/sequence.h"
@@ -46,10 +47,6 @@ std::vector<RenderedKeyframe> Keyframes(const std::string& dir, const std::strin
   return out;
 }
 
-double Degrees(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd((a.inverse() * b).linear()).angle() * 180.0 / M_PI;
-}
-
 class MapSegmentsTest : public ::testing::Test {
  protected:
   testing::TempDir dir_;
@@ -82,7 +79,7 @@ TEST_F(MapSegmentsTest, AgreeingLinksJoinASegmentWhereItBelongs) {
   for (const auto& [id, world_from_camera] : correction->world_from_keyframe) {
     const Eigen::Isometry3d& truth = keyframes[static_cast<size_t>(id)].world_from_camera;
     EXPECT_LT((world_from_camera.translation() - truth.translation()).norm(), 0.02) << id;
-    EXPECT_LT(Degrees(world_from_camera, truth), 1.0) << id;
+    EXPECT_LT(RotationAngleDeg(world_from_camera.inverse() * truth), 1.0) << id;
   }
   const std::vector<SegmentSummary> summaries = segments.Summaries();
   ASSERT_EQ(summaries.size(), 2u);

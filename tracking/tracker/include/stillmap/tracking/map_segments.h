@@ -14,6 +14,7 @@
 #pragma once
 
 #include <Eigen/Geometry>
+#include <climits>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -125,7 +126,7 @@ class MapSegments {
     // Its features (AppendSessionFeatures) in parked_: read back only to verify a link, so that
     // the places of a long recording are not all in memory.
     SpillFile::Block features;
-    int weakest_inliers = 0;  // of the frames since the segment's place before
+    int weakest_inliers = INT_MAX;  // of the frames since the segment's place before
   };
   struct Link {
     int keyframe_a = 0, keyframe_b = 0;  // a: the earlier place, b: the keyframe that asked
