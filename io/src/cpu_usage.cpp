@@ -1,6 +1,7 @@
 #include "stillmap/io/cpu_usage.h"
 
 #include <dlfcn.h>
+#include <malloc.h>
 #include <sys/resource.h>
 
 #include <ctime>
@@ -25,6 +26,17 @@ double PeakMemoryMib() {
 const char* MemoryAllocator() {
   // The proxy library exports this name; nothing else does.
   return dlsym(RTLD_DEFAULT, "__TBB_malloc_proxy") != nullptr ? "tbbmalloc" : "glibc";
+}
+
+void ReleaseFreedMemory() {
+  using Command = int (*)(int, void*);
+  // Looked up rather than linked: the libraries and tests run on glibc's malloc.
+  if (void* symbol = dlsym(RTLD_DEFAULT, "scalable_allocation_command")) {
+    constexpr int kCleanAllBuffers = 0;  // TBBMALLOC_CLEAN_ALL_BUFFERS (tbb/scalable_allocator.h)
+    reinterpret_cast<Command>(symbol)(kCleanAllBuffers, nullptr);
+  } else {
+    malloc_trim(0);
+  }
 }
 
 double ProcessCpuSeconds() {

@@ -301,6 +301,7 @@ BuildResult RunBuild(const BuildRequest& request) {
   TakeLoopFigures(std::move(loop), &result);
   const double finish_cpu_start = ThreadCpuMs();
   result.timings.frame_loop_cpu_ms = finish_cpu_start - loop_cpu_start;
+  ReleaseFreedMemory();  // the tracker's keyframes, landmarks and place index
   memory.Phase("finishing: the last fusion");
   FinishedMap map = mapper.Finish();
   result.timings.processing_ms = SecondsSince(start) * 1000.0;

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <future>
 
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/option_names.h"
 #include "stillmap/io/timing.h"
 
@@ -74,6 +75,7 @@ FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
   out.cloud = finished.cloud.Points();
   finished.ReleaseCloud();
+  ReleaseFreedMemory();
   if (out.cloud.size() < static_cast<size_t>(options.mapping.min_map_points)) {
     throw std::runtime_error(
         EmptyMapMessage(out.cloud.size(), out.figures, options.mapping, masking));

@@ -15,6 +15,11 @@ double PeakMemoryMib();
 // The process's malloc: "tbbmalloc" when TBB's proxy replaced it (the stillmap binary, see
 // CMakeLists.txt), else "glibc".
 const char* MemoryAllocator();
+// Asks the allocator to hand the memory it keeps for reuse back to the system, after a large
+// structure is freed (the voxel records, the keyframe views), so that later phases do not add
+// theirs on top: tbbmalloc caches freed large blocks (TBBMALLOC_CLEAN_ALL_BUFFERS empties its
+// caches), glibc keeps freed pages in its arenas (malloc_trim).
+void ReleaseFreedMemory();
 
 // Each core's busy and total time since boot, from /proc/stat (empty where it cannot be read).
 struct CoreTimes {
