@@ -3,8 +3,11 @@
 #include <assimp/scene.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <assimp/Exporter.hpp>
 #include <cmath>
+#include <cstdint>
+#include <memory>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -27,6 +30,55 @@ aiMatrix4x4 GltfFromMap() {
                      0, 0, 1, 0,   //
                      0, -1, 0, 0,  //
                      0, 0, 0, 1);
+}
+
+// The faces from `begin` on that fit in a part of at most `max_vertices` vertices, as an aiMesh
+// whose vertices are numbered in the order the faces first use them (a mesh in one part keeps its
+// numbering: VoxelSurfaceMesh makes vertices in that order); `*end` is where the next part
+// begins. `local` (-1 for every vertex of the mesh) is left as found. Arrays are allocated with
+// new[] (the mesh with new) because aiMesh's destructor frees them so.
+aiMesh* NextPart(const ColoredMesh& mesh, size_t begin, size_t max_vertices, bool linear,
+                 std::vector<int>* local, size_t* end) {
+  std::vector<int> used;  // the part's vertices, by their number in `mesh`
+  size_t f = begin;
+  for (; f < mesh.faces.size(); ++f) {
+    size_t fresh = 0;
+    for (const int v : mesh.faces[f]) fresh += (*local)[static_cast<size_t>(v)] < 0;
+    if (f > begin && used.size() + fresh > max_vertices) break;
+    for (const int v : mesh.faces[f]) {
+      int& number = (*local)[static_cast<size_t>(v)];
+      if (number >= 0) continue;
+      number = static_cast<int>(used.size());
+      used.push_back(v);
+    }
+  }
+  *end = f;
+  auto* out = new aiMesh();
+  out->mMaterialIndex = 0;
+  out->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  out->mNumVertices = static_cast<unsigned>(used.size());
+  out->mVertices = new aiVector3D[used.size()];
+  out->mColors[0] = new aiColor4D[used.size()];
+  // glTF's COLOR_0 is linear (glTF 2.0, "Meshes"); OBJ and PLY viewers show colours as stored.
+  for (size_t i = 0; i < used.size(); ++i) {
+    const auto v = static_cast<size_t>(used[i]);
+    const Eigen::Vector3f& p = mesh.vertices[v];
+    const Eigen::Vector3f c = linear ? LinearFromSrgb(mesh.colors[v]) : mesh.colors[v];
+    out->mVertices[i] = aiVector3D(p.x(), p.y(), p.z());
+    out->mColors[0][i] = aiColor4D(c.x(), c.y(), c.z(), 1.0f);
+  }
+  out->mNumFaces = static_cast<unsigned>(f - begin);
+  out->mFaces = new aiFace[out->mNumFaces];
+  for (size_t k = begin; k < f; ++k) {
+    aiFace& face = out->mFaces[k - begin];
+    face.mNumIndices = 3;
+    face.mIndices = new unsigned[3];
+    for (int c = 0; c < 3; ++c) {
+      face.mIndices[c] = static_cast<unsigned>((*local)[static_cast<size_t>(mesh.faces[k][c])]);
+    }
+  }
+  for (const int v : used) (*local)[static_cast<size_t>(v)] = -1;
+  return out;
 }
 
 }  // namespace
@@ -124,7 +176,8 @@ Eigen::Vector3f LinearFromSrgb(const Eigen::Vector3f& srgb) {
   return {channel(srgb.x()), channel(srgb.y()), channel(srgb.z())};
 }
 
-void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format) {
+void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format,
+                      size_t glb_part_vertices) {
   // Refused, not exported: with no vertices, assimp's scene copy (SceneCombiner::Copy, which the
   // exporter always makes) copies only the colour sets it thinks present (HasVertexColors() needs
   // mNumVertices > 0), so the copy would share this scene's colour array and both scenes would
@@ -133,41 +186,29 @@ void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const st
   if (mesh.faces.empty() || mesh.vertices.empty() || mesh.colors.size() != mesh.vertices.size()) {
     throw std::invalid_argument(path + ": cannot write a mesh without faces");
   }
-  // One mesh under the root node. Every array below is allocated with new[] (objects with new)
+  // The parts under the root node. Every array below is allocated with new[] (objects with new)
   // because the scene's destructors free them with delete[] (delete): the scene owns them, and
   // none is empty (see above).
+  const bool linear = format == "glb";
+  std::vector<std::unique_ptr<aiMesh>> parts;
+  std::vector<int> local(mesh.vertices.size(), -1);
+  const size_t part_vertices = format == "glb" ? std::max<size_t>(3, glb_part_vertices) : SIZE_MAX;
+  for (size_t begin = 0; begin < mesh.faces.size();) {
+    parts.emplace_back(NextPart(mesh, begin, part_vertices, linear, &local, &begin));
+  }
   aiScene scene;
   scene.mRootNode = new aiNode();
   scene.mMaterials = new aiMaterial*[1];
   scene.mMaterials[0] = new aiMaterial();
   scene.mNumMaterials = 1;
-  scene.mMeshes = new aiMesh*[1];
-  scene.mNumMeshes = 1;
-  auto* out = new aiMesh();
-  scene.mMeshes[0] = out;
-  out->mMaterialIndex = 0;
-  out->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
-  out->mNumVertices = static_cast<unsigned>(mesh.vertices.size());
-  out->mVertices = new aiVector3D[out->mNumVertices];
-  out->mColors[0] = new aiColor4D[out->mNumVertices];
-  // glTF's COLOR_0 is linear (glTF 2.0, "Meshes"); OBJ and PLY viewers show colours as stored.
-  const bool linear = format == "glb";
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Eigen::Vector3f& p = mesh.vertices[i];
-    const Eigen::Vector3f c = linear ? LinearFromSrgb(mesh.colors[i]) : mesh.colors[i];
-    out->mVertices[i] = aiVector3D(p.x(), p.y(), p.z());
-    out->mColors[0][i] = aiColor4D(c.x(), c.y(), c.z(), 1.0f);
+  scene.mNumMeshes = static_cast<unsigned>(parts.size());
+  scene.mMeshes = new aiMesh*[parts.size()];
+  scene.mRootNode->mNumMeshes = scene.mNumMeshes;
+  scene.mRootNode->mMeshes = new unsigned[parts.size()];
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    scene.mMeshes[m] = parts[m].release();
+    scene.mRootNode->mMeshes[m] = m;
   }
-  out->mNumFaces = static_cast<unsigned>(mesh.faces.size());
-  out->mFaces = new aiFace[out->mNumFaces];
-  for (size_t f = 0; f < mesh.faces.size(); ++f) {
-    aiFace& face = out->mFaces[f];
-    face.mNumIndices = 3;
-    face.mIndices = new unsigned[3];
-    for (int k = 0; k < 3; ++k) face.mIndices[k] = static_cast<unsigned>(mesh.faces[f][k]);
-  }
-  scene.mRootNode->mMeshes = new unsigned[1]{0};
-  scene.mRootNode->mNumMeshes = 1;
   // glTF is y up (glTF 2.0, "Coordinate System and Units"): the root node turns the map frame's
   // z up into it, so glTF viewers and Blender's importer show the room upright; the vertices
   // keep the map frame's coordinates. OBJ and PLY have no convention: they hold the map frame.

@@ -6,7 +6,10 @@
 #include <assimp/scene.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <assimp/Importer.hpp>
+#include <cmath>
 #include <filesystem>
 
 #include "stillmap/io/error.h"
@@ -144,6 +147,63 @@ TEST(MapMeshTest, GltfStandsUpOnItsYAxis) {
     EXPECT_TRUE((box.min() - min).norm() < 1e-5f) << format << ": " << box.min().transpose();
     EXPECT_TRUE((box.max() - max).norm() < 1e-5f) << format << ": " << box.max().transpose();
   }
+}
+
+// Each face read back from a glb as its three corners (position and colour, rounded to 1e-4),
+// rotated to start at the smallest so that the winding stays; sorted.
+std::vector<std::array<std::array<long, 6>, 3>> GlbFaces(const std::string& path, unsigned* meshes,
+                                                         unsigned* largest_vertices) {
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(path, 0);
+  std::vector<std::array<std::array<long, 6>, 3>> faces;
+  if (scene == nullptr) return faces;
+  *meshes = scene->mNumMeshes;
+  *largest_vertices = 0;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* read = scene->mMeshes[m];
+    *largest_vertices = std::max(*largest_vertices, read->mNumVertices);
+    for (unsigned f = 0; f < read->mNumFaces; ++f) {
+      std::array<std::array<long, 6>, 3> face{};
+      for (unsigned c = 0; c < 3; ++c) {
+        const unsigned v = read->mFaces[f].mIndices[c];
+        const aiVector3D& p = read->mVertices[v];
+        const aiColor4D& k = read->mColors[0][v];
+        for (int d = 0; d < 6; ++d) {
+          const float value = d < 3 ? p[static_cast<unsigned>(d)] : (&k.r)[d - 3];
+          face[c][static_cast<size_t>(d)] = std::lround(value * 1e4f);
+        }
+      }
+      std::rotate(face.begin(), std::min_element(face.begin(), face.end()), face.end());
+      faces.push_back(face);
+    }
+  }
+  std::sort(faces.begin(), faces.end());
+  return faces;
+}
+
+// A glb written in parts of at most 40 vertices holds the same triangles, with the same corner
+// colours and winding, as the one written whole, and no part has more vertices.
+TEST(MapMeshTest, AGlbInPartsHoldsTheSameTriangles) {
+  MapMeshOptions options;
+  options.voxel = 0.1;
+  ColoredMesh mesh = VoxelSurfaceMesh(Block(5, 4, 3, 0.1f), options);
+  for (size_t i = 0; i < mesh.colors.size(); ++i) {  // a colour of its own for every vertex
+    mesh.colors[i] = Eigen::Vector3f(i % 7, i % 11, i % 13)
+                         .cwiseProduct(Eigen::Vector3f(1.0f / 7.0f, 1.0f / 11.0f, 1.0f / 13.0f));
+  }
+  testing::TempDir dir;
+  const std::string whole = dir / "whole.glb", parts = dir / "parts.glb";
+  WriteColoredMesh(whole, mesh, "glb");
+  WriteColoredMesh(parts, mesh, "glb", 40);
+  unsigned whole_meshes = 0, parts_meshes = 0, whole_largest = 0, parts_largest = 0;
+  const auto a = GlbFaces(whole, &whole_meshes, &whole_largest);
+  const auto b = GlbFaces(parts, &parts_meshes, &parts_largest);
+  EXPECT_EQ(whole_meshes, 1u);
+  EXPECT_EQ(whole_largest, mesh.vertices.size());
+  EXPECT_GE(parts_meshes, mesh.vertices.size() / 40);
+  EXPECT_LE(parts_largest, 40u);
+  ASSERT_EQ(a.size(), mesh.faces.size());
+  EXPECT_TRUE(a == b);
 }
 
 // assimp cannot export a mesh without faces (its exporter frees the scene's copy twice): the

@@ -109,6 +109,7 @@ TEST(VoxelCloudTest, ACloudClearedAndFilledAgainEqualsANewOneAndKeepsItsTable) {
   std::uniform_real_distribution<float> coordinate(-2.0f, 2.0f);
   auto random_points = [&](int n) {
     std::vector<Eigen::Vector3f> positions;
+    positions.reserve(static_cast<size_t>(n));
     for (int i = 0; i < n; ++i) positions.emplace_back(coordinate(rng), coordinate(rng), 0.0f);
     return MakePoints(positions);
   };

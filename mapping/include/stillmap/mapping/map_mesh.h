@@ -53,7 +53,12 @@ Eigen::Vector3f LinearFromSrgb(const Eigen::Vector3f& srgb);
 // z up into glTF's y up, the vertices stay as given; PLY is ASCII: Debian's
 // assimp 5.2 crashed reading back the binary PLY it wrote, in map_mesh_test). Throws
 // std::invalid_argument for a mesh without faces, std::runtime_error naming the file and
-// assimp's message when it cannot be written.
-void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format);
+// assimp's message when it cannot be written. A glb is written in parts (primitives of one glTF
+// mesh) of at most `glb_part_vertices` vertices each: assimp's glb exporter joins identical
+// vertices of each part with 272 bytes a vertex (the floor's 1.4 M-vertex mesh in one part took
+// about 800 MiB to export); a mesh that fits is one part, as OBJ and PLY always are.
+constexpr size_t kGlbPartVertices = size_t{1} << 18;
+void WriteColoredMesh(const std::string& path, const ColoredMesh& mesh, const std::string& format,
+                      size_t glb_part_vertices = kGlbPartVertices);
 
 }  // namespace stillmap
