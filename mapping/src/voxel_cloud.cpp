@@ -34,6 +34,11 @@ inline std::uint32_t TagOf(std::uint64_t mixed) {
   return static_cast<std::uint32_t>(mixed >> 40) & 31;
 }
 
+// An index entry: the tag, and the record's number + 1 (0 is an empty slot).
+inline std::uint32_t IndexEntry(std::uint64_t mixed, size_t id, int id_bits) {
+  return TagOf(mixed) << id_bits | static_cast<std::uint32_t>(id + 1);
+}
+
 inline std::int64_t AxisIndex(std::uint64_t key, int axis) {
   return static_cast<std::int64_t>((key >> (kAxisBits * (2 - axis))) & kAxisMask) - kAxisOffset;
 }
@@ -77,8 +82,8 @@ VoxelCloud::Record* VoxelCloud::Add(Shard* shard, std::uint64_t key, std::uint64
                                     size_t free_slot) {
   const size_t id = shard->size;
   if (id + 1 > kIdMask) {
-    throw std::length_error(fmt::format(
-        "the voxel cloud outgrew {} voxels a shard; raise mapping.voxel.leaf_size", kIdMask - 1));
+    throw std::length_error(fmt::format("the voxel cloud outgrew {} voxels a shard; raise {}",
+                                        kIdMask - 1, OptionKey(&VoxelCloudOptions::leaf_size)));
   }
   if (id >> kPageBits == shard->pages.size()) {
     shard->pages.push_back(std::make_unique<Record[]>(kPageRecords));
@@ -86,7 +91,7 @@ VoxelCloud::Record* VoxelCloud::Add(Shard* shard, std::uint64_t key, std::uint64
   Record& record = shard->At(id);
   record =
       Record{static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key), {}, {}, 0};
-  shard->index[free_slot] = TagOf(mixed) << kIdBits | static_cast<std::uint32_t>(id + 1);
+  shard->index[free_slot] = IndexEntry(mixed, id, kIdBits);
   ++shard->size;
   return &record;
 }
@@ -108,7 +113,7 @@ void VoxelCloud::Grow(Shard* shard) {
     const std::uint64_t mixed = Mix(shard->At(id).Key());
     size_t slot = mixed & mask;
     while (shard->index[slot] != 0) slot = (slot + 1) & mask;
-    shard->index[slot] = TagOf(mixed) << kIdBits | static_cast<std::uint32_t>(id + 1);
+    shard->index[slot] = IndexEntry(mixed, id, kIdBits);
   }
 }
 
