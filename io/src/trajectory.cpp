@@ -115,6 +115,12 @@ double RotationAngleDeg(const Eigen::Isometry3d& motion) {
   return Eigen::AngleAxisd(motion.linear()).angle() * 180.0 / M_PI;
 }
 
+double CameraDistance(const Eigen::Isometry3d& a_camera_from_world,
+                      const Eigen::Isometry3d& b_camera_from_world) {
+  return (a_camera_from_world.inverse().translation() - b_camera_from_world.inverse().translation())
+      .norm();
+}
+
 bool MovedOrTurned(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double distance_m,
                    double angle_deg) {
   const Eigen::Isometry3d motion = from.inverse() * to;

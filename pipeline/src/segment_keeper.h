@@ -31,6 +31,12 @@ class SegmentKeeper {
   // The keyframes that became final: places of their segments (a join moves the tracker's
   // keyframes), then judged and fused, or kept apart while their segment is not in the map.
   void Fuse(std::vector<FinalKeyframe> finals, Tracker& tracker, KeyframeFuser& fuser);
+  // After the last keyframe: the loops taken since the last settle settle their groups, and the
+  // tracker's keyframes follow.
+  void SettleLastLoops(Tracker& tracker) {
+    const std::map<int, Eigen::Isometry3d> moved = segments_.SettleLastLoops();
+    if (!moved.empty()) tracker.MoveKeyframes(moved);
+  }
   // The tracker's keyframes moved (its loops, its global bundle adjustment).
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
     segments_.Repose(world_from_keyframe);

@@ -80,6 +80,9 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   stages.memory.Phase("frame loop's end: the tracker's last loop corrections and adjustment");
   tracker.Finish();
   fuse_final();
+  // Loops between segments taken since their group last settled (a settle waits for several)
+  // settle it now, before the map is fused again at the final poses.
+  segments.SettleLastLoops(tracker);
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
   stages.memory.Phase("frame loop's end: fusing moved keyframes again");
   const size_t moved = fuser.Refuse(tracker.KeyframePoses());

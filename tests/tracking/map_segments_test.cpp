@@ -112,16 +112,28 @@ TEST_F(MapSegmentsTest, APlaceTheMapNeverSawIsNeverJoined) {
 
 // The room's second half as its own segment, tracked with one bad step: from keyframe `kink` on,
 // every pose 0.15 m off. Links to the first half join it and later ones close loops, after which
-// the group settles. Returns how far the first settle over the kink left each keyframe from the
-// kink on from its true pose [m] (empty when none came).
+// the group settles: every `settle_after_loops` loops, and over the last ones after the last
+// keyframe. Returns how far the first settle over the kink left each keyframe from the kink on
+// from its true pose [m] (empty when none came); *after_last says whether that settle came after
+// the last keyframe.
 std::vector<double> SettledAfterABadStep(const std::vector<RenderedKeyframe>& keyframes,
-                                         size_t kink, int weakest_at_kink) {
+                                         size_t kink, int weakest_at_kink,
+                                         int settle_after_loops = 3, bool* after_last = nullptr) {
   const size_t half = keyframes.size() / 2;
   Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
   step.translate(Eigen::Vector3d(0.15, 0.0, 0.0));
   MapSegmentOptions options;
-  options.settle_after_loops = 3;
+  options.settle_after_loops = settle_after_loops;
   MapSegments segments(options);
+  const auto errors_from_kink = [&](const std::map<int, Eigen::Isometry3d>& settled, size_t last) {
+    std::vector<double> errors;
+    for (size_t j = kink; j <= last; ++j) {
+      errors.push_back((settled.at(static_cast<int>(j)).translation() -
+                        keyframes[j].world_from_camera.translation())
+                           .norm());
+    }
+    return errors;
+  };
   for (size_t k = 0; k < keyframes.size(); ++k) {
     const int id = static_cast<int>(k);
     if (k == 0 || k == half) segments.Begin(id, keyframes[k].time);
@@ -130,18 +142,15 @@ std::vector<double> SettledAfterABadStep(const std::vector<RenderedKeyframe>& ke
     const auto correction =
         segments.AddKeyframe(id, keyframes[k].time, tracked, keyframes[k].features,
                              k == kink ? weakest_at_kink : INT_MAX);
-    if (!correction || correction->world_from_keyframe.count(static_cast<int>(kink)) == 0) {
-      continue;
+    if (correction && correction->world_from_keyframe.count(static_cast<int>(kink)) > 0) {
+      return errors_from_kink(correction->world_from_keyframe, k);
     }
-    std::vector<double> errors;
-    for (size_t j = kink; j <= k; ++j) {
-      const Eigen::Isometry3d& settled = correction->world_from_keyframe.at(static_cast<int>(j));
-      errors.push_back(
-          (settled.translation() - keyframes[j].world_from_camera.translation()).norm());
-    }
-    return errors;
   }
-  return {};
+  if (after_last != nullptr) *after_last = true;
+  const std::map<int, Eigen::Isometry3d> settled = segments.SettleLastLoops();
+  EXPECT_TRUE(segments.SettleLastLoops().empty()) << "settled the same loops twice";
+  if (settled.count(static_cast<int>(kink)) == 0) return {};
+  return errors_from_kink(settled, keyframes.size() - 1);
 }
 
 TEST_F(MapSegmentsTest, ASettlePutsTheCorrectionWhereTrackingWasWeak) {
@@ -156,6 +165,18 @@ TEST_F(MapSegmentsTest, ASettlePutsTheCorrectionWhereTrackingWasWeak) {
   const std::vector<double> sure = SettledAfterABadStep(keyframes, kink, INT_MAX);
   ASSERT_FALSE(sure.empty()) << "no settle over the kink";
   EXPECT_GT(sure.front(), 0.03);
+}
+
+TEST_F(MapSegmentsTest, TheLastLoopsSettleAfterTheLastKeyframe) {
+  // Fewer loops come than a settle waits for: without the settle after the last keyframe, the
+  // group would keep the bad step.
+  const std::vector<RenderedKeyframe> keyframes = Keyframes(dir_ / "static", "static", 150, 5);
+  const size_t kink = keyframes.size() * 3 / 4;
+  bool after_last = false;
+  const std::vector<double> errors = SettledAfterABadStep(keyframes, kink, 0, 1000, &after_last);
+  ASSERT_FALSE(errors.empty()) << "no settle over the kink";
+  EXPECT_TRUE(after_last) << "the join, not the last settle, moved the kink";
+  for (size_t j = 0; j < errors.size(); ++j) EXPECT_LT(errors[j], 0.01) << "keyframe " << kink + j;
 }
 
 }  // namespace

@@ -245,6 +245,22 @@ SegmentCorrection MapSegments::Settle(int root) {
   return correction;
 }
 
+std::map<int, Eigen::Isometry3d> MapSegments::SettleLastLoops() {
+  std::map<int, Eigen::Isometry3d> moved;
+  if (loops_since_settle_ == 0) return moved;
+  for (const Segment& segment : segments_) {
+    const int root = segment.summary.id;
+    if (Root(root) != root) continue;
+    const bool grouped = std::any_of(segments_.begin(), segments_.end(), [&](const Segment& other) {
+      return other.summary.id != root && Root(other.summary.id) == root;
+    });
+    if (!grouped) continue;
+    const SegmentCorrection correction = Settle(root);
+    moved.insert(correction.world_from_keyframe.begin(), correction.world_from_keyframe.end());
+  }
+  return moved;
+}
+
 std::vector<SegmentSummary> MapSegments::Summaries() const {
   std::vector<SegmentSummary> out;
   for (const Segment& segment : segments_) {

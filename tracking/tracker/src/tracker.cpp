@@ -291,9 +291,7 @@ double StaticDepthShare(const cv::Mat& depth_m, const cv::Mat& ignore_mask) {
 bool Tracker::Impl::NearLastGoodPose(const Eigen::Isometry3d& camera_from_world,
                                      double time) const {
   if (!have_good) return true;
-  const double distance = (camera_from_world.inverse().translation() -
-                           last_good_camera_from_world.inverse().translation())
-                              .norm();
+  const double distance = CameraDistance(camera_from_world, last_good_camera_from_world);
   const double elapsed_s = std::max(0.0, time - last_good_time);
   return distance <= options.relocalization.relocalization_max_distance_m +
                          options.relocalization.relocalization_max_speed_mps * elapsed_s;

@@ -63,9 +63,7 @@ bool Tracker::Impl::PlausibleDrift(int candidate, int keyframe_id,
   for (auto it = keyframes.find(candidate); it != keyframes.end() && it->first <= keyframe_id;
        ++it) {
     if (previous != nullptr) {
-      path_m += (it->second.camera_from_world.inverse().translation() -
-                 previous->camera_from_world.inverse().translation())
-                    .norm();
+      path_m += CameraDistance(it->second.camera_from_world, previous->camera_from_world);
     }
     previous = &it->second;
   }

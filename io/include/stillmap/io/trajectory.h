@@ -19,6 +19,9 @@ Eigen::Isometry3d InterpolatePose(const Eigen::Isometry3d& a, const Eigen::Isome
 
 // The angle a motion turns by [deg].
 double RotationAngleDeg(const Eigen::Isometry3d& motion);
+// The distance between the centres of two cameras given as camera-from-world poses [m].
+double CameraDistance(const Eigen::Isometry3d& a_camera_from_world,
+                      const Eigen::Isometry3d& b_camera_from_world);
 // True when the camera at `to` moved at least `distance_m` or turned at least `angle_deg` from
 // `from` (a keyframe rule by motion alone).
 bool MovedOrTurned(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to, double distance_m,

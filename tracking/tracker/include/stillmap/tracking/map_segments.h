@@ -105,6 +105,10 @@ class MapSegments {
                                                const Eigen::Isometry3d& world_from_camera,
                                                std::vector<SessionFeature> features,
                                                int weakest_inliers);
+  // After the last keyframe: when loops were taken since the last settle, every group of
+  // several segments is settled again (a settle otherwise waits for settle_after_loops of them).
+  // Returns the places that moved (empty: none).
+  std::map<int, Eigen::Isometry3d> SettleLastLoops();
   // Keyframe poses moved (the tracker's bundle adjustment or loops): the places follow.
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
