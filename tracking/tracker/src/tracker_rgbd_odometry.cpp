@@ -66,8 +66,7 @@ void Tracker::Impl::CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, cons
   const std::optional<Eigen::Isometry3d> dense = DensePose(predicted, time);
   if (!dense) return;
   const Eigen::Isometry3d difference = *dense * estimate->camera_from_world.inverse();
-  const double apart_m =
-      (dense->inverse().translation() - estimate->camera_from_world.inverse().translation()).norm();
+  const double apart_m = CameraDistance(*dense, estimate->camera_from_world);
   const double turn_deg = RotationAngleDeg(difference);
   if (apart_m <= odometry.check_max_difference_m && turn_deg <= odometry.check_max_difference_deg) {
     return;
