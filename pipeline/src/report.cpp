@@ -325,6 +325,7 @@ json ReportJson(const BuildResult& result, const BuildConfig& config) {
     const SegmentLinkFigures& links = result.segment_links;
     report["segment_links"] = {{"candidates", links.candidates},
                                {"verified", links.verified},
+                               {"too_far", links.too_far},
                                {"loops", links.loops},
                                {"settles", links.settles}};
   }

@@ -52,27 +52,35 @@ class MapSegmentsTest : public ::testing::Test {
   testing::TempDir dir_;
 };
 
-TEST_F(MapSegmentsTest, AgreeingLinksJoinASegmentWhereItBelongs) {
-  // The hand-held sweep of an empty room: the second half sees what the first saw.
-  const std::vector<RenderedKeyframe> keyframes = Keyframes(dir_ / "static", "static", 150, 5);
+// The second half of the keyframes as a segment of its own, given 1.5 m and 40 degrees off the
+// first's frame; returns the join's correction (nothing: never joined).
+std::optional<SegmentCorrection> JoinSecondHalf(const std::vector<RenderedKeyframe>& keyframes,
+                                                MapSegments* segments) {
   const size_t half = keyframes.size() / 2;
-  // The second segment in a frame of its own: 1.5 m and 40 degrees off the first's.
   Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
   offset.translate(Eigen::Vector3d(1.5, -0.4, 0.2));
   offset.rotate(Eigen::AngleAxisd(40.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()));
-  MapSegments segments({});
   std::optional<SegmentCorrection> correction;
   for (size_t k = 0; k < keyframes.size(); ++k) {
     const int id = static_cast<int>(k);
-    if (k == 0 || k == half) segments.Begin(id, keyframes[k].time);
+    if (k == 0 || k == half) segments->Begin(id, keyframes[k].time);
     const Eigen::Isometry3d pose =
         k < half ? keyframes[k].world_from_camera : offset * keyframes[k].world_from_camera;
-    auto joined = segments.AddKeyframe(id, keyframes[k].time, pose, keyframes[k].features, INT_MAX);
+    auto joined =
+        segments->AddKeyframe(id, keyframes[k].time, pose, keyframes[k].features, INT_MAX);
     if (joined) {
       EXPECT_FALSE(correction) << "joined twice";
       correction = joined;
     }
   }
+  return correction;
+}
+
+TEST_F(MapSegmentsTest, AgreeingLinksJoinASegmentWhereItBelongs) {
+  // The hand-held sweep of an empty room: the second half sees what the first saw.
+  const std::vector<RenderedKeyframe> keyframes = Keyframes(dir_ / "static", "static", 150, 5);
+  MapSegments segments({});
+  const std::optional<SegmentCorrection> correction = JoinSecondHalf(keyframes, &segments);
   ASSERT_TRUE(correction) << segments.figures().verified << " links verified";
   EXPECT_EQ(correction->segments, std::vector<int>{1});
   // Every keyframe of the second segment placed back at its true pose.
@@ -87,6 +95,23 @@ TEST_F(MapSegmentsTest, AgreeingLinksJoinASegmentWhereItBelongs) {
   EXPECT_EQ(summaries[1].join, SegmentJoin::kLinked);
   EXPECT_GE(summaries[1].links, 3);
   EXPECT_TRUE(segments.InMap(1));
+}
+
+TEST_F(MapSegmentsTest, LinksBetweenCamerasFarApartAreNotUsed) {
+  // The same sweep; its links span 0.1-1 m between the two cameras (by the truth). With a limit
+  // below the shortest, every verified link is left out and the segment is never joined.
+  const std::vector<RenderedKeyframe> keyframes = Keyframes(dir_ / "static", "static", 150, 5);
+  MapSegmentOptions options;
+  options.link_max_distance_m = 0.0;
+  MapSegments segments(options);
+  EXPECT_FALSE(JoinSecondHalf(keyframes, &segments));
+  EXPECT_EQ(segments.figures().verified, 0u);
+  EXPECT_GT(segments.figures().too_far, 0u);
+  EXPECT_EQ(segments.Summaries()[1].join, SegmentJoin::kNotJoined);
+  // The default limit keeps them (the test above: joined where it belongs).
+  MapSegments kept({});
+  EXPECT_TRUE(JoinSecondHalf(keyframes, &kept));
+  EXPECT_EQ(kept.figures().too_far, 0u);
 }
 
 TEST_F(MapSegmentsTest, APlaceTheMapNeverSawIsNeverJoined) {

@@ -87,6 +87,10 @@ std::optional<SegmentCorrection> MapSegments::AddKeyframe(
     const LinkKeyframe earlier_keyframe(ParseSessionFeatures(parked_->Read(earlier.features)));
     const auto link = VerifyLink(earlier_keyframe, keyframe, options_.fx, options_.links);
     if (!link) continue;
+    if (link->c_from_q.translation().norm() > options_.link_max_distance_m) {
+      ++too_far_;
+      continue;
+    }
     links_.push_back({candidate.keyframe_id, keyframe_id, link->c_from_q});
     if (Root(earlier.segment) == root) return TakeLoop(links_.back(), root);
     return TryJoin(Root(earlier.segment), root, time);
