@@ -84,6 +84,29 @@ TEST_F(PlaceIndexTest, SkipsAndForgetsKeyframes) {
   EXPECT_EQ(candidates[0].keyframe_id, 25);
 }
 
+TEST_F(PlaceIndexTest, ACompactedIndexIsTheIndexOfWhatIsLeft) {
+  // 16 of 30 keyframes removed: the 16th removal passes half the entries and compacts. The index
+  // then holds what a new one given only keyframes 16-29 holds, to the byte.
+  for (int k = 0; k < 16; ++k) index_.Remove(k);
+  PlaceIndex fresh(PlaceIndexOptions{}, 1);
+  for (size_t k = 16; k < keyframes_.size(); ++k) fresh.Add(static_cast<int>(k), keyframes_[k]);
+  EXPECT_EQ(index_.entries(), fresh.entries());
+  EXPECT_EQ(index_.MemoryBytes(), fresh.MemoryBytes());
+  // A removal after the compaction takes that keyframe's entries and no other's.
+  index_.Remove(20);
+  EXPECT_EQ(index_.entries(), 13U * 500U);
+  auto candidates =
+      index_.Query(Flipped(keyframes_[20], 10, &generator_), 3, [](int) { return false; });
+  for (const PlaceCandidate& candidate : candidates) EXPECT_NE(candidate.keyframe_id, 20);
+  for (int k : {19, 21}) {
+    candidates = index_.Query(Flipped(keyframes_[static_cast<size_t>(k)], 10, &generator_), 1,
+                              [](int) { return false; });
+    ASSERT_FALSE(candidates.empty());
+    EXPECT_EQ(candidates[0].keyframe_id, k);
+    EXPECT_GT(candidates[0].votes, 100);
+  }
+}
+
 TEST_F(PlaceIndexTest, SameSeedSameAnswer) {
   PlaceIndex other(PlaceIndexOptions{}, 1);
   for (size_t k = 0; k < keyframes_.size(); ++k) other.Add(static_cast<int>(k), keyframes_[k]);

@@ -50,49 +50,61 @@ std::uint32_t PlaceIndex::Key(const Bits& bits, size_t table) const {
 
 void PlaceIndex::Add(int keyframe_id, const cv::Mat& descriptors) {
   if (indexed_.count(keyframe_id) > 0) return;
-  indexed_[keyframe_id] = true;
+  Entries& entries = indexed_[keyframe_id];
+  entries.first = static_cast<std::uint32_t>(descriptors_.size());
+  entries.count = static_cast<std::uint32_t>(descriptors.rows);
   ++keyframe_count_;
   for (int row = 0; row < descriptors.rows; ++row) {
     Bits bits;
     std::memcpy(bits.data(), descriptors.ptr<std::uint8_t>(row), sizeof(bits));
-    const auto index = static_cast<std::uint32_t>(descriptors_.size());
     descriptors_.push_back(bits);
     owner_.push_back(keyframe_id);
-    for (size_t t = 0; t < buckets_.size(); ++t) buckets_[t][Key(bits, t)].push_back(index);
+    AddToTables(static_cast<std::uint32_t>(descriptors_.size() - 1));
+  }
+}
+
+void PlaceIndex::AddToTables(std::uint32_t index) {
+  for (size_t t = 0; t < buckets_.size(); ++t) {
+    const auto [bucket, added] = buckets_[t].try_emplace(Key(descriptors_[index], t));
+    if (added) table_bytes_ += sizeof(std::uint32_t) + sizeof(std::vector<std::uint32_t>);
+    const size_t capacity = bucket->second.capacity();
+    bucket->second.push_back(index);
+    table_bytes_ += (bucket->second.capacity() - capacity) * sizeof(std::uint32_t);
   }
 }
 
 void PlaceIndex::Remove(int keyframe_id) {
   const auto it = indexed_.find(keyframe_id);
-  if (it == indexed_.end() || !it->second) return;
-  it->second = false;
+  if (it == indexed_.end() || !it->second.live) return;
+  it->second.live = false;
   --keyframe_count_;
-  for (int& owner : owner_) {
-    if (owner == keyframe_id) {
-      owner = -1;
-      ++removed_entries_;
-    }
+  for (std::uint32_t i = it->second.first; i < it->second.first + it->second.count; ++i) {
+    owner_[i] = -1;
   }
+  removed_entries_ += it->second.count;
+  it->second.count = 0;
   if (removed_entries_ * 2 > owner_.size()) Compact();
 }
 
 void PlaceIndex::Compact() {
   std::vector<Bits> descriptors;
   std::vector<int> owner;
+  std::vector<std::uint32_t> moved_to(owner_.size(), 0);  // old index -> new index
   for (size_t i = 0; i < owner_.size(); ++i) {
+    moved_to[i] = static_cast<std::uint32_t>(descriptors.size());
     if (owner_[i] < 0) continue;
     descriptors.push_back(descriptors_[i]);
     owner.push_back(owner_[i]);
+  }
+  for (auto& [id, entries] : indexed_) {
+    if (entries.count > 0) entries.first = moved_to[entries.first];
   }
   descriptors_.swap(descriptors);
   owner_.swap(owner);
   removed_entries_ = 0;
   for (auto& table : buckets_) table.clear();
-  for (size_t i = 0; i < descriptors_.size(); ++i) {
-    for (size_t t = 0; t < buckets_.size(); ++t) {
-      buckets_[t][Key(descriptors_[i], t)].push_back(static_cast<std::uint32_t>(i));
-    }
-  }
+  table_bytes_ = 0;
+  for (size_t i = 0; i < descriptors_.size(); ++i) AddToTables(static_cast<std::uint32_t>(i));
 }
 
 std::map<int, int> PlaceIndex::Votes(const cv::Mat& descriptors) const {
@@ -132,14 +144,7 @@ std::vector<PlaceCandidate> PlaceIndex::Ranked(std::vector<PlaceCandidate> candi
 }
 
 size_t PlaceIndex::MemoryBytes() const {
-  size_t bytes = descriptors_.capacity() * sizeof(Bits) + owner_.capacity() * sizeof(int);
-  for (const auto& table : buckets_) {
-    for (const auto& [key, entries] : table) {
-      bytes += sizeof(key) + sizeof(std::vector<std::uint32_t>) +
-               entries.capacity() * sizeof(std::uint32_t);
-    }
-  }
-  return bytes;
+  return descriptors_.capacity() * sizeof(Bits) + owner_.capacity() * sizeof(int) + table_bytes_;
 }
 
 }  // namespace stillmap

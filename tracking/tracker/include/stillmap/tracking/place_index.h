@@ -75,13 +75,23 @@ class PlaceIndex {
   std::map<int, int> Votes(const cv::Mat& descriptors) const;
   static std::vector<PlaceCandidate> Ranked(std::vector<PlaceCandidate> candidates, size_t count);
   void Compact();
+  // Files descriptor `index` under its key in every table, counting the bytes the tables grow by.
+  void AddToTables(std::uint32_t index);
 
   PlaceIndexOptions options_;
   std::vector<std::vector<int>> key_bit_positions_;  // per table
   std::vector<std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>> buckets_;
   std::vector<Bits> descriptors_;
-  std::vector<int> owner_;       // keyframe id per descriptor, -1 once removed
-  std::map<int, bool> indexed_;  // keyframe id -> still indexed
+  std::vector<int> owner_;  // keyframe id per descriptor, -1 once removed
+  // A keyframe's descriptors: contiguous in descriptors_ (Add appends them, Compact keeps the
+  // order), so that removing one touches its own entries only.
+  struct Entries {
+    std::uint32_t first = 0, count = 0;
+    bool live = true;  // still indexed
+  };
+  std::map<int, Entries> indexed_;  // by keyframe id
+  // What the tables hold, kept as they grow: a memory sample must not walk them all.
+  size_t table_bytes_ = 0;
   size_t keyframe_count_ = 0;
   size_t removed_entries_ = 0;
 };
