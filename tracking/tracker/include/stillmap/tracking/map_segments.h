@@ -78,8 +78,8 @@ struct SegmentSummary {
 // What place recognition between segments did.
 struct SegmentLinkFigures {
   size_t candidates = 0;  // places of other segments verified
-  size_t verified = 0;    // of them, verified links
-  size_t too_far = 0;     // verified, but between cameras farther apart than link_max_distance_m
+  size_t verified = 0;    // of them, verified links used (within link_max_distance_m)
+  size_t too_far = 0;     // verified, but left out: cameras farther apart than that
   size_t loops = 0;       // links within a group taken as loops
   size_t settles = 0;     // the group's pose graph solved again over its loops
 };
