@@ -189,11 +189,9 @@ MapCleaningResult FinishedMap::CleanCloud(const MapCleaningOptions& options) {
   return stillmap::CleanCloud(options, occupancy.get(), cameras, views, &cloud);
 }
 
-void FinishedMap::ReleaseCloud() {
-  VoxelCloudOptions options;
-  options.leaf_size = cloud.leaf_size();
-  cloud = VoxelCloud(options);
+std::vector<VoxelPoint> FinishedMap::TakeCloudPoints() {
   views = {};
+  return cloud.TakePoints();
 }
 
 void FinishedMap::WriteCloud(const std::string& ply_path, const std::string& pcd_path) const {

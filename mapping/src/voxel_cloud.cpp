@@ -247,6 +247,16 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
   return points;
 }
 
+std::vector<VoxelPoint> VoxelCloud::TakePoints() {
+  for (Shard& shard : shards_) shard.index = {};  // visiting in key order reads the records only
+  std::vector<VoxelPoint> points = Points();
+  VoxelCloudOptions options;
+  options.leaf_size = leaf_size_;
+  options.min_points = static_cast<int>(min_points_);
+  *this = VoxelCloud(options);
+  return points;
+}
+
 size_t VoxelCloud::OutputSize() const {
   if (min_points_ <= 1) return size();  // every voxel kept is written: no scan of the records
   size_t count = 0;

@@ -73,8 +73,7 @@ FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
   clean_job.get();
   out.figures = MapFiguresOf(finished, cleaning);
   // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
-  out.cloud = finished.cloud.Points();
-  finished.ReleaseCloud();
+  out.cloud = finished.TakeCloudPoints();
   ReleaseFreedMemory();
   if (out.cloud.size() < static_cast<size_t>(options.mapping.min_map_points)) {
     throw std::runtime_error(

@@ -188,7 +188,7 @@ std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeS
   const MapCleaningResult cleaning = map.CleanCloud(config.mapping.cleaning);
   result->timings.map_cleaning_ms = MillisecondsSince(clean_start);
   result->map = MapFiguresOf(map, cleaning);
-  std::vector<VoxelPoint> cloud = map.cloud.Points();
+  std::vector<VoxelPoint> cloud = map.TakeCloudPoints();
   if (cloud.size() < static_cast<size_t>(config.mapping.min_map_points)) {
     throw std::runtime_error(fmt::format(
         "the merged map is nearly empty ({} points, fewer than {}={})", cloud.size(),

@@ -137,6 +137,36 @@ TEST(VoxelCloudTest, ACloudClearedAndFilledAgainEqualsANewOneAndKeepsItsTable) {
   EXPECT_EQ(cloud.MemoryBytes(), table);  // no table grown anew
 }
 
+// Taken out, the points are those Points() gives (removed voxels and min_points kept out), and the
+// cloud is a new one: empty, its table back to its first size, and filled again as a new one.
+TEST(VoxelCloudTest, TakenPointsAreThePointsAndLeaveANewCloud) {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> coordinate(-1.0f, 1.0f);
+  std::vector<Eigen::Vector3f> positions;
+  positions.reserve(100000);
+  for (int i = 0; i < 100000; ++i) positions.emplace_back(coordinate(rng), coordinate(rng), 0.0f);
+  VoxelCloudOptions options;
+  options.min_points = 2;
+  VoxelCloud cloud(options);
+  cloud.Insert(MakePoints(positions));
+  cloud.RemoveIf([](const VoxelPoint& p) { return p.position.y() < -0.5f; });
+  const std::vector<VoxelPoint> expected = cloud.Points();
+  ASSERT_GT(expected.size(), 1000u);
+  const std::vector<VoxelPoint> taken = cloud.TakePoints();
+  ASSERT_EQ(taken.size(), expected.size());
+  for (size_t i = 0; i < taken.size(); ++i) {
+    EXPECT_EQ(taken[i].position, expected[i].position);
+    EXPECT_EQ(taken[i].rgb, expected[i].rgb);
+    EXPECT_EQ(taken[i].count, expected[i].count);
+  }
+  EXPECT_EQ(cloud.size(), 0u);
+  EXPECT_EQ(cloud.MemoryBytes(), VoxelCloud(options).MemoryBytes());
+  const ColoredPoints again = MakePoints({{0.001f, 0.0f, 0.0f}, {0.002f, 0.0f, 0.0f}});
+  cloud.Insert(again);
+  ASSERT_EQ(cloud.Points().size(), 1u);  // min_points kept: two points in one voxel
+  EXPECT_EQ(cloud.Points()[0].count, 2u);
+}
+
 // 36 bytes of sums a voxel and a 4-byte index entry at a load of 0.375 to 0.75: under 50 bytes a
 // voxel from half a million on (a table of 40-byte slots took 53 to 107; a small cloud holds
 // part of a 2048-record page per shard).

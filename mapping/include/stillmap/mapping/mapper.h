@@ -95,10 +95,11 @@ struct FinishedMap {
   MapCleaningResult CleanCloud(const MapCleaningOptions& options);
   // Writes map.ply/map.pcd of the cloud (tests; the pipeline writes the points it took out).
   void WriteCloud(const std::string& ply_path, const std::string& pcd_path) const;
-  // Frees the voxel table and the views once the cloud's points are out (VoxelCloud::Points) and
-  // cleaned: the files are written from those points, and the mesh is made while the map files
-  // are written (the floor's peak, 4.4 GiB with both still held). The OctoMap stays.
-  void ReleaseCloud();
+  // The cleaned cloud's points (VoxelCloud::TakePoints), the views freed before they are made
+  // and the voxel table after: the files are written from those points, and the mesh is made
+  // while the map files are written (the floor's peak, 4.4 GiB with all still held). The OctoMap
+  // stays.
+  std::vector<VoxelPoint> TakeCloudPoints();
   // Writes map.bt/map.ot when there is an OctoMap.
   void WriteOccupancy(const std::string& bt_path, const std::string& ot_path) const;
 };
