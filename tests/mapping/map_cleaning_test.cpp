@@ -122,48 +122,70 @@ TEST(MapCleaningTest, ImpossibleOptionsAreRejectedByName) {
 // "shoe" 30 cm before a wall at 3 m, fused from the one keyframe that saw it, is dropped once
 // three other keyframes (cameras 30 cm aside) saw the wall through its place; with two of them
 // it stays (2 is not more than twice the 1 that saw it). The wall stays whatever the views.
-TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) {
-  const Camera camera = testing::SmallCamera(160, 120);
-  auto wall_depth = [&] {
+// A wall 3 m ahead of a camera at the origin, and a shoe 0.3 m before it in the first keyframe
+// only: that keyframe's points, and views of the wall from three other places beside its own.
+struct ShoeScene {
+  Camera camera = testing::SmallCamera(160, 120);
+  cv::Mat first;
+  std::vector<Eigen::Vector3f> wall, shoe_points;
+  std::vector<KeyframeView> views;
+
+  cv::Mat WallDepth() const {
     return cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
-  };
-  auto at = [](float x, float y, float z) {
+  }
+  static Eigen::Isometry3d At(float x, float y, float z) {
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     pose.translation() = Eigen::Vector3d(x, y, z);
     return pose;
-  };
-  const cv::Rect shoe(70, 80, 12, 8);
-  cv::Mat first = wall_depth();
-  first(shoe).setTo(2.7f);
-  // The first keyframe's points, from the camera at the origin.
-  std::vector<Eigen::Vector3f> wall, shoe_points;
-  for (int v = 0; v < camera.height; ++v) {
-    for (int u = 0; u < camera.width; ++u) {
-      const float z = first.at<float>(v, u);
-      const Eigen::Vector3f point(static_cast<float>((u - camera.cx) / camera.fx) * z,
-                                  static_cast<float>((v - camera.cy) / camera.fy) * z, z);
-      (shoe.contains(cv::Point(u, v)) ? shoe_points : wall).push_back(point);
-    }
   }
-  auto cloud_of = [&] {
+  ShoeScene() {
+    const cv::Rect shoe(70, 80, 12, 8);
+    first = WallDepth();
+    first(shoe).setTo(2.7f);
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const float z = first.at<float>(v, u);
+        const Eigen::Vector3f point(static_cast<float>((u - camera.cx) / camera.fx) * z,
+                                    static_cast<float>((v - camera.cy) / camera.fy) * z, z);
+        (shoe.contains(cv::Point(u, v)) ? shoe_points : wall).push_back(point);
+      }
+    }
+    views = {MakeKeyframeView(first, cv::Mat(), At(0, 0, 0)),
+             MakeKeyframeView(WallDepth(), cv::Mat(), At(0.3f, 0, 0)),
+             MakeKeyframeView(WallDepth(), cv::Mat(), At(-0.3f, 0, 0)),
+             MakeKeyframeView(WallDepth(), cv::Mat(), At(0, 0.3f, 0))};
+  }
+  VoxelCloud Cloud() const {
     VoxelCloud cloud;
     cloud.Insert(Colored(wall));
     cloud.Insert(Colored(shoe_points));
     return cloud;
-  };
+  }
+  static size_t ShoeVoxels(const VoxelCloud& cloud) {
+    size_t count = 0;
+    cloud.ForEachPoint([&](const VoxelPoint& point) {
+      count += point.position.z() > 2.0f && point.position.z() < 2.8f;
+    });
+    return count;
+  }
+};
+
+TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) {
+  const ShoeScene scene;
+  const Camera& camera = scene.camera;
+  auto wall_depth = [&] { return scene.WallDepth(); };
+  auto at = &ShoeScene::At;
+  auto cloud_of = [&] { return scene.Cloud(); };
   const VoxelCloud all = cloud_of();
-  size_t shoe_voxels = 0;
-  all.ForEachPoint([&](const VoxelPoint& point) { shoe_voxels += point.position.z() < 2.8f; });
+  const size_t shoe_voxels = ShoeScene::ShoeVoxels(all);
   ASSERT_GT(shoe_voxels, 50u);
 
-  std::vector<KeyframeView> views = {MakeKeyframeView(first, cv::Mat(), at(0, 0, 0)),
-                                     MakeKeyframeView(wall_depth(), cv::Mat(), at(0.3f, 0, 0)),
-                                     MakeKeyframeView(wall_depth(), cv::Mat(), at(-0.3f, 0, 0))};
+  std::vector<KeyframeView> views(scene.views.begin(), scene.views.begin() + 3);
   MapCleaningOptions options;
   VoxelCloud two = cloud_of();
   EXPECT_EQ(CleanCloud(options, nullptr, {camera}, views, &two).seen_through_views, 0u);
 
-  views.push_back(MakeKeyframeView(wall_depth(), cv::Mat(), at(0, 0.3f, 0)));
+  views.push_back(scene.views[3]);
   VoxelCloud three = cloud_of();
   const MapCleaningResult result = CleanCloud(options, nullptr, {camera}, views, &three);
   EXPECT_EQ(result.seen_through_views, shoe_voxels);
@@ -210,6 +232,31 @@ TEST(MapCleaningTest, VoxelsKeyframesSawThroughAreRemovedAtTheCloudsResolution) 
   options.clear_seen_through_views = false;
   VoxelCloud off = cloud_of();
   EXPECT_EQ(CleanCloud(options, nullptr, {camera}, views, &off).seen_through_views, 0u);
+}
+
+// Over a million voxels the views judge them a batch at a time: behind the cameras, 1.2 million
+// voxels that come first in the cloud's order put the shoe in a later batch, and it goes as
+// alone (the filler stays: no view sees it).
+TEST(MapCleaningTest, VoxelsSeenThroughAreFoundInALaterBatch) {
+  const ShoeScene scene;
+  VoxelCloud cloud = scene.Cloud();
+  std::vector<Eigen::Vector3f> filler;
+  filler.reserve(size_t{1200} * 1000);
+  for (int i = 0; i < 1200; ++i) {
+    for (int j = 0; j < 1000; ++j) {
+      filler.emplace_back(-20.0f + 0.01f * static_cast<float>(i) + 0.005f,
+                          0.01f * static_cast<float>(j) + 0.005f, -5.0f);
+    }
+  }
+  cloud.Insert(Colored(filler));
+  const size_t before = cloud.OutputSize(), shoe_voxels = ShoeScene::ShoeVoxels(cloud);
+  ASSERT_GT(before, size_t{1} << 20);
+  ASSERT_GT(shoe_voxels, 50u);
+  const MapCleaningResult result =
+      CleanCloud(MapCleaningOptions(), nullptr, {scene.camera}, scene.views, &cloud);
+  EXPECT_EQ(result.seen_through_views, shoe_voxels);
+  EXPECT_EQ(ShoeScene::ShoeVoxels(cloud), 0u);
+  EXPECT_EQ(cloud.OutputSize(), before - shoe_voxels);
 }
 
 // A camera whose projection throws points to +-1e30 pixels (the CLI refuses such a camera; the
