@@ -7,6 +7,7 @@
 #include <queue>
 #include <stdexcept>
 
+#include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/option_names.h"
 
@@ -249,6 +250,9 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
 
 std::vector<VoxelPoint> VoxelCloud::TakePoints() {
   for (Shard& shard : shards_) shard.index = {};  // visiting in key order reads the records only
+  // Handed back to the system before the points are made: the allocator keeps large freed blocks
+  // cached otherwise, and the points come on top (floor seed 1: report peak 1553 -> 1533 MiB).
+  ReleaseFreedMemory();
   std::vector<VoxelPoint> points = Points();
   VoxelCloudOptions options;
   options.leaf_size = leaf_size_;

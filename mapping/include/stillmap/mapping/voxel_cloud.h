@@ -65,8 +65,8 @@ class VoxelCloud {
 
   // The same points as a vector (tests and small clouds).
   std::vector<VoxelPoint> Points() const;
-  // The points as Points() gives them, the cloud left empty: its lookup index is freed before
-  // the points are made and its records after, so that the two are never all held at once.
+  // The points as Points() gives them, the cloud left empty: its lookup index is freed (and the
+  // allocator's freed blocks handed back) before the points are made, and its records after.
   std::vector<VoxelPoint> TakePoints();
 
   size_t size() const { return size_ - removed_; }
