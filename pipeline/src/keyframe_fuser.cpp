@@ -96,7 +96,7 @@ void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
   const cv::Mat seen = SeenBefore(keyframe.id, input);
   if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen);
   if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
-  mapper_.Integrate(input);
+  if (!refusion_due_) mapper_.Integrate(input);
   fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
 }
 
@@ -113,7 +113,7 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
       stored.seen_png = parked_->Append(EncodePng(seen));
       input.mask = seen;
     }
-    mapper_.Integrate(input);
+    if (!refusion_due_) mapper_.Integrate(input);
     fused_poses_.push_back({stored.time, stored.world_from_camera});
     stored.apart = false;
     ++joined;
@@ -209,13 +209,12 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
   for (Stored& stored : stored_) {
     const auto it = world_from_keyframe.find(stored.keyframe_id);
     if (it == world_from_keyframe.end()) continue;
-    const Eigen::Isometry3d change = stored.world_from_camera.inverse() * it->second;
-    const double angle_deg = RotationAngleDeg(change);
-    if (!stored.apart && (change.translation().norm() > 0.001 || angle_deg > 0.05)) ++moved;
+    if (!stored.apart && Moved(stored, it->second)) ++moved;
     stored.world_from_camera = it->second;
   }
   revisits_.Repose(world_from_keyframe);
-  if (moved == 0) return 0;
+  if (moved == 0 && !refusion_due_) return 0;
+  refusion_due_ = false;
   mapper_.Reset();
   fused_poses_.clear();
   for (const Stored& stored : stored_) {
@@ -225,6 +224,22 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
   }
   refuse_ms_ += MillisecondsSince(start);
   return moved;
+}
+
+void KeyframeFuser::NoteCorrections(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
+  if (refusion_due_ || !(keep_for_refusion_ || keep_for_session_)) return;
+  const bool moved = std::any_of(stored_.begin(), stored_.end(), [&](const Stored& stored) {
+    const auto it = world_from_keyframe.find(stored.keyframe_id);
+    return !stored.apart && it != world_from_keyframe.end() && Moved(stored, it->second);
+  });
+  if (!moved) return;
+  refusion_due_ = true;
+  mapper_.Reset();
+}
+
+bool KeyframeFuser::Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera) {
+  const Eigen::Isometry3d change = stored.world_from_camera.inverse() * world_from_camera;
+  return change.translation().norm() > 0.001 || RotationAngleDeg(change) > 0.05;
 }
 
 size_t KeyframeFuser::held_bytes() const {

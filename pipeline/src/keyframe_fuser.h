@@ -63,6 +63,14 @@ class KeyframeFuser {
   // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG, parked in a temporary file:
   // spill_file.h). Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+  // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
+  // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
+  // then is work thrown away. The map is emptied now and keyframes are only kept, compact, until
+  // Refuse fuses them all (the same map as before, sooner: floor seed 1, docs/figures.md). Only
+  // when every fused keyframe is kept (refusion or session record).
+  void NoteCorrections(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+  // Whether the map waits for Refuse (NoteCorrections).
+  bool refusion_due() const { return refusion_due_; }
 
   // The fused keyframes in the session record's form (poses as fused, in the tracker's world),
   // handed over once at the end: empty when the build keeps no session record.
@@ -105,6 +113,8 @@ class KeyframeFuser {
   // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
   void Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
              bool apart = false);
+  // Whether `stored` was fused elsewhere than at `world_from_camera` (1 mm, 0.05 degrees).
+  static bool Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera);
   // A stored keyframe as the mapper takes it.
   MapperFrame Decode(const Stored& stored) const;
   // Fuses a judged keyframe into the map (the cells earlier visits saw left out), kept compact
@@ -121,6 +131,7 @@ class KeyframeFuser {
   std::shared_ptr<SpillFile> parked_;
   std::vector<Stored> stored_;
   double refuse_ms_ = 0.0;
+  bool refusion_due_ = false;  // the map was emptied: keyframes are kept until Refuse
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   RevisitCells revisits_;

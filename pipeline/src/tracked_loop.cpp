@@ -66,6 +66,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
       const std::map<int, Eigen::Isometry3d> poses = tracker.KeyframePoses();
       stages.masks.Repose(poses);
       segments.Repose(poses);
+      fuser.NoteCorrections(poses);
     }
     if (tracked.keyframe_id >= 0) {
       stages.masks.AddReference(frame, mask, tracked.world_from_camera, tracked.keyframe_id);

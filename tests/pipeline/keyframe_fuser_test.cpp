@@ -1,0 +1,129 @@
+#include "keyframe_fuser.h"
+
+#include <gtest/gtest.h>
+
+#include "stillmap/io/sequence.h"
+#include "test_util.h"
+
+namespace stillmap {
+namespace {
+
+// Six keyframes of a plane 2 m ahead, 4 cm apart along x; the first three are fused where a
+// drifting tracker put them (20 cm nearer), then a loop correction puts them right.
+class KeyframeFuserTest : public ::testing::Test {
+ protected:
+  KeyframeFuserTest() : camera_(testing::SmallCamera(96, 72)) {
+    for (int i = 0; i < 6; ++i) {
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() = Eigen::Vector3d(0.04 * i, 0.0, 0.0);
+      poses_.push_back(pose);
+    }
+    testing::WritePlaneSequence(dir_.path(), camera_, testing::PlaneScene{}, poses_);
+    drift_.translation() = Eigen::Vector3d(0.0, 0.0, 0.2);
+  }
+
+  // The poses after the correction, by keyframe id.
+  std::map<int, Eigen::Isometry3d> Corrected() const {
+    std::map<int, Eigen::Isometry3d> corrected;
+    for (size_t i = 0; i < poses_.size(); ++i) corrected[static_cast<int>(i)] = poses_[i];
+    return corrected;
+  }
+
+  // Holds and fuses keyframes [first, last), at the drifted poses when `drifted`.
+  void Fuse(KeyframeFuser& fuser, size_t first, size_t last, bool drifted) {
+    const Sequence sequence = Sequence::Open(dir_.path(), camera_);
+    std::vector<FinalKeyframe> finals;
+    for (size_t i = first; i < last; ++i) {
+      FinalKeyframe keyframe;
+      keyframe.id = static_cast<int>(i);
+      keyframe.frame_index = i;
+      keyframe.time = sequence.frames()[i].time;
+      keyframe.world_from_camera = drifted ? drift_ * poses_[i] : poses_[i];
+      keyframe.landmarks = {static_cast<int>(10 * i), static_cast<int>(10 * i + 1)};  // all new
+      fuser.Hold(keyframe.id, sequence.LoadFrame(i), cv::Mat(), keyframe.world_from_camera);
+      finals.push_back(std::move(keyframe));
+    }
+    fuser.Fuse(finals, DepthCorrection{});
+  }
+
+  // The back-projection's range, which the kept depth images are quantized over.
+  static FuserOptions Options() {
+    FuserOptions options;
+    options.min_depth_m = 0.1;
+    options.max_depth_m = 6.0;
+    return options;
+  }
+  // Fusion on the caller's thread: the mapper's memory() is read right after.
+  static MapperOptions Synchronous() {
+    MapperOptions options;
+    options.in_background = false;
+    return options;
+  }
+
+  testing::TempDir dir_;
+  Camera camera_;
+  std::vector<Eigen::Isometry3d> poses_;
+  Eigen::Isometry3d drift_ = Eigen::Isometry3d::Identity();
+  MaskStage masks_{camera_, DynamicMaskOptions{}, false, nullptr, false, ""};
+};
+
+// A correction that moves fused keyframes empties the map and stops fusing into it; Refuse then
+// gives exactly the map of a fuser that kept fusing throughout and fused everything again at the
+// end: every point on the plane, none where the drifted poses put it.
+TEST_F(KeyframeFuserTest, AMapEmptiedAtACorrectionIsTheSameOnceFusedAgain) {
+  Mapper live_mapper(camera_, Synchronous());
+  Mapper waiting_mapper(camera_, Synchronous());
+  KeyframeFuser live(camera_, Options(), masks_, &live_mapper);
+  KeyframeFuser waiting(camera_, Options(), masks_, &waiting_mapper);
+  Fuse(live, 0, 3, true);
+  Fuse(waiting, 0, 3, true);
+  ASSERT_GT(waiting_mapper.memory().views, 0u);
+
+  waiting.NoteCorrections(Corrected());
+  EXPECT_TRUE(waiting.refusion_due());
+  EXPECT_EQ(waiting_mapper.memory().views, 0u);  // emptied
+  Fuse(live, 3, 6, false);
+  Fuse(waiting, 3, 6, false);
+  EXPECT_EQ(waiting_mapper.memory().views, 0u);  // nothing fused until Refuse
+  EXPECT_GT(live_mapper.memory().views, 0u);
+
+  EXPECT_EQ(live.Refuse(Corrected()), 3u);
+  EXPECT_EQ(waiting.Refuse(Corrected()), 3u);
+  EXPECT_FALSE(waiting.refusion_due());
+  const FinishedMap a = live_mapper.Finish();
+  const FinishedMap b = waiting_mapper.Finish();
+  EXPECT_EQ(a.statistics.frames, 6u);
+  EXPECT_EQ(b.statistics.frames, 6u);
+  const std::vector<VoxelPoint> pa = a.cloud.Points(), pb = b.cloud.Points();
+  ASSERT_GT(pa.size(), 100u);
+  ASSERT_EQ(pa.size(), pb.size());
+  for (size_t i = 0; i < pa.size(); ++i) {
+    EXPECT_EQ(pa[i].position, pb[i].position);
+    EXPECT_EQ(pa[i].rgb, pb[i].rgb);
+    EXPECT_LT(std::abs(pb[i].position.z() - 2.0f), 1e-3f);
+  }
+  ASSERT_TRUE(a.occupancy && b.occupancy);
+  EXPECT_EQ(a.occupancy->LeafCount(), b.occupancy->LeafCount());
+  EXPECT_EQ(live.fused_poses().size(), waiting.fused_poses().size());
+}
+
+// Corrections that leave every fused keyframe where it was fused (within 1 mm and 0.05 degrees)
+// change nothing: the map keeps being fused as the keyframes come.
+TEST_F(KeyframeFuserTest, CorrectionsThatMoveNoFusedKeyframeKeepTheMapFusing) {
+  Mapper mapper(camera_, Synchronous());
+  KeyframeFuser fuser(camera_, Options(), masks_, &mapper);
+  Fuse(fuser, 0, 3, false);
+  std::map<int, Eigen::Isometry3d> nudged = Corrected();
+  for (auto& [id, pose] : nudged) pose.translation().x() += 0.0005;
+  nudged[4].translation().x() += 0.5;  // not fused yet
+  fuser.NoteCorrections(nudged);
+  EXPECT_FALSE(fuser.refusion_due());
+  const size_t views = mapper.memory().views;
+  Fuse(fuser, 3, 6, false);
+  EXPECT_GT(mapper.memory().views, views);
+  EXPECT_EQ(fuser.Refuse(Corrected()), 0u);
+  EXPECT_EQ(mapper.Finish().statistics.frames, 6u);
+}
+
+}  // namespace
+}  // namespace stillmap
