@@ -94,9 +94,9 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
 
 void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
   const cv::Mat seen = SeenBefore(keyframe.id, input);
-  if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen);
+  if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen).in_map = FusingLive();
   if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
-  if (!refusion_due_) mapper_.Integrate(input);
+  if (FusingLive()) mapper_.Integrate(input);
   fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
 }
 
@@ -113,7 +113,8 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
       stored.seen_png = parked_->Append(EncodePng(seen));
       input.mask = seen;
     }
-    if (!refusion_due_) mapper_.Integrate(input);
+    if (FusingLive()) mapper_.Integrate(input);
+    stored.in_map = FusingLive();
     fused_poses_.push_back({stored.time, stored.world_from_camera});
     stored.apart = false;
     ++joined;
@@ -158,8 +159,8 @@ cv::Mat KeyframeFuser::SeenBefore(int keyframe_id, const MapperFrame& input) {
   return seen;
 }
 
-void KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& input,
-                          const cv::Mat& seen, bool apart) {
+KeyframeFuser::Stored& KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& input,
+                                            const cv::Mat& seen, bool apart) {
   Stored stored;
   stored.keyframe_id = keyframe.id;
   stored.time = input.time;
@@ -180,6 +181,7 @@ void KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& inpu
     stored.feature_count = keyframe.features.size();
   }
   stored_.push_back(stored);
+  return stored_.back();
 }
 
 SessionKeyframeList KeyframeFuser::TakeSessionKeyframes() {
@@ -213,15 +215,21 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     stored.world_from_camera = it->second;
   }
   revisits_.Repose(world_from_keyframe);
-  if (moved == 0 && !refusion_due_) return 0;
-  refusion_due_ = false;
-  mapper_.Reset();
-  fused_poses_.clear();
-  for (const Stored& stored : stored_) {
-    if (stored.apart) continue;
-    mapper_.Integrate(Decode(stored));
-    fused_poses_.push_back({stored.time, stored.world_from_camera});
+  // Nothing moved: only the keyframes kept since NoteNewSegment are fused, in the order they
+  // came (the order live fusion has); else the map is fused again from the start.
+  const bool again = moved > 0 || refusion_due_;
+  if (again) {
+    mapper_.Reset();
+    fused_poses_.clear();
   }
+  for (Stored& stored : stored_) {
+    if (stored.apart || (stored.in_map && !again)) continue;
+    mapper_.Integrate(Decode(stored));
+    stored.in_map = true;
+    if (again) fused_poses_.push_back({stored.time, stored.world_from_camera});
+  }
+  refusion_due_ = false;
+  deferring_ = false;
   refuse_ms_ += MillisecondsSince(start);
   return moved;
 }
@@ -230,11 +238,16 @@ void KeyframeFuser::NoteCorrections(const std::map<int, Eigen::Isometry3d>& worl
   if (refusion_due_ || !(keep_for_refusion_ || keep_for_session_)) return;
   const bool moved = std::any_of(stored_.begin(), stored_.end(), [&](const Stored& stored) {
     const auto it = world_from_keyframe.find(stored.keyframe_id);
-    return !stored.apart && it != world_from_keyframe.end() && Moved(stored, it->second);
+    return stored.in_map && it != world_from_keyframe.end() && Moved(stored, it->second);
   });
   if (!moved) return;
   refusion_due_ = true;
   mapper_.Reset();
+  for (Stored& stored : stored_) stored.in_map = false;
+}
+
+void KeyframeFuser::NoteNewSegment() {
+  if (keep_for_refusion_ || keep_for_session_) deferring_ = true;
 }
 
 bool KeyframeFuser::Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera) {

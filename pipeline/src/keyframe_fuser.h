@@ -66,9 +66,13 @@ class KeyframeFuser {
   // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
   // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
   // then is work thrown away. The map is emptied now and keyframes are only kept, compact, until
-  // Refuse fuses them all (the same map as before, sooner: floor seed 1, docs/figures.md). Only
-  // when every fused keyframe is kept (refusion or session record).
+  // Refuse fuses them all (the same map, sooner: docs/figures.md). Only when every fused keyframe
+  // is kept (refusion or session record).
   void NoteCorrections(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+  // A new map segment began (tracking lost): its joins and their settles will most likely move
+  // the keyframes fused so far, so keyframes from here on are only kept until Refuse, which fuses
+  // them where they end up; the map fused so far stays until a correction moves it.
+  void NoteNewSegment();
   // Whether the map waits for Refuse (NoteCorrections).
   bool refusion_due() const { return refusion_due_; }
 
@@ -106,13 +110,16 @@ class KeyframeFuser {
     SpillFile::Block color_jpeg;  // BGR
     SpillFile::Block features;    // for the session record (AppendSessionFeatures), or empty
     size_t feature_count = 0;
-    bool apart = false;  // kept apart: not in the map (Fuse's in_map)
+    bool apart = false;   // kept apart: not in the map (Fuse's in_map)
+    bool in_map = false;  // fused into the map as it is now
   };
   // Adds `stored` to `list` (its blocks stay where they are).
   static void AddTo(const Stored& stored, SessionKeyframeList* list);
   // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
-  void Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
-             bool apart = false);
+  Stored& Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
+                bool apart = false);
+  // Whether keyframes are fused into the map as they come (not waiting for Refuse).
+  bool FusingLive() const { return !refusion_due_ && !deferring_; }
   // Whether `stored` was fused elsewhere than at `world_from_camera` (1 mm, 0.05 degrees).
   static bool Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera);
   // A stored keyframe as the mapper takes it.
@@ -132,6 +139,7 @@ class KeyframeFuser {
   std::vector<Stored> stored_;
   double refuse_ms_ = 0.0;
   bool refusion_due_ = false;  // the map was emptied: keyframes are kept until Refuse
+  bool deferring_ = false;     // keyframes are kept until Refuse (NoteNewSegment)
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   RevisitCells revisits_;

@@ -61,6 +61,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
         tracker.Track(frame.index, frame.time, prepared.gray, frame.depth_m, mask);
     Record(tracked, frame.time, &figures);
     segments.Frame(tracked, frame.time);
+    if (tracked.status == TrackStatus::kNewMap) fuser.NoteNewSegment();
     if (tracker.pose_corrections() != corrections) {  // the depth check's references moved too
       corrections = tracker.pose_corrections();
       const std::map<int, Eigen::Isometry3d> poses = tracker.KeyframePoses();

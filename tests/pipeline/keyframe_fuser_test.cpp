@@ -125,5 +125,37 @@ TEST_F(KeyframeFuserTest, CorrectionsThatMoveNoFusedKeyframeKeepTheMapFusing) {
   EXPECT_EQ(mapper.Finish().statistics.frames, 6u);
 }
 
+// After a new map segment begins, keyframes wait for Refuse; when nothing moved, Refuse fuses
+// only those (the map fused before stays), giving the map of a fuser that fused all as they came
+// (from the kept copies: depth within their 0.1 mm step, colour through the JPEG).
+TEST_F(KeyframeFuserTest, KeyframesAfterANewSegmentWaitForRefuse) {
+  Mapper live_mapper(camera_, Synchronous());
+  Mapper waiting_mapper(camera_, Synchronous());
+  KeyframeFuser live(camera_, Options(), masks_, &live_mapper);
+  KeyframeFuser waiting(camera_, Options(), masks_, &waiting_mapper);
+  Fuse(live, 0, 3, false);
+  Fuse(waiting, 0, 3, false);
+  waiting.NoteNewSegment();
+  const size_t views = waiting_mapper.memory().views;
+  ASSERT_GT(views, 0u);
+  Fuse(live, 3, 6, false);
+  Fuse(waiting, 3, 6, false);
+  EXPECT_EQ(waiting_mapper.memory().views, views);  // the map fused before stays, nothing added
+  EXPECT_EQ(waiting.Refuse(Corrected()), 0u);
+  EXPECT_EQ(live.Refuse(Corrected()), 0u);
+  const FinishedMap a = live_mapper.Finish();
+  const FinishedMap b = waiting_mapper.Finish();
+  EXPECT_EQ(b.statistics.frames, 6u);
+  EXPECT_EQ(b.statistics.refusions, 0u);  // not emptied: only the waiting keyframes fused
+  const std::vector<VoxelPoint> pa = a.cloud.Points(), pb = b.cloud.Points();
+  ASSERT_GT(pa.size(), 100u);
+  ASSERT_EQ(pa.size(), pb.size());
+  for (size_t i = 0; i < pa.size(); ++i) {
+    EXPECT_LT((pa[i].position - pb[i].position).norm(), 1e-4f);
+    EXPECT_EQ(pa[i].count, pb[i].count);
+  }
+  EXPECT_EQ(live.fused_poses().size(), waiting.fused_poses().size());
+}
+
 }  // namespace
 }  // namespace stillmap
