@@ -53,12 +53,19 @@ class KeyframeFuserTest : public ::testing::Test {
     options.max_depth_m = 6.0;
     return options;
   }
-  // Fusion on the caller's thread: the mapper's memory() is read right after.
-  static MapperOptions Synchronous() {
-    MapperOptions options;
-    options.in_background = false;
-    return options;
-  }
+  // A mapper fusing on the caller's thread (its memory() is read right after each step) and the
+  // fuser that fills it.
+  struct Fusing {
+    Fusing(const Camera& camera, const MaskStage& masks)
+        : mapper(camera, Synchronous()), fuser(camera, Options(), masks, &mapper) {}
+    static MapperOptions Synchronous() {
+      MapperOptions options;
+      options.in_background = false;
+      return options;
+    }
+    Mapper mapper;
+    KeyframeFuser fuser;
+  };
 
   testing::TempDir dir_;
   Camera camera_;
@@ -71,27 +78,25 @@ class KeyframeFuserTest : public ::testing::Test {
 // gives exactly the map of a fuser that kept fusing throughout and fused everything again at the
 // end: every point on the plane, none where the drifted poses put it.
 TEST_F(KeyframeFuserTest, AMapEmptiedAtACorrectionIsTheSameOnceFusedAgain) {
-  Mapper live_mapper(camera_, Synchronous());
-  Mapper waiting_mapper(camera_, Synchronous());
-  KeyframeFuser live(camera_, Options(), masks_, &live_mapper);
-  KeyframeFuser waiting(camera_, Options(), masks_, &waiting_mapper);
-  Fuse(live, 0, 3, true);
-  Fuse(waiting, 0, 3, true);
-  ASSERT_GT(waiting_mapper.memory().views, 0u);
+  Fusing live(camera_, masks_);
+  Fusing waiting(camera_, masks_);
+  Fuse(live.fuser, 0, 3, true);
+  Fuse(waiting.fuser, 0, 3, true);
+  ASSERT_GT(waiting.mapper.memory().views, 0u);
 
-  waiting.NoteCorrections(Corrected());
-  EXPECT_TRUE(waiting.refusion_due());
-  EXPECT_EQ(waiting_mapper.memory().views, 0u);  // emptied
-  Fuse(live, 3, 6, false);
-  Fuse(waiting, 3, 6, false);
-  EXPECT_EQ(waiting_mapper.memory().views, 0u);  // nothing fused until Refuse
-  EXPECT_GT(live_mapper.memory().views, 0u);
+  waiting.fuser.NoteCorrections(Corrected());
+  EXPECT_TRUE(waiting.fuser.refusion_due());
+  EXPECT_EQ(waiting.mapper.memory().views, 0u);  // emptied
+  Fuse(live.fuser, 3, 6, false);
+  Fuse(waiting.fuser, 3, 6, false);
+  EXPECT_EQ(waiting.mapper.memory().views, 0u);  // nothing fused until Refuse
+  EXPECT_GT(live.mapper.memory().views, 0u);
 
-  EXPECT_EQ(live.Refuse(Corrected()), 3u);
-  EXPECT_EQ(waiting.Refuse(Corrected()), 3u);
-  EXPECT_FALSE(waiting.refusion_due());
-  const FinishedMap a = live_mapper.Finish();
-  const FinishedMap b = waiting_mapper.Finish();
+  EXPECT_EQ(live.fuser.Refuse(Corrected()), 3u);
+  EXPECT_EQ(waiting.fuser.Refuse(Corrected()), 3u);
+  EXPECT_FALSE(waiting.fuser.refusion_due());
+  const FinishedMap a = live.mapper.Finish();
+  const FinishedMap b = waiting.mapper.Finish();
   EXPECT_EQ(a.statistics.frames, 6u);
   EXPECT_EQ(b.statistics.frames, 6u);
   const std::vector<VoxelPoint> pa = a.cloud.Points(), pb = b.cloud.Points();
@@ -104,14 +109,15 @@ TEST_F(KeyframeFuserTest, AMapEmptiedAtACorrectionIsTheSameOnceFusedAgain) {
   }
   ASSERT_TRUE(a.occupancy && b.occupancy);
   EXPECT_EQ(a.occupancy->LeafCount(), b.occupancy->LeafCount());
-  EXPECT_EQ(live.fused_poses().size(), waiting.fused_poses().size());
+  EXPECT_EQ(live.fuser.fused_poses().size(), waiting.fuser.fused_poses().size());
 }
 
 // Corrections that leave every fused keyframe where it was fused (within 1 mm and 0.05 degrees)
 // change nothing: the map keeps being fused as the keyframes come.
 TEST_F(KeyframeFuserTest, CorrectionsThatMoveNoFusedKeyframeKeepTheMapFusing) {
-  Mapper mapper(camera_, Synchronous());
-  KeyframeFuser fuser(camera_, Options(), masks_, &mapper);
+  Fusing one(camera_, masks_);
+  KeyframeFuser& fuser = one.fuser;
+  Mapper& mapper = one.mapper;
   Fuse(fuser, 0, 3, false);
   std::map<int, Eigen::Isometry3d> nudged = Corrected();
   for (auto& [id, pose] : nudged) pose.translation().x() += 0.0005;
@@ -129,22 +135,20 @@ TEST_F(KeyframeFuserTest, CorrectionsThatMoveNoFusedKeyframeKeepTheMapFusing) {
 // only those (the map fused before stays), giving the map of a fuser that fused all as they came
 // (from the kept copies: depth within their 0.1 mm step, colour through the JPEG).
 TEST_F(KeyframeFuserTest, KeyframesAfterANewSegmentWaitForRefuse) {
-  Mapper live_mapper(camera_, Synchronous());
-  Mapper waiting_mapper(camera_, Synchronous());
-  KeyframeFuser live(camera_, Options(), masks_, &live_mapper);
-  KeyframeFuser waiting(camera_, Options(), masks_, &waiting_mapper);
-  Fuse(live, 0, 3, false);
-  Fuse(waiting, 0, 3, false);
-  waiting.NoteNewSegment();
-  const size_t views = waiting_mapper.memory().views;
+  Fusing live(camera_, masks_);
+  Fusing waiting(camera_, masks_);
+  Fuse(live.fuser, 0, 3, false);
+  Fuse(waiting.fuser, 0, 3, false);
+  waiting.fuser.NoteNewSegment();
+  const size_t views = waiting.mapper.memory().views;
   ASSERT_GT(views, 0u);
-  Fuse(live, 3, 6, false);
-  Fuse(waiting, 3, 6, false);
-  EXPECT_EQ(waiting_mapper.memory().views, views);  // the map fused before stays, nothing added
-  EXPECT_EQ(waiting.Refuse(Corrected()), 0u);
-  EXPECT_EQ(live.Refuse(Corrected()), 0u);
-  const FinishedMap a = live_mapper.Finish();
-  const FinishedMap b = waiting_mapper.Finish();
+  Fuse(live.fuser, 3, 6, false);
+  Fuse(waiting.fuser, 3, 6, false);
+  EXPECT_EQ(waiting.mapper.memory().views, views);  // the map fused before stays, nothing added
+  EXPECT_EQ(waiting.fuser.Refuse(Corrected()), 0u);
+  EXPECT_EQ(live.fuser.Refuse(Corrected()), 0u);
+  const FinishedMap a = live.mapper.Finish();
+  const FinishedMap b = waiting.mapper.Finish();
   EXPECT_EQ(b.statistics.frames, 6u);
   EXPECT_EQ(b.statistics.refusions, 0u);  // not emptied: only the waiting keyframes fused
   const std::vector<VoxelPoint> pa = a.cloud.Points(), pb = b.cloud.Points();
@@ -154,7 +158,7 @@ TEST_F(KeyframeFuserTest, KeyframesAfterANewSegmentWaitForRefuse) {
     EXPECT_LT((pa[i].position - pb[i].position).norm(), 1e-4f);
     EXPECT_EQ(pa[i].count, pb[i].count);
   }
-  EXPECT_EQ(live.fused_poses().size(), waiting.fused_poses().size());
+  EXPECT_EQ(live.fuser.fused_poses().size(), waiting.fuser.fused_poses().size());
 }
 
 }  // namespace
