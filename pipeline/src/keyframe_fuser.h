@@ -61,7 +61,8 @@ class KeyframeFuser {
   // id) differs from the one it was fused at (by more than 1 mm or 0.05 degrees), the map is
   // emptied and every fused keyframe fused again at its final pose, from the compact copies kept
   // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG, parked in a temporary file:
-  // spill_file.h). Returns how many moved.
+  // spill_file.h). Keyframes waiting since NoteCorrections or NoteNewSegment are fused either
+  // way (when nothing moved, onto the map fused before them). Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
   // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
