@@ -94,7 +94,7 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
 
 void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
   const cv::Mat seen = SeenBefore(keyframe.id, input);
-  if (keep_for_refusion_ || keep_for_session_) Store(keyframe, input, seen).in_map = FusingLive();
+  if (KeepsEveryFused()) Store(keyframe, input, seen).in_map = FusingLive();
   if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
   if (FusingLive()) mapper_.Integrate(input);
   fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
@@ -113,8 +113,8 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
       stored.seen_png = parked_->Append(EncodePng(seen));
       input.mask = seen;
     }
-    if (FusingLive()) mapper_.Integrate(input);
     stored.in_map = FusingLive();
+    if (stored.in_map) mapper_.Integrate(input);
     fused_poses_.push_back({stored.time, stored.world_from_camera});
     stored.apart = false;
     ++joined;
@@ -235,7 +235,7 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
 }
 
 void KeyframeFuser::NoteCorrections(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
-  if (refusion_due_ || !(keep_for_refusion_ || keep_for_session_)) return;
+  if (refusion_due_ || !KeepsEveryFused()) return;
   const bool moved = std::any_of(stored_.begin(), stored_.end(), [&](const Stored& stored) {
     const auto it = world_from_keyframe.find(stored.keyframe_id);
     return stored.in_map && it != world_from_keyframe.end() && Moved(stored, it->second);
@@ -247,7 +247,7 @@ void KeyframeFuser::NoteCorrections(const std::map<int, Eigen::Isometry3d>& worl
 }
 
 void KeyframeFuser::NoteNewSegment() {
-  if (keep_for_refusion_ || keep_for_session_) deferring_ = true;
+  if (KeepsEveryFused()) deferring_ = true;
 }
 
 bool KeyframeFuser::Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera) {

@@ -119,6 +119,8 @@ class KeyframeFuser {
   // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
   Stored& Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
                 bool apart = false);
+  // Whether every keyframe fused is also kept, compact (for Refuse or the session record).
+  bool KeepsEveryFused() const { return keep_for_refusion_ || keep_for_session_; }
   // Whether keyframes are fused into the map as they come (not waiting for Refuse).
   bool FusingLive() const { return !refusion_due_ && !deferring_; }
   // Whether `stored` was fused elsewhere than at `world_from_camera` (1 mm, 0.05 degrees).
