@@ -72,6 +72,7 @@ class TrackerTest : public ::testing::Test {
   }
   static std::vector<TrackStatus> Statuses(const std::vector<TrackResult>& results) {
     std::vector<TrackStatus> statuses;
+    statuses.reserve(results.size());
     for (const TrackResult& result : results) statuses.push_back(result.status);
     return statuses;
   }
@@ -316,6 +317,29 @@ TEST_F(TrackerTest, ARelocalizationFarFromTheLastGoodPoseIsRefused) {
   EXPECT_EQ(statuses[13], TrackStatus::kLost);
   EXPECT_GE(tracker.statistics().relocalizations_refused, 1u);
   EXPECT_EQ(tracker.statistics().relocalized, 0u);
+}
+
+// A relocalization is also judged against the motion model while the loss is short: the last
+// good pose carried on by its velocity for the covered frames. With a bound of 0.01 mm the
+// camera's sub-millimetre departure from constant velocity is too much; with a horizon shorter
+// than the covered frames (four frames, 0.13 s) there is no such prediction and no such check.
+TEST_F(TrackerTest, ARelocalizationFarFromTheMotionModelIsRefused) {
+  auto track = [&](double horizon_s) {
+    TrackerOptions options = Deterministic();
+    options.relocalization.max_predicted_frames = 0;
+    options.relocalization.motion_model_max_distance_m = 1e-5;
+    options.relocalization.motion_model_horizon_s = horizon_s;
+    Tracker tracker(sequence_->camera(), options);
+    const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 16));
+    return std::make_pair(statuses[13], tracker.statistics());
+  };
+  const auto [status, stats] = track(0.5);
+  EXPECT_EQ(status, TrackStatus::kLost);
+  EXPECT_GE(stats.relocalizations_refused, 1u);
+  EXPECT_EQ(stats.relocalized, 0u);
+  const auto [short_status, short_stats] = track(0.05);
+  EXPECT_EQ(short_status, TrackStatus::kRelocalized);
+  EXPECT_EQ(short_stats.relocalizations_refused, 0u);
 }
 
 TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {

@@ -124,7 +124,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   // finds little).
   Clock::time_point stage = Clock::now();
   const Eigen::Isometry3d last = have_last ? last_camera_from_world : last_good_camera_from_world;
-  Eigen::Isometry3d predicted = Predict(last);
+  Eigen::Isometry3d predicted = Predict(last, time);
   const LocalSet local = CollectLocalLandmarks();
   Association association(frame.size());
   SearchAroundPredictions(&predicted, local, frame, &association);
@@ -193,7 +193,8 @@ Tracker::Impl::PoseEstimate Tracker::Impl::FindPose(const Eigen::Isometry3d& pre
   // Any pose must be near where the camera was last seen: a pose found after losing track (or
   // against keyframes instead of the motion model), and one from few matches on a repeating
   // pattern (floor tiles below a blank wall), which can jump by metres.
-  if (estimate.ok && !NearLastGoodPose(estimate.camera_from_world, time)) {
+  if (estimate.ok && (!NearLastGoodPose(estimate.camera_from_world, time) ||
+                      (relocalizing && !NearMotionModel(estimate.camera_from_world, time)))) {
     ++(relocalizing ? stats.relocalizations_refused : stats.jumps_refused);
     ClearMatches(*association);
     estimate = {};
@@ -249,7 +250,6 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
   ++stats.lost;
   weakest_inliers_since_keyframe = 0;
   have_last = false;
-  have_velocity = false;
   if (consecutive_lost >= options.relocalization.new_map_after_lost &&
       with_depth >= options.relocalization.min_initial_points) {
     StartMap(last_good_camera_from_world, frame, frame_index, time, lock);
@@ -297,10 +297,20 @@ bool Tracker::Impl::NearLastGoodPose(const Eigen::Isometry3d& camera_from_world,
                          options.relocalization.relocalization_max_speed_mps * elapsed_s;
 }
 
+bool Tracker::Impl::NearMotionModel(const Eigen::Isometry3d& camera_from_world, double time) const {
+  const std::optional<Eigen::Isometry3d> carried = MotionModelPose(time);
+  return !carried || CameraDistance(camera_from_world, *carried) <=
+                         options.relocalization.motion_model_max_distance_m;
+}
+
 void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double time,
                            const std::vector<int>& matched, TrackResult* result) {
-  if (have_last) velocity = camera_from_world * last_camera_from_world.inverse();
-  have_velocity = have_last;
+  if (have_last) {
+    velocity = camera_from_world * last_camera_from_world.inverse();
+    velocity_dt_s = time - last_good_time;
+  }
+  // Through a short loss the velocity before it still holds (MotionModelPose).
+  have_velocity = have_last || MotionModelPose(time).has_value();
   have_last = true;
   last_camera_from_world = camera_from_world;
   have_good = true;
@@ -341,7 +351,7 @@ std::optional<Eigen::Isometry3d> Tracker::PredictedPose() const {
     if (!impl_->HasPriorMotion()) return std::nullopt;
     return impl_->PriorPrediction().inverse();
   }
-  return impl_->Predict(impl_->last_camera_from_world).inverse();
+  return impl_->Predict(impl_->last_camera_from_world, impl_->last_good_time).inverse();
 }
 
 void Tracker::SetPrior(const std::optional<Eigen::Isometry3d>& given_world_from_camera) {

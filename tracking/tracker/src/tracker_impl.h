@@ -191,6 +191,8 @@ struct Tracker::Impl {
   double OctaveScale(int octave) const;
   // A pose from vision is plausible: near the last good pose, given the time since (options).
   bool NearLastGoodPose(const Eigen::Isometry3d& camera_from_world, double time) const;
+  // A relocalization is plausible: near MotionModelPose where there is one (options).
+  bool NearMotionModel(const Eigen::Isometry3d& camera_from_world, double time) const;
   // The i-th feature as an observation, its depth corrected (depth_correction.h) or raw.
   RgbdObservation Observation(const FrameFeatures& features, size_t i,
                               bool raw_depth = false) const;
@@ -231,9 +233,13 @@ struct Tracker::Impl {
   void CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, const LocalSet& local,
                            const FrameData& frame, double time, PoseEstimate* estimate,
                            Association* association);
-  // The next frame's predicted camera_from_world: constant velocity from `last`, else the
-  // prior's motion since the last posed frame (tracker_prior.cpp).
-  Eigen::Isometry3d Predict(const Eigen::Isometry3d& last) const;
+  // The predicted camera_from_world of the frame at `time`: constant velocity from `last`, else
+  // the prior's motion since the last posed frame, else (lost) MotionModelPose
+  // (tracker_prior.cpp).
+  Eigen::Isometry3d Predict(const Eigen::Isometry3d& last, double time) const;
+  // The last good pose moved on by its velocity for the time since, while that is within
+  // relocalization.motion_model_horizon_s (the rotation's angle and the translation scaled).
+  std::optional<Eigen::Isometry3d> MotionModelPose(double time) const;
   // The prior's motion since the last posed frame applied to that frame's pose (needs
   // HasPriorMotion: this frame and the last posed one both have a prior).
   Eigen::Isometry3d PriorPrediction() const;
@@ -442,8 +448,9 @@ struct Tracker::Impl {
   size_t collect_serial = 0;
   bool have_last = false;
   Eigen::Isometry3d last_camera_from_world = Eigen::Isometry3d::Identity();
-  bool have_velocity = false;
+  bool have_velocity = false;  // at the last good pose (kept through a short loss)
   Eigen::Isometry3d velocity = Eigen::Isometry3d::Identity();
+  double velocity_dt_s = 0.0;  // the time the velocity's motion took
   bool have_good = false;
   Eigen::Isometry3d last_good_camera_from_world = Eigen::Isometry3d::Identity();
   int consecutive_lost = 0;

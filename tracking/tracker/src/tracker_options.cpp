@@ -150,6 +150,9 @@ void RelocalizationOptions::Validate() const {
           "{} must be positive and "
           "{} not negative",
           key(relocalization_max_distance_m), key(relocalization_max_speed_mps));
+  Require(motion_model_horizon_s >= 0.0 && motion_model_max_distance_m > 0.0,
+          "{} must not be negative and {} must be positive", key(motion_model_horizon_s),
+          key(motion_model_max_distance_m));
 }
 
 void LoopClosureOptions::Validate() const {

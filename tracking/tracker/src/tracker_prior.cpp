@@ -12,9 +12,25 @@ Eigen::Isometry3d Tracker::Impl::PriorPrediction() const {
   return last_from_now.inverse() * last_good_camera_from_world;
 }
 
-Eigen::Isometry3d Tracker::Impl::Predict(const Eigen::Isometry3d& last) const {
-  if (have_velocity) return velocity * last;
-  return HasPriorMotion() ? PriorPrediction() : last;
+Eigen::Isometry3d Tracker::Impl::Predict(const Eigen::Isometry3d& last, double time) const {
+  if (have_last && have_velocity) return velocity * last;
+  if (HasPriorMotion()) return PriorPrediction();
+  return MotionModelPose(time).value_or(last);
+}
+
+std::optional<Eigen::Isometry3d> Tracker::Impl::MotionModelPose(double time) const {
+  // Lost since the last good pose: its velocity carried over the time since, for a short while.
+  const double elapsed_s = time - last_good_time;
+  if (!have_velocity || velocity_dt_s <= 0.0 ||
+      elapsed_s > options.relocalization.motion_model_horizon_s) {
+    return std::nullopt;
+  }
+  const double steps = elapsed_s / velocity_dt_s;
+  const Eigen::AngleAxisd turn(velocity.linear());
+  Eigen::Isometry3d carried = Eigen::Isometry3d::Identity();
+  carried.linear() = Eigen::AngleAxisd(turn.angle() * steps, turn.axis()).toRotationMatrix();
+  carried.translation() = velocity.translation() * steps;
+  return carried * last_good_camera_from_world;
 }
 
 void Tracker::Impl::SearchAroundPredictions(Eigen::Isometry3d* predicted, const LocalSet& local,

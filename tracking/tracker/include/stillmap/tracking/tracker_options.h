@@ -222,6 +222,14 @@ struct RelocalizationOptions {
   // jump in the trajectory.
   double relocalization_max_distance_m = 0.3;
   double relocalization_max_speed_mps = 1.5;
+  // While lost for at most motion_model_horizon_s, the last good pose moved on by its velocity
+  // predicts the frame (the search and the dense alignment start there, and the velocity still
+  // predicts the frame after a relocalization), and a relocalization farther than
+  // motion_model_max_distance_m from that prediction is refused: tiles or a look-alike view
+  // matched at the wrong place. Off by default (0): at 0.5 s the synthetic floor's seed 1 gained
+  // and seed 2 lost (docs/figures.md, thirtieth session).
+  double motion_model_horizon_s = 0.0;
+  double motion_model_max_distance_m = 0.15;
   int min_initial_points = 100;
 
   // Throws InputError naming the first impossible value (tracker_options.cpp).
@@ -245,6 +253,10 @@ struct RelocalizationOptions {
           "are refused [m]");
     visit("relocalization_max_speed_mps", self.relocalization_max_speed_mps,
           "... plus this much per second since it [m/s]");
+    visit("motion_model_horizon_s", self.motion_model_horizon_s,
+          "while lost this long at most, the last good velocity predicts the pose (0: off) [s]");
+    visit("motion_model_max_distance_m", self.motion_model_max_distance_m,
+          "relocalizations farther than this from that prediction are refused [m]");
     visit("min_initial_points", self.min_initial_points,
           "features with depth needed to start a map");
   }
