@@ -1,6 +1,7 @@
 // The tracker's prediction: constant velocity, and the motion of given poses (a robot's odometry,
 // poses.use=prior) where that fails: no velocity yet, too few matches around the constant-velocity
 // guess, or no pose from vision at all.
+#include "stillmap/io/trajectory.h"
 #include "tracker_impl.h"
 
 namespace stillmap {
@@ -25,12 +26,9 @@ std::optional<Eigen::Isometry3d> Tracker::Impl::MotionModelPose(double time) con
       elapsed_s > options.relocalization.motion_model_horizon_s) {
     return std::nullopt;
   }
-  const double steps = elapsed_s / velocity_dt_s;
-  const Eigen::AngleAxisd turn(velocity.linear());
-  Eigen::Isometry3d carried = Eigen::Isometry3d::Identity();
-  carried.linear() = Eigen::AngleAxisd(turn.angle() * steps, turn.axis()).toRotationMatrix();
-  carried.translation() = velocity.translation() * steps;
-  return carried * last_good_camera_from_world;
+  // The velocity's motion scaled from identity (slerp and a straight line, extrapolating).
+  return InterpolatePose(Eigen::Isometry3d::Identity(), velocity, elapsed_s / velocity_dt_s) *
+         last_good_camera_from_world;
 }
 
 void Tracker::Impl::SearchAroundPredictions(Eigen::Isometry3d* predicted, const LocalSet& local,
