@@ -51,13 +51,15 @@ void MemoryLedger::Stop() {
 void MemoryLedger::Watch() {
   std::unique_lock<std::mutex> lock(mutex_);
   while (!stopping_) {
-    const double resident = ResidentMemoryMib();
-    if (resident > figures_.peak_watched_mib) {
-      figures_.peak_watched_mib = resident;
-      figures_.peak_watched_phase = phase_;
-    }
+    KeepHighestReading(ResidentMemoryMib());
     wake_.wait_for(lock, std::chrono::milliseconds(50));
   }
+}
+
+void MemoryLedger::KeepHighestReading(double resident) {
+  if (resident <= figures_.peak_watched_mib) return;
+  figures_.peak_watched_mib = resident;
+  figures_.peak_watched_phase = phase_;
 }
 
 void MemoryLedger::Phase(const std::string& name) {
@@ -85,6 +87,8 @@ void MemoryLedger::Sample(const std::string& when,
   SortLargestFirst(&figures_.largest);
   ++figures_.samples;
   const double resident = ResidentMemoryMib();
+  // A sample is a reading too: memory that rose after the watcher's last read is not missed.
+  KeepHighestReading(resident);
   if (resident <= figures_.peak_sample_mib) return;
   figures_.peak_sample_mib = resident;
   figures_.peak_when = when;

@@ -1,8 +1,8 @@
 // Where a build's memory goes. A watcher thread reads the process's resident memory every 50 ms
-// and keeps the highest reading with the phase the build was in (Phase); at chosen points the
-// build also samples what each owner holds (Sample), and the sample taken at the highest resident
-// memory is the one report.json breaks down (timing.memory). The rest of the resident memory is
-// code, libraries, stacks, the allocator's free lists and what no owner counts.
+// and keeps the highest reading, its own or a sample's, with the phase the build was in (Phase);
+// at chosen points the build also samples what each owner holds (Sample), and the sample taken at
+// the highest resident memory is the one report.json breaks down (timing.memory). The rest of the
+// resident memory is code, libraries, stacks, the allocator's free lists and what no owner counts.
 #pragma once
 
 #include <condition_variable>
@@ -35,6 +35,8 @@ class MemoryLedger {
 
  private:
   void Watch();
+  // Keeps `resident` [MiB] as the highest reading if it is (mutex_ held).
+  void KeepHighestReading(double resident);
   void Stop();  // ends the watcher (once; later calls do nothing)
 
   std::mutex mutex_;  // guards the phase, the watcher's figures and stopping_
