@@ -196,6 +196,8 @@ KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
   double largest_m = 0.0;
   cv::minMaxLoc(nearest_m, nullptr, &largest_m);
   view.depth_unit_m = largest_m > 0.0 ? static_cast<float>(largest_m / 65535.0) : 1e-4f;
+  view.pages = std::make_shared<MappedArray<std::uint16_t>>(nearest_m.total());
+  view.depth = cv::Mat(nearest_m.size(), CV_16U, view.pages->data());
   // Rounded to the nearest step; a reading never rounds to 0 (no reading).
   nearest_m.convertTo(view.depth, CV_16U, 1.0 / view.depth_unit_m);
   view.depth.setTo(1, (view.depth == 0) & (nearest_m > 0.0f));

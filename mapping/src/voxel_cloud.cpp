@@ -60,7 +60,7 @@ VoxelCloud::VoxelCloud(const VoxelCloudOptions& options)
       min_points_(static_cast<std::uint32_t>(std::max(1, options.min_points))),
       shards_(kShards) {
   options.Validate();
-  for (Shard& shard : shards_) shard.index.assign(1 << 10, 0);
+  for (Shard& shard : shards_) shard.index = MappedArray<std::uint32_t>(1 << 10);
 }
 
 VoxelCloud::Record* VoxelCloud::Find(Shard* shard, std::uint64_t key, std::uint64_t mixed,
@@ -87,7 +87,7 @@ VoxelCloud::Record* VoxelCloud::Add(Shard* shard, std::uint64_t key, std::uint64
                                         kIdMask - 1, OptionKey(&VoxelCloudOptions::leaf_size)));
   }
   if (id >> kPageBits == shard->pages.size()) {
-    shard->pages.push_back(std::make_unique<Record[]>(kPageRecords));
+    shard->pages.emplace_back(kPageRecords);
   }
   Record& record = shard->At(id);
   record =
@@ -99,7 +99,7 @@ VoxelCloud::Record* VoxelCloud::Add(Shard* shard, std::uint64_t key, std::uint64
 
 void VoxelCloud::Clear() {
   for (Shard& shard : shards_) {
-    std::fill(shard.index.begin(), shard.index.end(), 0);
+    std::fill(shard.index.data(), shard.index.data() + shard.index.size(), 0);
     shard.size = 0;
   }
   size_ = 0;
@@ -108,7 +108,7 @@ void VoxelCloud::Clear() {
 }
 
 void VoxelCloud::Grow(Shard* shard) {
-  shard->index.assign(shard->index.size() * 2, 0);
+  shard->index = MappedArray<std::uint32_t>(shard->index.size() * 2);
   const size_t mask = shard->index.size() - 1;
   for (size_t id = 0; id < shard->size; ++id) {  // records in order: no probe reads one
     const std::uint64_t mixed = Mix(shard->At(id).Key());
@@ -186,7 +186,7 @@ std::uint64_t VoxelCloud::KeyOf(const Eigen::Vector3f& p, float leaf, float offs
          static_cast<std::uint64_t>(index[2] + kAxisOffset);
 }
 
-void VoxelCloud::VisitInKeyOrder(const std::function<void(size_t shard, size_t id)>& visit) const {
+std::vector<std::vector<std::uint32_t>> VoxelCloud::SortedIds() const {
   std::vector<std::vector<std::uint32_t>> ids(kShards);
   for (size_t s = 0; s < kShards; ++s) {
     const Shard& shard = shards_[s];
@@ -197,6 +197,11 @@ void VoxelCloud::VisitInKeyOrder(const std::function<void(size_t shard, size_t i
       return shard.At(a).Key() < shard.At(b).Key();
     });
   }
+  return ids;
+}
+
+void VoxelCloud::MergeShards(const std::vector<std::vector<std::uint32_t>>& ids,
+                             const std::function<void(size_t shard, size_t id)>& visit) const {
   using Head = std::pair<std::uint64_t, size_t>;  // the key a shard offers next, the shard
   std::priority_queue<Head, std::vector<Head>, std::greater<>> heads;
   std::vector<size_t> next(kShards, 0);
@@ -209,6 +214,10 @@ void VoxelCloud::VisitInKeyOrder(const std::function<void(size_t shard, size_t i
     visit(s, ids[s][next[s]]);
     if (++next[s] < ids[s].size()) heads.emplace(shards_[s].At(ids[s][next[s]]).Key(), s);
   }
+}
+
+void VoxelCloud::VisitInKeyOrder(const std::function<void(size_t shard, size_t id)>& visit) const {
+  MergeShards(SortedIds(), visit);
 }
 
 VoxelPoint VoxelCloud::PointOf(const Record& record) const {
@@ -250,10 +259,31 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
 
 std::vector<VoxelPoint> VoxelCloud::TakePoints() {
   for (Shard& shard : shards_) shard.index = {};  // visiting in key order reads the records only
-  // Handed back to the system before the points are made: the allocator keeps large freed blocks
-  // cached otherwise, and the points come on top (floor seed 1: report peak 1553 -> 1533 MiB).
-  ReleaseFreedMemory();
-  std::vector<VoxelPoint> points = Points();
+  std::vector<std::vector<std::uint32_t>> ids = SortedIds();
+  std::vector<std::uint8_t> order;  // the shard of each point, in key order
+  order.reserve(size());
+  MergeShards(ids, [&order](size_t shard, size_t) { order.push_back(std::uint8_t(shard)); });
+  // Each shard's points in key order, its records handed back as soon as they are made: the
+  // points (20 bytes) replace the records (36) instead of coming on top of them.
+  std::vector<std::vector<MappedArray<VoxelPoint>>> parts(kShards);
+  for (size_t s = 0; s < kShards; ++s) {
+    for (size_t i = 0; i < ids[s].size(); ++i) {
+      if (i % kPartPoints == 0) parts[s].emplace_back(std::min(kPartPoints, ids[s].size() - i));
+      parts[s].back()[i % kPartPoints] = PointOf(shards_[s].At(ids[s][i]));
+    }
+    std::vector<std::uint32_t>().swap(ids[s]);
+    shards_[s].pages.clear();
+  }
+  ReleaseFreedMemory();  // the index and the sorted numbers
+  // The parts merged in key order, each part handed back once it is read.
+  std::vector<VoxelPoint> points;
+  points.reserve(order.size());
+  std::vector<size_t> next(kShards, 0);
+  for (const std::uint8_t s : order) {
+    const size_t i = next[s]++;
+    points.push_back(parts[s][i / kPartPoints][i % kPartPoints]);
+    if ((i + 1) % kPartPoints == 0) parts[s][i / kPartPoints] = {};
+  }
   VoxelCloudOptions options;
   options.leaf_size = leaf_size_;
   options.min_points = static_cast<int>(min_points_);

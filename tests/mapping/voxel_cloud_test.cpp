@@ -167,6 +167,33 @@ TEST(VoxelCloudTest, TakenPointsAreThePointsAndLeaveANewCloud) {
   EXPECT_EQ(cloud.Points()[0].count, 2u);
 }
 
+// Past 2^14 points a shard TakePoints makes each shard's points in several parts before merging
+// them: 1.5 M voxels (about 23000 a shard) still come out as Points() gives them, in key order.
+TEST(VoxelCloudTest, TakenPointsOfManyVoxelsKeepTheKeyOrder) {
+  std::vector<Eigen::Vector3f> positions;
+  positions.reserve(size_t{1225} * 1225);
+  for (int i = 0; i < 1225; ++i) {
+    for (int j = 0; j < 1225; ++j) {  // voxel centres
+      positions.emplace_back(static_cast<float>((i + 0.5) * 0.01),
+                             static_cast<float>((j - 600 + 0.5) * 0.01), 1.005f);
+    }
+  }
+  VoxelCloud cloud;
+  cloud.Insert(MakePoints(positions));
+  const std::vector<VoxelPoint> expected = cloud.Points();
+  ASSERT_EQ(expected.size(), positions.size());
+  const std::vector<VoxelPoint> taken = cloud.TakePoints();
+  ASSERT_EQ(taken.size(), expected.size());
+  size_t differing = 0;
+  for (size_t i = 0; i < taken.size(); ++i) differing += taken[i].position != expected[i].position;
+  EXPECT_EQ(differing, 0u);
+  // Key order: x, then y, then z.
+  EXPECT_LT(taken.front().position.x(), 0.01f);
+  EXPECT_LT(taken.front().position.y(), -5.99f);
+  EXPECT_GT(taken.back().position.x(), 12.2f);
+  EXPECT_GT(taken.back().position.y(), 6.2f);
+}
+
 // 36 bytes of sums a voxel and a 4-byte index entry at a load of 0.375 to 0.75: under 50 bytes a
 // voxel from half a million on (a table of 40-byte slots took 53 to 107; a small cloud holds
 // part of a 2048-record page per shard).

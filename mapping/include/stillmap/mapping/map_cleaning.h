@@ -4,10 +4,12 @@
 
 #include <Eigen/Geometry>
 #include <cstddef>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
 
 #include "stillmap/io/camera.h"
+#include "stillmap/io/mapped_pages.h"
 #include "stillmap/mapping/occupancy_map.h"
 #include "stillmap/mapping/voxel_cloud.h"
 
@@ -65,6 +67,10 @@ struct MapCleaningOptions {
 // the views of a long recording add up.
 struct KeyframeView {
   cv::Mat depth;  // CV_16UC1, (width + 1) / 2 x (height + 1) / 2, 0 = no reading or masked
+  // What `depth` lies in when MakeKeyframeView made it: pages of its own, handed back to the system
+  // with the last copy (views live through the frame loop and are freed before the map's points
+  // are made, which could not use the holes they would leave in the heap).
+  std::shared_ptr<MappedArray<std::uint16_t>> pages;
   float depth_unit_m = 0.0f;  // the step of `depth` [m]
   Eigen::Isometry3f camera_from_world = Eigen::Isometry3f::Identity();
   // Merged sessions (Mapper::BeginLaterSession): of a voxel, only the latest session that saw it

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "stillmap/io/cloud_files.h"
+#include "stillmap/io/mapped_pages.h"
 #include "stillmap/mapping/back_projection.h"
 
 namespace stillmap {
@@ -39,7 +40,9 @@ struct VoxelCloudOptions {
 // most 0.75): about 43 bytes a voxel, where one table of 40-byte slots took 53 to 107 (1280 MiB
 // for the 12 M voxels of the synthetic floor; 603 MiB now). An entry holds the record's number
 // and 5 bits of the key's hash, so a probe reads a record only when those agree. An index that
-// doubles is rebuilt from the records, read in order. Written here rather than taken from PCL:
+// doubles is rebuilt from the records, read in order. Pages and index are taken straight from the
+// system (io/mapped_pages.h), so the index's doublings and the freed records leave no holes in
+// the heap. Written here rather than taken from PCL:
 // PCL's VoxelGrid works on a finished cloud, needs a second pass and returns its input unfiltered
 // when the grid's index range overflows (large extents at 1 cm); this grid accumulates frame by
 // frame in O(1) per point and its key range is ±10 km at 1 cm.
@@ -65,8 +68,9 @@ class VoxelCloud {
 
   // The same points as a vector (tests and small clouds).
   std::vector<VoxelPoint> Points() const;
-  // The points as Points() gives them, the cloud left empty: its lookup index is freed (and the
-  // allocator's freed blocks handed back) before the points are made, and its records after.
+  // The points as Points() gives them, the cloud left empty: its lookup index is freed first, and
+  // each shard's records as soon as its points are made (in parts, merged into key order at the
+  // end), so the points replace the records rather than come on top of them.
   std::vector<VoxelPoint> TakePoints();
 
   size_t size() const { return size_ - removed_; }
@@ -90,9 +94,9 @@ class VoxelCloud {
     std::uint64_t Key() const { return std::uint64_t{key_high} << 32 | key_low; }
   };
   struct Shard {
-    std::vector<std::uint32_t> index;  // 0: empty; else tag << kIdBits | (record number + 1)
-    std::vector<std::unique_ptr<Record[]>> pages;  // kPageRecords each, kept by Clear
-    size_t size = 0;                               // records made, removed ones included
+    MappedArray<std::uint32_t> index;        // 0: empty; else tag << kIdBits | (record number + 1)
+    std::vector<MappedArray<Record>> pages;  // kPageRecords each, kept by Clear
+    size_t size = 0;                         // records made, removed ones included
     Record& At(size_t id) { return pages[id >> kPageBits][id & (kPageRecords - 1)]; }
     const Record& At(size_t id) const { return pages[id >> kPageBits][id & (kPageRecords - 1)]; }
   };
@@ -100,6 +104,7 @@ class VoxelCloud {
   static constexpr size_t kShards = size_t{1} << kShardBits;
   static constexpr int kPageBits = 11;
   static constexpr size_t kPageRecords = size_t{1} << kPageBits;
+  static constexpr size_t kPartPoints = size_t{1} << 14;  // TakePoints's parts (320 KiB)
   static constexpr int kIdBits = 27;  // records per shard < 2^27: 8.6 G voxels in all
   static constexpr std::uint32_t kIdMask = (std::uint32_t{1} << kIdBits) - 1;
   static constexpr std::uint32_t kRemoved = ~std::uint32_t{0};  // color_sum[0] of a removed voxel
@@ -112,9 +117,14 @@ class VoxelCloud {
   static void Grow(Shard* shard);
   // The voxel key of `p` and its offset from the voxel's min corner, or ~0 beyond the key range.
   std::uint64_t KeyOf(const Eigen::Vector3f& p, float leaf, float offset[3]) const;
-  // Calls `visit` with the shard and record number of every output voxel, in key order: each
-  // shard's record numbers sorted by key (4 bytes a voxel), then merged across the shards. A list
-  // of (key, position) pairs sorted at once held 16 (180 MiB on the floor, beside the records).
+  // Each shard's output records (count >= min_points), their numbers sorted by key (4 bytes a
+  // voxel). A list of (key, position) pairs sorted at once held 16 (180 MiB on the floor).
+  std::vector<std::vector<std::uint32_t>> SortedIds() const;
+  // Calls `visit` with the shard and record number of each of `ids` (SortedIds), merged across
+  // the shards into key order.
+  void MergeShards(const std::vector<std::vector<std::uint32_t>>& ids,
+                   const std::function<void(size_t shard, size_t id)>& visit) const;
+  // Calls `visit` with the shard and record number of every output voxel, in key order.
   void VisitInKeyOrder(const std::function<void(size_t shard, size_t id)>& visit) const;
   VoxelPoint PointOf(const Record& record) const;
 

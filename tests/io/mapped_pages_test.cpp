@@ -1,0 +1,60 @@
+#include "stillmap/io/mapped_pages.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+
+namespace stillmap {
+namespace {
+
+constexpr std::size_t kMib = std::size_t{1} << 20;
+
+// The process's resident memory [MiB], read from /proc as the kernel counts it.
+double ResidentMib() {
+  std::ifstream statm("/proc/self/statm");
+  unsigned long long size_pages = 0, resident_pages = 0;
+  statm >> size_pages >> resident_pages;
+  return static_cast<double>(resident_pages * static_cast<unsigned long long>(getpagesize())) /
+         static_cast<double>(kMib);
+}
+
+struct Tagged {
+  std::uint32_t tag = 7;
+};
+
+}  // namespace
+
+TEST(MappedArrayTest, ValuesStartValueInitialisedAndMoveWithTheirPages) {
+  MappedArray<std::uint32_t> zeros(100000);
+  ASSERT_EQ(zeros.size(), 100000u);
+  for (std::size_t i = 0; i < zeros.size(); ++i) ASSERT_EQ(zeros[i], 0u) << i;
+  zeros[99999] = 5;
+  MappedArray<std::uint32_t> moved(std::move(zeros));
+  EXPECT_EQ(moved[99999], 5u);
+  EXPECT_EQ(zeros.size(), 0u);  // NOLINT(bugprone-use-after-move): a moved-from array is empty
+  EXPECT_EQ(zeros.data(), nullptr);
+  MappedArray<Tagged> tagged(3);
+  EXPECT_EQ(tagged[2].tag, 7u);  // a default member initialiser runs
+  EXPECT_EQ(MappedArray<int>(0).data(), nullptr);
+}
+
+// Freed, the pages leave the process at once: no allocator keeps them.
+TEST(MappedArrayTest, FreedPagesLeaveTheResidentMemory) {
+  const double before = ResidentMib();
+  {
+    MappedArray<char> block(256 * kMib);
+    std::memset(block.data(), 1, block.size());
+    EXPECT_GT(ResidentMib() - before, 250.0);
+    block = MappedArray<char>();
+    EXPECT_LT(ResidentMib() - before, 10.0);
+    EXPECT_EQ(block.size(), 0u);
+    MappedArray<char> again(64 * kMib);
+    std::memset(again.data(), 1, again.size());
+  }
+  EXPECT_LT(ResidentMib() - before, 10.0);
+}
+
+}  // namespace stillmap
