@@ -274,7 +274,7 @@ std::vector<VoxelPoint> VoxelCloud::TakePoints() {
     std::vector<std::uint32_t>().swap(ids[s]);
     shards_[s].pages.clear();
   }
-  ReleaseFreedMemory();  // the index and the sorted numbers
+  ReleaseFreedMemory();  // the sorted numbers (the records' and index's pages went already)
   // The parts merged in key order, each part handed back once it is read.
   std::vector<VoxelPoint> points;
   points.reserve(order.size());

@@ -1,10 +1,9 @@
 #include "memory_ledger.h"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
-#include <fstream>
+
+#include "stillmap/io/cpu_usage.h"
 
 namespace stillmap {
 namespace {
@@ -27,13 +26,6 @@ void SortLargestFirst(std::vector<MemoryOwner>* owners) {
 }
 
 }  // namespace
-
-double ResidentMemoryMib() {
-  std::ifstream statm("/proc/self/statm");
-  unsigned long long size_pages = 0, resident_pages = 0;
-  if (!(statm >> size_pages >> resident_pages)) return 0.0;
-  return static_cast<double>(resident_pages) * static_cast<double>(sysconf(_SC_PAGESIZE)) / kMib;
-}
 
 MemoryLedger::MemoryLedger() : watcher_([this] { Watch(); }) {}
 

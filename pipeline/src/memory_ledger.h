@@ -48,7 +48,4 @@ class MemoryLedger {
   std::thread watcher_;  // last: starts after the rest is made
 };
 
-// The resident memory of the process now [MiB] (/proc/self/statm).
-double ResidentMemoryMib();
-
 }  // namespace stillmap

@@ -1,25 +1,16 @@
 #include "stillmap/io/mapped_pages.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdint>
 #include <cstring>
-#include <fstream>
+
+#include "stillmap/io/cpu_usage.h"
 
 namespace stillmap {
 namespace {
 
 constexpr std::size_t kMib = std::size_t{1} << 20;
-
-// The process's resident memory [MiB], read from /proc as the kernel counts it.
-double ResidentMib() {
-  std::ifstream statm("/proc/self/statm");
-  unsigned long long size_pages = 0, resident_pages = 0;
-  statm >> size_pages >> resident_pages;
-  return static_cast<double>(resident_pages * static_cast<unsigned long long>(getpagesize())) /
-         static_cast<double>(kMib);
-}
 
 struct Tagged {
   std::uint32_t tag = 7;
@@ -43,18 +34,18 @@ TEST(MappedArrayTest, ValuesStartValueInitialisedAndMoveWithTheirPages) {
 
 // Freed, the pages leave the process at once: no allocator keeps them.
 TEST(MappedArrayTest, FreedPagesLeaveTheResidentMemory) {
-  const double before = ResidentMib();
+  const double before = ResidentMemoryMib();
   {
     MappedArray<char> block(256 * kMib);
     std::memset(block.data(), 1, block.size());
-    EXPECT_GT(ResidentMib() - before, 250.0);
+    EXPECT_GT(ResidentMemoryMib() - before, 250.0);
     block = MappedArray<char>();
-    EXPECT_LT(ResidentMib() - before, 10.0);
+    EXPECT_LT(ResidentMemoryMib() - before, 10.0);
     EXPECT_EQ(block.size(), 0u);
     MappedArray<char> again(64 * kMib);
     std::memset(again.data(), 1, again.size());
   }
-  EXPECT_LT(ResidentMib() - before, 10.0);
+  EXPECT_LT(ResidentMemoryMib() - before, 10.0);
 }
 
 }  // namespace stillmap

@@ -7,6 +7,8 @@
 #include <thread>
 #include <vector>
 
+#include "stillmap/io/cpu_usage.h"
+
 namespace stillmap {
 namespace {
 

@@ -12,6 +12,8 @@ double ThreadCpuMs();
 double ProcessCpuSeconds();
 // The process's peak resident memory so far [MiB].
 double PeakMemoryMib();
+// The resident memory of the process now [MiB] (/proc/self/statm; 0 where it cannot be read).
+double ResidentMemoryMib();
 // The process's malloc: "tbbmalloc" when TBB's proxy replaced it (the stillmap binary, see
 // CMakeLists.txt), else "glibc".
 const char* MemoryAllocator();
