@@ -1,7 +1,7 @@
 // Per-stage timings of the tracker on a real sequence (tum_fr3_teddy_200 from ../shared/data, or
 // $STILLMAP_DATA): ORB extraction, descriptor matching (brute force against FLANN LSH), PnP-RANSAC,
-// motion-only refinement, YOLOX-Nano detection (and its network as loaded against rewritten), and
-// whole-sequence tracking. Skips with a
+// motion-only refinement, YOLOX-Nano detection (and its network as loaded against rewritten),
+// place index queries and whole-sequence tracking. Skips with a
 // message when the sequence is absent.
 //   build/tests/benchmarks/stillmap_tracking_benchmark
 #include <benchmark/benchmark.h>
@@ -13,11 +13,13 @@
 #include <opencv2/flann.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <random>
 
 #include "stillmap/io/sequence.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/features.h"
 #include "stillmap/tracking/matching.h"
+#include "stillmap/tracking/place_index.h"
 #include "stillmap/tracking/pose_estimation.h"
 #include "stillmap/tracking/pose_refinement.h"
 #include "stillmap/tracking/tracker.h"
@@ -274,6 +276,42 @@ BENCHMARK(BM_TrackSequence)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(2)
     ->UseRealTime();
+
+// The place index (the tracker's loop search, the map segments' links) holding `keyframes`
+// keyframes: one keyframe's query, and the index's bytes. The keyframes are teddy's frames'
+// descriptors, each used again with 8 random bits of every descriptor flipped, so that the
+// buckets fill as real ORB descriptors fill them.
+void BM_PlaceIndexQuery(benchmark::State& state) {  // NOLINT(readability-identifier-naming)
+  const Input& in = GetInput();
+  if (Skip(state, in)) return;
+  std::vector<cv::Mat> frames;
+  for (size_t i = 0; i < in.frames.size(); i += 2) {
+    frames.push_back(
+        ExtractFeatures(in.grays[i], in.frames[i].depth_m, in.camera, cv::Mat(), FeatureOptions{})
+            .descriptors);
+  }
+  std::mt19937 generator(3);
+  std::uniform_int_distribution<int> bit(0, 255);
+  PlaceIndex index(PlaceIndexOptions{}, 1);
+  for (int k = 0; k < state.range(0); ++k) {
+    cv::Mat descriptors = frames[static_cast<size_t>(k) % frames.size()].clone();
+    for (int r = 0; r < descriptors.rows; ++r) {
+      for (int flip = 0; flip < 8; ++flip) {
+        const int b = bit(generator);
+        descriptors.at<std::uint8_t>(r, b / 8) ^= static_cast<std::uint8_t>(1U << (b % 8));
+      }
+    }
+    index.Add(k, descriptors);
+  }
+  size_t query = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(
+        index.Query(frames[query++ % frames.size()], 8, [](int) { return false; }));
+  }
+  state.counters["index_mib"] = static_cast<double>(index.MemoryBytes()) / (1024.0 * 1024.0);
+  state.counters["entries"] = static_cast<double>(index.entries());
+}
+BENCHMARK(BM_PlaceIndexQuery)->Arg(250)->Arg(1000)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace stillmap

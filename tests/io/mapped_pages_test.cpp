@@ -48,4 +48,24 @@ TEST(MappedArrayTest, FreedPagesLeaveTheResidentMemory) {
   EXPECT_LT(ResidentMemoryMib() - before, 10.0);
 }
 
+// Values pushed across many pages read back as pushed; cleared, the pages leave the process.
+TEST(PagedArrayTest, KeepsItsValuesAcrossPagesAndHandsThemBackCleared) {
+  const double before = ResidentMemoryMib();
+  PagedArray<std::uint64_t, 10> values;       // 8 KiB pages
+  constexpr std::uint64_t kCount = 8 * kMib;  // 64 MiB
+  for (std::uint64_t i = 0; i < kCount; ++i) values.push_back(i * 3 + 1);
+  ASSERT_EQ(values.size(), kCount);
+  for (std::uint64_t i = 0; i < kCount; i += 997) ASSERT_EQ(values[i], i * 3 + 1) << i;
+  EXPECT_EQ(values[kCount - 1], (kCount - 1) * 3 + 1);
+  EXPECT_GE(values.MemoryBytes(), kCount * sizeof(std::uint64_t));
+  EXPECT_GT(ResidentMemoryMib() - before, 60.0);
+  PagedArray<std::uint64_t, 10> moved = std::move(values);
+  EXPECT_EQ(moved[12345], 12345u * 3 + 1);
+  moved.clear();
+  EXPECT_EQ(moved.size(), 0u);
+  EXPECT_LT(ResidentMemoryMib() - before, 10.0);
+  moved.push_back(9);
+  EXPECT_EQ(moved[0], 9u);
+}
+
 }  // namespace stillmap

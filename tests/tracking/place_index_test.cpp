@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <random>
 
 #include "stillmap/io/error.h"
@@ -120,9 +121,61 @@ TEST_F(PlaceIndexTest, SameSeedSameAnswer) {
   }
 }
 
+// With max_distance 0 a query descriptor votes exactly for the keyframes holding it (identical
+// descriptors share every bucket), so the votes can be counted by brute force. Few key bits make
+// buckets of many chunks; removals and a compaction come between the queries.
+TEST(PlaceIndexExactTest, VotesAreTheKeyframesHoldingEachQueryDescriptor) {
+  std::mt19937 generator(11);
+  PlaceIndexOptions options;
+  options.key_bits = 4;
+  options.tables = 3;
+  options.max_distance = 0;
+  PlaceIndex index(options, 5);
+  const cv::Mat pool = RandomDescriptors(400, &generator);
+  std::uniform_int_distribution<int> row_of(0, pool.rows - 1);
+  std::map<int, cv::Mat> keyframes;
+  for (int k = 0; k < 60; ++k) {
+    cv::Mat rows(90, 32, CV_8U);
+    for (int r = 0; r < rows.rows; ++r) pool.row(row_of(generator)).copyTo(rows.row(r));
+    keyframes[k] = rows;
+    index.Add(k, rows);
+  }
+  const cv::Mat query = RandomDescriptors(40, &generator);
+  for (int r = 0; r < 30; ++r) pool.row(row_of(generator)).copyTo(query.row(r));
+  auto expect_brute_force_votes = [&] {
+    std::map<int, int> truth;
+    for (int q = 0; q < query.rows; ++q) {
+      for (const auto& [k, rows] : keyframes) {
+        for (int r = 0; r < rows.rows; ++r) {
+          if (cv::norm(query.row(q), rows.row(r), cv::NORM_HAMMING) == 0.0) {
+            ++truth[k];
+            break;
+          }
+        }
+      }
+    }
+    const auto candidates = index.Query(query, keyframes.size(), [](int) { return false; });
+    std::map<int, int> votes;
+    for (const PlaceCandidate& candidate : candidates)
+      votes[candidate.keyframe_id] = candidate.votes;
+    EXPECT_EQ(votes, truth);
+  };
+  expect_brute_force_votes();
+  for (int k = 0; k < 60; ++k) {  // more than half the entries: the index compacts
+    if (k % 2 == 1 && k != 1) continue;
+    index.Remove(k);
+    keyframes.erase(k);
+  }
+  expect_brute_force_votes();
+  EXPECT_EQ(index.keyframes(), keyframes.size());
+  EXPECT_EQ(index.entries(), keyframes.size() * 90);
+}
+
 TEST(PlaceIndexOptionsTest, RefusesImpossibleValues) {
   PlaceIndexOptions options;
   options.key_bits = 40;
+  EXPECT_THROW(options.Validate(), InputError);
+  options.key_bits = PlaceIndexOptions::kMaxKeyBits + 1;
   EXPECT_THROW(options.Validate(), InputError);
   options = {};
   options.tables = 0;

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <numeric>
 #include <random>
+#include <utility>
 
 #include "hamming.h"
 #include "stillmap/io/error.h"
@@ -16,16 +17,19 @@ namespace stillmap {
 void PlaceIndexOptions::Validate() const {
   if (tables < 1 || tables > 64)
     throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, tables)));
-  if (key_bits < 4 || key_bits > 32)
-    throw InputError(fmt::format("{} must be 4..32", OptionKey(*this, key_bits)));
+  if (key_bits < 4 || key_bits > kMaxKeyBits) {
+    throw InputError(fmt::format("{} must be 4..{} (each table holds 4 bytes for each key)",
+                                 OptionKey(*this, key_bits), kMaxKeyBits));
+  }
   if (max_distance < 0 || max_distance > 256) {
     throw InputError(fmt::format("{} must be 0..256", OptionKey(*this, max_distance)));
   }
 }
 
-PlaceIndex::PlaceIndex(const PlaceIndexOptions& options, std::uint64_t seed)
-    : options_(options), buckets_(static_cast<size_t>(options.tables)) {
+PlaceIndex::PlaceIndex(const PlaceIndexOptions& options, std::uint64_t seed) : options_(options) {
   options_.Validate();
+  tables_.resize(static_cast<size_t>(options_.tables));
+  for (Table& table : tables_) table.newest.assign(size_t{1} << options_.key_bits, 0);
   std::mt19937_64 generator(seed);
   std::vector<int> positions(256);
   for (int t = 0; t < options_.tables; ++t) {
@@ -64,12 +68,17 @@ void PlaceIndex::Add(int keyframe_id, const cv::Mat& descriptors) {
 }
 
 void PlaceIndex::AddToTables(std::uint32_t index) {
-  for (size_t t = 0; t < buckets_.size(); ++t) {
-    const auto [bucket, added] = buckets_[t].try_emplace(Key(descriptors_[index], t));
-    if (added) table_bytes_ += sizeof(std::uint32_t) + sizeof(std::vector<std::uint32_t>);
-    const size_t capacity = bucket->second.capacity();
-    bucket->second.push_back(index);
-    table_bytes_ += (bucket->second.capacity() - capacity) * sizeof(std::uint32_t);
+  for (size_t t = 0; t < tables_.size(); ++t) {
+    Table& table = tables_[t];
+    std::uint32_t& newest = table.newest[Key(descriptors_[index], t)];
+    if (newest == 0 || table.chunks[newest - 1].count == Chunk::kItems) {
+      Chunk chunk{};
+      chunk.older = newest;
+      table.chunks.push_back(chunk);
+      newest = static_cast<std::uint32_t>(table.chunks.size());
+    }
+    Chunk& chunk = table.chunks[newest - 1];
+    chunk.items[chunk.count++] = index;
   }
 }
 
@@ -87,8 +96,8 @@ void PlaceIndex::Remove(int keyframe_id) {
 }
 
 void PlaceIndex::Compact() {
-  std::vector<Bits> descriptors;
-  std::vector<int> owner;
+  PagedArray<Bits, 11> descriptors;
+  PagedArray<int, 14> owner;
   std::vector<std::uint32_t> moved_to(owner_.size(), 0);  // old index -> new index
   for (size_t i = 0; i < owner_.size(); ++i) {
     moved_to[i] = static_cast<std::uint32_t>(descriptors.size());
@@ -99,11 +108,13 @@ void PlaceIndex::Compact() {
   for (auto& [id, entries] : indexed_) {
     if (entries.count > 0) entries.first = moved_to[entries.first];
   }
-  descriptors_.swap(descriptors);
-  owner_.swap(owner);
+  descriptors_ = std::move(descriptors);
+  owner_ = std::move(owner);
   removed_entries_ = 0;
-  for (auto& table : buckets_) table.clear();
-  table_bytes_ = 0;
+  for (Table& table : tables_) {
+    std::fill(table.newest.begin(), table.newest.end(), 0);
+    table.chunks.clear();
+  }
   for (size_t i = 0; i < descriptors_.size(); ++i) AddToTables(static_cast<std::uint32_t>(i));
 }
 
@@ -114,16 +125,13 @@ std::map<int, int> PlaceIndex::Votes(const cv::Mat& descriptors) const {
     Bits query;
     std::memcpy(query.data(), descriptors.ptr<std::uint8_t>(row), sizeof(query));
     hits.clear();
-    for (size_t t = 0; t < buckets_.size(); ++t) {
-      const auto bucket = buckets_[t].find(Key(query, t));
-      if (bucket == buckets_[t].end()) continue;
-      for (const std::uint32_t index : bucket->second) {
+    for (size_t t = 0; t < tables_.size(); ++t) {
+      ForEachInBucket(tables_[t], Key(query, t), [&](std::uint32_t index) {
         const int owner = owner_[index];
-        if (owner < 0) continue;
-        const Bits& d = descriptors_[index];
-        const int distance = HammingDistance(query, d);
+        if (owner < 0) return;
+        const int distance = HammingDistance(query, descriptors_[index]);
         if (distance <= options_.max_distance) hits.emplace_back(owner, distance);
-      }
+      });
     }
     std::sort(hits.begin(), hits.end());
     for (size_t i = 0; i < hits.size(); ++i) {
@@ -144,7 +152,11 @@ std::vector<PlaceCandidate> PlaceIndex::Ranked(std::vector<PlaceCandidate> candi
 }
 
 size_t PlaceIndex::MemoryBytes() const {
-  return descriptors_.capacity() * sizeof(Bits) + owner_.capacity() * sizeof(int) + table_bytes_;
+  size_t bytes = descriptors_.MemoryBytes() + owner_.MemoryBytes();
+  for (const Table& table : tables_) {
+    bytes += table.newest.capacity() * sizeof(std::uint32_t) + table.chunks.MemoryBytes();
+  }
+  return bytes;
 }
 
 }  // namespace stillmap

@@ -9,6 +9,7 @@
 #include <new>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 namespace stillmap {
 
@@ -52,6 +53,36 @@ class MappedArray {
 
  private:
   T* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+// A growing array of plain values in MappedArray pages of 2^kPageBits values: it is never copied
+// as it grows, leaves no block behind, and its pages go back to the system when it is freed (for
+// indexes that grow with the recording and are freed before the map is fused again).
+template <typename T, int kPageBits>
+class PagedArray {
+ public:
+  static constexpr std::size_t kPageValues = std::size_t{1} << kPageBits;
+
+  void push_back(const T& value) {
+    if (size_ == pages_.size() * kPageValues) pages_.emplace_back(kPageValues);
+    (*this)[size_++] = value;
+  }
+  T& operator[](std::size_t i) { return pages_[i >> kPageBits][i & (kPageValues - 1)]; }
+  const T& operator[](std::size_t i) const { return pages_[i >> kPageBits][i & (kPageValues - 1)]; }
+  std::size_t size() const { return size_; }
+  // The pages' bytes and their list's.
+  std::size_t MemoryBytes() const {
+    return pages_.size() * kPageValues * sizeof(T) + pages_.capacity() * sizeof(MappedArray<T>);
+  }
+  // Hands every page back.
+  void clear() {
+    std::vector<MappedArray<T>>().swap(pages_);
+    size_ = 0;
+  }
+
+ private:
+  std::vector<MappedArray<T>> pages_;
   std::size_t size_ = 0;
 };
 

@@ -15,14 +15,16 @@
 #include <cstdint>
 #include <map>
 #include <opencv2/core.hpp>
-#include <unordered_map>
 #include <vector>
+
+#include "stillmap/io/mapped_pages.h"
 
 namespace stillmap {
 
 struct PlaceIndexOptions {
-  int tables = 8;         // hash tables
-  int key_bits = 16;      // bits of a descriptor that make a key
+  static constexpr int kMaxKeyBits = 20;  // a table's keys then take 4 MiB
+  int tables = 8;                         // hash tables
+  int key_bits = 16;      // bits of a descriptor that make a key (each table holds 4 bytes a key)
   int max_distance = 50;  // a query descriptor votes for keyframes holding one this close
                           // (Hamming, of 256 bits; ORB-SLAM2's TH_LOW)
 
@@ -75,14 +77,37 @@ class PlaceIndex {
   std::map<int, int> Votes(const cv::Mat& descriptors) const;
   static std::vector<PlaceCandidate> Ranked(std::vector<PlaceCandidate> candidates, size_t count);
   void Compact();
-  // Files descriptor `index` under its key in every table, counting the bytes the tables grow by.
+  // Files descriptor `index` under its key in every table.
   void AddToTables(std::uint32_t index);
+
+  // The index lies in pages of its own (mapped_pages.h), the tables' buckets too, rather than in a
+  // small list per key: those many small blocks stayed in the heap once the index was freed,
+  // pinned by the build's other small blocks (docs/figures.md, issue 47). A bucket is a chain of
+  // chunks, newest first.
+  struct Chunk {
+    static constexpr std::uint32_t kItems = 14;  // a chunk fills a 64-byte cache line
+    std::uint32_t items[kItems];                 // descriptor numbers
+    std::uint32_t count;
+    std::uint32_t older;  // the bucket's chunk before this one + 1, 0 = none
+  };
+  struct Table {
+    std::vector<std::uint32_t> newest;  // per key: the bucket's newest chunk + 1, 0 = empty
+    PagedArray<Chunk, 10> chunks;       // 64 KiB pages
+  };
+  // Calls visit(descriptor number) for each descriptor in the bucket of `key` in `table`.
+  template <typename Visit>
+  static void ForEachInBucket(const Table& table, std::uint32_t key, Visit&& visit) {
+    for (std::uint32_t c = table.newest[key]; c != 0; c = table.chunks[c - 1].older) {
+      const Chunk& chunk = table.chunks[c - 1];
+      for (std::uint32_t i = 0; i < chunk.count; ++i) visit(chunk.items[i]);
+    }
+  }
 
   PlaceIndexOptions options_;
   std::vector<std::vector<int>> key_bit_positions_;  // per table
-  std::vector<std::unordered_map<std::uint32_t, std::vector<std::uint32_t>>> buckets_;
-  std::vector<Bits> descriptors_;
-  std::vector<int> owner_;  // keyframe id per descriptor, -1 once removed
+  std::vector<Table> tables_;
+  PagedArray<Bits, 11> descriptors_;
+  PagedArray<int, 14> owner_;  // keyframe id per descriptor, -1 once removed
   // A keyframe's descriptors: contiguous in descriptors_ (Add appends them, Compact keeps the
   // order), so that removing one touches its own entries only.
   struct Entries {
@@ -90,8 +115,6 @@ class PlaceIndex {
     bool live = true;  // still indexed
   };
   std::map<int, Entries> indexed_;  // by keyframe id
-  // What the tables hold, kept as they grow: a memory sample must not walk them all.
-  size_t table_bytes_ = 0;
   size_t keyframe_count_ = 0;
   size_t removed_entries_ = 0;
 };
