@@ -281,7 +281,7 @@ BuildResult RunBuild(const BuildRequest& request) {
   memory.Phase("setting up: the detector");
   const double before_masks_mib = ResidentMemoryMib();
   MaskSetup masks = SetUpMasks(MaskOptionsOf(request), inputs.camera);
-  memory.AddFixed("detector_models", ResidentMemoryMib() - before_masks_mib);
+  memory.AddFixed(kDetectorMemoryOwner, ResidentMemoryMib() - before_masks_mib);
   result.masking = masks.figures;
   Append(std::move(masks.warnings), &result.warnings);
 

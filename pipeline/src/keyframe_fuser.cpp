@@ -250,6 +250,11 @@ void KeyframeFuser::NoteNewSegment() {
   if (KeepsEveryFused()) deferring_ = true;
 }
 
+void KeyframeFuser::EndKeyframes() {
+  recheck_.reset();
+  revisits_.Forget();
+}
+
 bool KeyframeFuser::Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera) {
   const Eigen::Isometry3d change = stored.world_from_camera.inverse() * world_from_camera;
   return change.translation().norm() > 0.001 || RotationAngleDeg(change) > 0.05;

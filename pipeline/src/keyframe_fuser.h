@@ -74,6 +74,9 @@ class KeyframeFuser {
   // the keyframes fused so far, so keyframes from here on are only kept until Refuse, which fuses
   // them where they end up; the map fused so far stays until a correction moves it.
   void NoteNewSegment();
+  // After the last keyframe, before Refuse: what only new keyframes need (the map re-check's
+  // references, the cells of the views remembered for revisits) is freed.
+  void EndKeyframes();
   // Whether the map waits for Refuse (NoteCorrections).
   bool refusion_due() const { return refusion_due_; }
 

@@ -69,6 +69,13 @@ void MemoryLedger::AddFixed(const std::string& name, double mib) {
   fixed_.push_back({name, std::max(0.0, mib)});
 }
 
+void MemoryLedger::DropFixed(const std::string& name) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  fixed_.erase(std::remove_if(fixed_.begin(), fixed_.end(),
+                              [&](const MemoryOwner& owner) { return owner.name == name; }),
+               fixed_.end());
+}
+
 void MemoryLedger::Sample(const std::string& when,
                           const std::vector<std::pair<std::string, size_t>>& owners) {
   const std::lock_guard<std::mutex> lock(mutex_);

@@ -15,6 +15,9 @@
 
 namespace stillmap {
 
+// The fixed owner of the detector's models (freed once the frames are masked).
+inline constexpr const char* kDetectorMemoryOwner = "detector_models";
+
 class MemoryLedger {
  public:
   MemoryLedger();
@@ -27,6 +30,8 @@ class MemoryLedger {
   // Owners counted once and added to every sample (the detector's models, measured as the
   // resident memory their loading took).
   void AddFixed(const std::string& name, double mib);
+  // A fixed owner was freed: the samples from here on leave it out.
+  void DropFixed(const std::string& name);
   // The resident memory now and what each owner holds now [bytes], taken `when` (e.g. "frame
   // loop, frame at 312.4 s").
   void Sample(const std::string& when, const std::vector<std::pair<std::string, size_t>>& owners);

@@ -37,6 +37,8 @@ class SegmentKeeper {
     const std::map<int, Eigen::Isometry3d> moved = segments_.SettleLastLoops();
     if (!moved.empty()) tracker.MoveKeyframes(moved);
   }
+  // After the last keyframe (and SettleLastLoops): what only new keyframes need is freed.
+  void EndKeyframes() { segments_.EndKeyframes(); }
   // The tracker's keyframes moved (its loops, its global bundle adjustment).
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
     segments_.Repose(world_from_keyframe);

@@ -89,6 +89,11 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   // Loops between segments taken since their group last settled (a settle waits for several)
   // settle it now, before the map is fused again at the final poses.
   segments.SettleLastLoops(tracker);
+  // What only frames and keyframes to come would need is freed before the map is fused again.
+  segments.EndKeyframes();
+  fuser.EndKeyframes();
+  stages.masks.EndFrames();
+  stages.memory.DropFixed(kDetectorMemoryOwner);
   // What is left to take from the tracker, before it is freed: the final refusion does not carry
   // its place index, keyframes and landmarks (floor seed 1: report peak 1225 -> 1188 MiB).
   const std::map<int, Eigen::Isometry3d> final_poses = tracker.KeyframePoses();

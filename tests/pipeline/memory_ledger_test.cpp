@@ -18,9 +18,9 @@ constexpr size_t kMib = size_t{1024} * 1024;
 // ledger meanwhile with `owners`.
 void HoldWhileSampling(MemoryLedger& ledger, size_t mib, const std::string& phase,
                        const std::vector<std::pair<std::string, size_t>>& owners) {
+  ledger.Phase(phase);  // first: the watcher may read while the pages are written
   std::vector<char> block(mib * kMib);
   std::memset(block.data(), 1, block.size());
-  ledger.Phase(phase);
   ledger.Sample(phase, owners);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the watcher reads every 50 ms
   EXPECT_EQ(block[block.size() / 2], 1);
@@ -54,6 +54,25 @@ TEST(MemoryLedgerTest, TheHighestSampleIsBrokenDownWithEachOwnersLargest) {
   // The highest reading holds the sample's (a sample is a reading too), in its phase.
   EXPECT_GE(figures.peak_watched_mib, figures.peak_sample_mib);
   EXPECT_EQ(figures.peak_watched_phase, "big");
+}
+
+TEST(MemoryLedgerTest, ADroppedFixedOwnerIsLeftOutOfLaterSamples) {
+  MemoryLedger ledger;
+  ledger.AddFixed("models", 5.0);
+  ledger.AddFixed("tables", 2.0);
+  ledger.Sample("with the models", {{"cloud", 1 * kMib}});
+  ledger.DropFixed("models");
+  HoldWhileSampling(ledger, 200, "without", {{"cloud", 200 * kMib}});
+  const MemoryFigures figures = ledger.Finish();
+
+  ASSERT_EQ(figures.peak_when, "without");
+  ASSERT_EQ(figures.at_peak.size(), 2u);
+  EXPECT_EQ(figures.at_peak[0].name, "cloud");
+  EXPECT_EQ(figures.at_peak[1].name, "tables");
+  // Its largest, from the sample before, stays.
+  ASSERT_EQ(figures.largest.size(), 3u);
+  EXPECT_EQ(figures.largest[2].name, "tables");
+  EXPECT_DOUBLE_EQ(figures.largest[1].mib, 5.0);
 }
 
 TEST(MemoryLedgerTest, ResidentMemoryGrowsWithPagesWritten) {

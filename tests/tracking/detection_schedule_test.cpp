@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 
 #include "stillmap/tracking/mask_stage.h"
@@ -180,6 +181,42 @@ TEST(MaskStageTest, KltWindowAndFlowPointsFollowTheDetector) {
   EXPECT_EQ(kKltWindowGeometryOnly, 21);
   EXPECT_EQ(kFlowPointsWithDetector, 300);
   EXPECT_EQ(kFlowPointsGeometryOnly, 400);
+}
+
+// After the last frame the stage frees its detector (with its network) and the depth check's
+// references; its name and figures stay for the report.
+TEST(MaskStageTest, EndFramesFreesTheDetectorAndKeepsTheFigures) {
+  class Watched : public FrameNumberDetector {
+   public:
+    Watched(std::atomic<int>* calls, bool* freed) : FrameNumberDetector(calls), freed_(freed) {}
+    ~Watched() override { *freed_ = true; }
+
+   private:
+    bool* freed_;
+  };
+  const Camera camera = testing::SmallCamera(160, 120);
+  std::atomic<int> calls{0};
+  bool freed = false;
+  MaskStage stage(camera, DynamicMaskOptions{}, true, std::make_unique<Watched>(&calls, &freed),
+                  false, "");
+  for (int k = 0; k < 3; ++k) {
+    Frame frame{static_cast<size_t>(k), 0.1 * k, FrameImage(k),
+                cv::Mat(120, 160, CV_32F, cv::Scalar(2.0f))};
+    cv::Mat gray;
+    cv::cvtColor(frame.color, gray, cv::COLOR_BGR2GRAY);
+    const cv::Mat mask = stage.Compute(frame, gray, nullptr, Eigen::Isometry3d::Identity());
+    stage.AddReference(frame, mask, Eigen::Isometry3d::Identity(), k);
+  }
+  const MaskingStatistics before = stage.statistics();
+  ASSERT_GT(before.detector_runs, 0u);
+  ASSERT_FALSE(stage.masker()->References().empty());
+  stage.EndFrames();
+  EXPECT_TRUE(freed);
+  EXPECT_TRUE(stage.masker()->References().empty());
+  EXPECT_EQ(stage.detector_name(), "frame-number");
+  EXPECT_TRUE(stage.semantics());
+  EXPECT_EQ(stage.statistics().frames, before.frames);
+  EXPECT_EQ(stage.statistics().detector_runs, before.detector_runs);
 }
 
 }  // namespace

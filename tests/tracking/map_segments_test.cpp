@@ -7,6 +7,7 @@
 
 #include <climits>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/trajectory.h"
@@ -133,6 +134,14 @@ TEST_F(MapSegmentsTest, APlaceTheMapNeverSawIsNeverJoined) {
   EXPECT_FALSE(segments.InMap(1));
   EXPECT_EQ(segments.Summaries()[1].join, SegmentJoin::kNotJoined);
   EXPECT_EQ(segments.Summaries()[1].keyframes, second.size());
+  // After the last keyframe the place index is freed; the segments stay as they were.
+  const size_t with_index = segments.MemoryBytes();
+  segments.EndKeyframes();
+  EXPECT_LT(segments.MemoryBytes(), with_index / 10);
+  EXPECT_EQ(segments.Summaries()[1].keyframes, second.size());
+  EXPECT_THROW(segments.AddKeyframe(id, second.back().time + 11.0, second.back().world_from_camera,
+                                    second.back().features, INT_MAX),
+               std::logic_error);
 }
 
 // The room's second half as its own segment, tracked with one bad step: from keyframe `kink` on,

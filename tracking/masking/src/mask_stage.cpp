@@ -47,6 +47,8 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
         std::move(detector), options_.detector_interval, detector_in_background, detector_thread,
         options_.second_opinion_share);
     statistics_.detector_in_background = detector_in_background && detector_thread;
+    semantics_ = true;
+    detector_name_ = detections_->detector().name();
   }
   options_.flow.klt_window = ResolvedKltWindow(options_.flow.klt_window, detections_ != nullptr);
   options_.flow_points = ResolvedFlowPoints(options_.flow_points, detections_ != nullptr);
@@ -113,6 +115,11 @@ void MaskStage::AddReference(const Frame& frame, const cv::Mat& mask,
 
 void MaskStage::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
   if (enabled_) masker_->Repose(world_from_keyframe);
+}
+
+void MaskStage::EndFrames() {
+  detections_.reset();
+  if (masker_) masker_->ForgetReferences();
 }
 
 MaskingStatistics MaskStage::statistics() const {

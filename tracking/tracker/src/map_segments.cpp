@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <stdexcept>
 
 #include "stillmap/io/trajectory.h"
 
@@ -29,7 +30,7 @@ const char* SegmentJoinName(SegmentJoin join) {
 MapSegments::MapSegments(const MapSegmentOptions& options)
     : options_(options),
       parked_(std::make_unique<SpillFile>("the map segments' places")),
-      index_(options.place, kSegmentPlaceSeed) {}
+      index_(std::in_place, options.place, kSegmentPlaceSeed) {}
 
 int MapSegments::Begin(int first_keyframe_id, double time) {
   Segment segment;
@@ -66,6 +67,7 @@ int MapSegments::Root(int segment) const {
 std::optional<SegmentCorrection> MapSegments::AddKeyframe(
     int keyframe_id, double time, const Eigen::Isometry3d& world_from_camera,
     std::vector<SessionFeature> features, int weakest_inliers) {
+  if (!index_) throw std::logic_error("MapSegments::AddKeyframe after EndKeyframes");
   const int segment = SegmentOf(keyframe_id);
   if (segment < 0 || places_.count(keyframe_id) > 0) return std::nullopt;
   const LinkKeyframe keyframe(std::move(features));
@@ -74,11 +76,11 @@ std::optional<SegmentCorrection> MapSegments::AddKeyframe(
   places_.emplace(keyframe_id,
                   Place{segment, world_from_camera, parked_->Append(bytes), weakest_inliers});
   ++segments_[static_cast<size_t>(segment)].summary.keyframes;
-  index_.Add(keyframe_id, keyframe.descriptors());
+  index_->Add(keyframe_id, keyframe.descriptors());
   const int root = Root(segment);
   if (segments_.size() < 2) return std::nullopt;  // nothing to link to
   const std::vector<PlaceCandidate> candidates =
-      index_.Query(keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
+      index_->Query(keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
                    [&](int id) { return places_.at(id).segment == segment; });
   for (const PlaceCandidate& candidate : candidates) {
     if (candidate.votes < options_.place_min_votes) break;  // ranked by votes
@@ -275,7 +277,7 @@ std::vector<SegmentSummary> MapSegments::Summaries() const {
 }
 
 size_t MapSegments::MemoryBytes() const {
-  size_t bytes = index_.MemoryBytes();
+  size_t bytes = index_ ? index_->MemoryBytes() : 0;
   // The map's nodes: four pointers beside the key and the place (an estimate).
   bytes += places_.size() * (sizeof(std::pair<const int, Place>) + 4 * sizeof(void*));
   return bytes;

@@ -84,6 +84,8 @@ class RevisitCells {
   static double SeenShare(const CellView& view, const cv::Mat& seen);
   // Remembers a fused keyframe's view for the keyframes after it.
   void Remember(CellView view);
+  // Frees the views remembered (no keyframe comes after).
+  void Forget() { std::vector<CellView>().swap(remembered_); }
 
   // After a loop correction: the remembered keyframes take their poses in `world_from_keyframe`
   // (by keyframe id; others keep theirs).

@@ -254,6 +254,8 @@ class DynamicMasker {
 
   // A keyframe becomes a depth-check reference (kept: the newest and older ones spread in time).
   void AddReference(MaskReference reference);
+  // Frees the references (after the last frame).
+  void ForgetReferences() { std::deque<MaskReference>().swap(references_); }
 
   // References whose keyframe has a pose here take it (after a loop correction moved them).
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);

@@ -60,10 +60,8 @@ class MaskStage {
   const DynamicMaskOptions& options() const { return options_; }
   const DynamicMasker* masker() const { return masker_.get(); }
   // "none" when no detector runs.
-  std::string detector_name() const {
-    return detections_ ? detections_->detector().name() : "none";
-  }
-  bool semantics() const { return detections_ != nullptr; }
+  const std::string& detector_name() const { return detector_name_; }
+  bool semantics() const { return semantics_; }
 
   // The moving pixels of a frame (CV_8UC1, 255 = moving; empty when masking is off), from its gray
   // image, the flow step from the previous frame (may be null) and its predicted pose (none:
@@ -77,6 +75,10 @@ class MaskStage {
   // The references take their keyframes' corrected poses (after a loop correction).
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
+  // After the last frame: the detector (its network) and the depth check's references are freed;
+  // the figures stay. Compute and AddReference may not be called after.
+  void EndFrames();
+
   // The figures so far (the score set when truth masks were found for some frame).
   MaskingStatistics statistics() const;
 
@@ -86,6 +88,8 @@ class MaskStage {
   TruthMasks truth_;
   std::set<long long> still_frames_us_;            // times of frames with a still object [us]
   std::unique_ptr<DetectionSchedule> detections_;  // null: no detector, or semantics off
+  bool semantics_ = false;  // a detector runs (detections_ until EndFrames)
+  std::string detector_name_ = "none";
   std::unique_ptr<DynamicMasker> masker_;
   MaskScore score_;
   MaskScore still_score_;

@@ -115,6 +115,9 @@ class MapSegments {
   // several segments is settled again (a settle otherwise waits for settle_after_loops of them).
   // Returns the places that moved (empty: none).
   std::map<int, Eigen::Isometry3d> SettleLastLoops();
+  // After the last keyframe: the place index, which only new keyframes query, is freed (a floor's
+  // is tens of MiB). AddKeyframe throws std::logic_error after this.
+  void EndKeyframes() { index_.reset(); }
   // Keyframe poses moved (the tracker's bundle adjustment or loops): the places follow.
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 
@@ -174,7 +177,7 @@ class MapSegments {
   std::vector<Segment> segments_;
   std::map<int, Place> places_;  // by keyframe id
   std::unique_ptr<SpillFile> parked_;
-  PlaceIndex index_;
+  std::optional<PlaceIndex> index_;  // none after EndKeyframes
   std::vector<Link> links_;  // every verified link
   std::vector<Link> taken_;  // the links of joins and the loops: the pose graphs' edges
   size_t candidates_ = 0, too_far_ = 0;
