@@ -96,8 +96,8 @@ void PlaceIndex::Remove(int keyframe_id) {
 }
 
 void PlaceIndex::Compact() {
-  PagedArray<Bits, 11> descriptors;
-  PagedArray<int, 14> owner;
+  DescriptorPages descriptors;
+  OwnerPages owner;
   std::vector<std::uint32_t> moved_to(owner_.size(), 0);  // old index -> new index
   for (size_t i = 0; i < owner_.size(); ++i) {
     moved_to[i] = static_cast<std::uint32_t>(descriptors.size());

@@ -106,8 +106,10 @@ class PlaceIndex {
   PlaceIndexOptions options_;
   std::vector<std::vector<int>> key_bit_positions_;  // per table
   std::vector<Table> tables_;
-  PagedArray<Bits, 11> descriptors_;
-  PagedArray<int, 14> owner_;  // keyframe id per descriptor, -1 once removed
+  using DescriptorPages = PagedArray<Bits, 11>;  // 64 KiB pages
+  using OwnerPages = PagedArray<int, 14>;
+  DescriptorPages descriptors_;
+  OwnerPages owner_;  // keyframe id per descriptor, -1 once removed
   // A keyframe's descriptors: contiguous in descriptors_ (Add appends them, Compact keeps the
   // order), so that removing one touches its own entries only.
   struct Entries {
