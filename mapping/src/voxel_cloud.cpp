@@ -81,26 +81,21 @@ VoxelCloud::Record* VoxelCloud::Find(Shard* shard, std::uint64_t key, std::uint6
 
 VoxelCloud::Record* VoxelCloud::Add(Shard* shard, std::uint64_t key, std::uint64_t mixed,
                                     size_t free_slot) {
-  const size_t id = shard->size;
+  const size_t id = shard->size();
   if (id + 1 > kIdMask) {
     throw std::length_error(fmt::format("the voxel cloud outgrew {} voxels a shard; raise {}",
                                         kIdMask - 1, OptionKey(&VoxelCloudOptions::leaf_size)));
   }
-  if (id >> kPageBits == shard->pages.size()) {
-    shard->pages.emplace_back(kPageRecords);
-  }
-  Record& record = shard->At(id);
-  record =
-      Record{static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key), {}, {}, 0};
+  shard->records.push_back(
+      Record{static_cast<std::uint32_t>(key >> 32), static_cast<std::uint32_t>(key), {}, {}, 0});
   shard->index[free_slot] = IndexEntry(mixed, id, kIdBits);
-  ++shard->size;
-  return &record;
+  return &shard->At(id);
 }
 
 void VoxelCloud::Clear() {
   for (Shard& shard : shards_) {
     std::fill(shard.index.data(), shard.index.data() + shard.index.size(), 0);
-    shard.size = 0;
+    shard.records.EmptyKeepingPages();
   }
   size_ = 0;
   removed_ = 0;
@@ -110,7 +105,7 @@ void VoxelCloud::Clear() {
 void VoxelCloud::Grow(Shard* shard) {
   shard->index = MappedArray<std::uint32_t>(shard->index.size() * 2);
   const size_t mask = shard->index.size() - 1;
-  for (size_t id = 0; id < shard->size; ++id) {  // records in order: no probe reads one
+  for (size_t id = 0; id < shard->size(); ++id) {  // records in order: no probe reads one
     const std::uint64_t mixed = Mix(shard->At(id).Key());
     size_t slot = mixed & mask;
     while (shard->index[slot] != 0) slot = (slot + 1) & mask;
@@ -149,7 +144,7 @@ void VoxelCloud::Insert(const ColoredPoints& points) {
       if (key != last_key) {
         const std::uint64_t mixed = mixed_keys[b];
         Shard& shard = shards_[mixed >> (64 - kShardBits)];
-        if (4 * (shard.size + 1) > 3 * shard.index.size()) Grow(&shard);  // load factor <= 0.75
+        if (4 * (shard.size() + 1) > 3 * shard.index.size()) Grow(&shard);  // load factor <= 0.75
         size_t free_slot = 0;
         last = Find(&shard, key, mixed, &free_slot);
         if (last == nullptr) {
@@ -190,7 +185,7 @@ std::vector<std::vector<std::uint32_t>> VoxelCloud::SortedIds() const {
   std::vector<std::vector<std::uint32_t>> ids(kShards);
   for (size_t s = 0; s < kShards; ++s) {
     const Shard& shard = shards_[s];
-    for (size_t id = 0; id < shard.size; ++id) {
+    for (size_t id = 0; id < shard.size(); ++id) {
       if (shard.At(id).count >= min_points_) ids[s].push_back(static_cast<std::uint32_t>(id));
     }
     std::sort(ids[s].begin(), ids[s].end(), [&shard](std::uint32_t a, std::uint32_t b) {
@@ -272,7 +267,7 @@ std::vector<VoxelPoint> VoxelCloud::TakePoints() {
       parts[s].back()[i % kPartPoints] = PointOf(shards_[s].At(ids[s][i]));
     }
     std::vector<std::uint32_t>().swap(ids[s]);
-    shards_[s].pages.clear();
+    shards_[s].records.clear();
   }
   ReleaseFreedMemory();  // the sorted numbers (the records' and index's pages went already)
   // The parts merged in key order, each part handed back once it is read.
@@ -295,7 +290,7 @@ size_t VoxelCloud::OutputSize() const {
   if (min_points_ <= 1) return size();  // every voxel kept is written: no scan of the records
   size_t count = 0;
   for (const Shard& shard : shards_) {
-    for (size_t id = 0; id < shard.size; ++id) count += shard.At(id).count >= min_points_;
+    for (size_t id = 0; id < shard.size(); ++id) count += shard.At(id).count >= min_points_;
   }
   return count;
 }
@@ -303,8 +298,7 @@ size_t VoxelCloud::OutputSize() const {
 size_t VoxelCloud::MemoryBytes() const {
   size_t bytes = 0;
   for (const Shard& shard : shards_) {
-    bytes += shard.index.size() * sizeof(std::uint32_t) +
-             shard.pages.size() * (kPageRecords * sizeof(Record) + sizeof(shard.pages[0]));
+    bytes += shard.index.size() * sizeof(std::uint32_t) + shard.records.MemoryBytes();
   }
   return bytes;
 }

@@ -81,7 +81,7 @@ std::optional<SegmentCorrection> MapSegments::AddKeyframe(
   if (segments_.size() < 2) return std::nullopt;  // nothing to link to
   const std::vector<PlaceCandidate> candidates =
       index_->Query(keyframe.descriptors(), static_cast<size_t>(options_.place_candidates),
-                   [&](int id) { return places_.at(id).segment == segment; });
+                    [&](int id) { return places_.at(id).segment == segment; });
   for (const PlaceCandidate& candidate : candidates) {
     if (candidate.votes < options_.place_min_votes) break;  // ranked by votes
     ++candidates_;

@@ -93,17 +93,16 @@ class VoxelCloud {
     std::uint32_t count;
     std::uint64_t Key() const { return std::uint64_t{key_high} << 32 | key_low; }
   };
-  struct Shard {
-    MappedArray<std::uint32_t> index;        // 0: empty; else tag << kIdBits | (record number + 1)
-    std::vector<MappedArray<Record>> pages;  // kPageRecords each, kept by Clear
-    size_t size = 0;                         // records made, removed ones included
-    Record& At(size_t id) { return pages[id >> kPageBits][id & (kPageRecords - 1)]; }
-    const Record& At(size_t id) const { return pages[id >> kPageBits][id & (kPageRecords - 1)]; }
-  };
   static constexpr int kShardBits = 6;
   static constexpr size_t kShards = size_t{1} << kShardBits;
-  static constexpr int kPageBits = 11;
-  static constexpr size_t kPageRecords = size_t{1} << kPageBits;
+  static constexpr int kPageBits = 11;  // records a page: 2048 (72 KiB)
+  struct Shard {
+    MappedArray<std::uint32_t> index;       // 0: empty; else tag << kIdBits | (record number + 1)
+    PagedArray<Record, kPageBits> records;  // removed ones included; pages kept by Clear
+    size_t size() const { return records.size(); }
+    Record& At(size_t id) { return records[id]; }
+    const Record& At(size_t id) const { return records[id]; }
+  };
   static constexpr size_t kPartPoints = size_t{1} << 14;  // TakePoints's parts (320 KiB)
   static constexpr int kIdBits = 27;  // records per shard < 2^27: 8.6 G voxels in all
   static constexpr std::uint32_t kIdMask = (std::uint32_t{1} << kIdBits) - 1;

@@ -88,7 +88,7 @@ class MaskStage {
   TruthMasks truth_;
   std::set<long long> still_frames_us_;            // times of frames with a still object [us]
   std::unique_ptr<DetectionSchedule> detections_;  // null: no detector, or semantics off
-  bool semantics_ = false;  // a detector runs (detections_ until EndFrames)
+  bool semantics_ = false;                         // a detector runs (detections_ until EndFrames)
   std::string detector_name_ = "none";
   std::unique_ptr<DynamicMasker> masker_;
   MaskScore score_;

@@ -178,8 +178,8 @@ class MapSegments {
   std::map<int, Place> places_;  // by keyframe id
   std::unique_ptr<SpillFile> parked_;
   std::optional<PlaceIndex> index_;  // none after EndKeyframes
-  std::vector<Link> links_;  // every verified link
-  std::vector<Link> taken_;  // the links of joins and the loops: the pose graphs' edges
+  std::vector<Link> links_;          // every verified link
+  std::vector<Link> taken_;          // the links of joins and the loops: the pose graphs' edges
   size_t candidates_ = 0, too_far_ = 0;
   size_t loop_links_ = 0, loops_since_settle_ = 0, settles_ = 0;
 };
