@@ -28,6 +28,10 @@ std::string KeyframeSelectionOptions::Describe() const {
         "; a keyframe fuses only the depth cells that fused keyframes made {} or more keyframes "
         "before it did not see at that depth from within {} degrees",
         revisit.keyframes_apart, revisit.view_angle_deg);
+    if (revisit.max_seen_share < 1.0) {
+      rule += fmt::format(", and none at all when they saw more than {} of its cells",
+                          revisit.max_seen_share);
+    }
   }
   return rule;
 }

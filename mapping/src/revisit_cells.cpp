@@ -19,6 +19,9 @@ void RevisitOptions::Validate() const {
   }
   if (!(scale_ratio >= 1.0))
     throw InputError(fmt::format("{} must be at least 1", OptionKey(*this, scale_ratio)));
+  if (!(max_seen_share >= 0.0 && max_seen_share <= 1.0)) {
+    throw InputError(fmt::format("{} must be in [0, 1]", OptionKey(*this, max_seen_share)));
+  }
 }
 
 RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
@@ -132,6 +135,13 @@ double RevisitCells::SeenShare(const CellView& view, const cv::Mat& seen) {
 }
 
 void RevisitCells::Remember(CellView view) { remembered_.push_back(std::move(view)); }
+
+std::optional<cv::Mat> RevisitCells::Admit(CellView view, double max_seen_share) {
+  cv::Mat seen = SeenBefore(view);
+  if (max_seen_share < 1.0 && SeenShare(view, seen) > max_seen_share) return std::nullopt;
+  Remember(std::move(view));
+  return seen;
+}
 
 void RevisitCells::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
   for (CellView& view : remembered_) {

@@ -29,6 +29,8 @@ KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
       parked_(std::make_shared<SpillFile>("the fused keyframes' compact copies")),
       selector_(options.selection),
       revisits_(camera, options.selection.revisit, options.min_depth_m, options.max_depth_m),
+      // With the selection off every keyframe is fused.
+      max_seen_share_(options.selection.enabled ? options.selection.revisit.max_seen_share : 1.0),
       factors_(camera) {
   if (masks.enabled() && options.recheck && options.masking.depth_check) {
     recheck_.emplace(masks.masker()->geometry(), options.masking);
@@ -93,9 +95,10 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
 }
 
 void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
-  const cv::Mat seen = SeenBefore(keyframe.id, input);
-  if (KeepsEveryFused()) Store(keyframe, input, seen).in_map = FusingLive();
-  if (!seen.empty()) input.mask = input.mask.empty() ? seen : (input.mask | seen);
+  const std::optional<cv::Mat> seen = Revisit(keyframe.id, input);
+  if (!seen) return;
+  if (KeepsEveryFused()) Store(keyframe, input, *seen).in_map = FusingLive();
+  if (!seen->empty()) input.mask = input.mask.empty() ? *seen : (input.mask | *seen);
   if (FusingLive()) mapper_.Integrate(input);
   fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
 }
@@ -103,25 +106,36 @@ void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
 size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_map,
                                  const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
   size_t joined = 0;
+  std::vector<Stored> kept;
+  kept.reserve(stored_.size());
   for (Stored& stored : stored_) {
-    if (!stored.apart || !in_map(stored.keyframe_id)) continue;
-    const auto it = world_from_keyframe.find(stored.keyframe_id);
-    if (it != world_from_keyframe.end()) stored.world_from_camera = it->second;
-    MapperFrame input = Decode(stored);  // moving pixels are 0 in its depth
-    const cv::Mat seen = SeenBefore(stored.keyframe_id, input);
-    if (!seen.empty()) {
-      stored.seen_png = parked_->Append(EncodePng(seen));
-      input.mask = seen;
+    if (stored.apart && in_map(stored.keyframe_id)) {
+      const auto it = world_from_keyframe.find(stored.keyframe_id);
+      if (it != world_from_keyframe.end()) stored.world_from_camera = it->second;
+      if (!FuseStored(&stored)) continue;  // redundant: its segment's place was seen before
+      ++joined;
     }
-    stored.in_map = FusingLive();
-    if (stored.in_map) mapper_.Integrate(input);
-    fused_poses_.push_back({stored.time, stored.world_from_camera});
-    stored.apart = false;
-    ++joined;
+    kept.push_back(std::move(stored));
   }
+  stored_ = std::move(kept);
   std::sort(fused_poses_.begin(), fused_poses_.end(),
             [](const StampedPose& a, const StampedPose& b) { return a.time < b.time; });
   return joined;
+}
+
+bool KeyframeFuser::FuseStored(Stored* stored) {
+  MapperFrame input = Decode(*stored);  // moving pixels are 0 in its depth
+  const std::optional<cv::Mat> seen = Revisit(stored->keyframe_id, input);
+  if (!seen) return false;
+  if (!seen->empty()) {
+    stored->seen_png = parked_->Append(EncodePng(*seen));
+    input.mask = *seen;
+  }
+  stored->in_map = FusingLive();
+  if (stored->in_map) mapper_.Integrate(input);
+  fused_poses_.push_back({stored->time, stored->world_from_camera});
+  stored->apart = false;
+  return true;
 }
 
 SessionKeyframeList KeyframeFuser::TakeApart(const std::function<bool(int keyframe_id)>& take) {
@@ -151,11 +165,11 @@ MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
   return input;
 }
 
-cv::Mat KeyframeFuser::SeenBefore(int keyframe_id, const MapperFrame& input) {
-  CellView view =
-      revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera);
-  cv::Mat seen = revisits_.SeenBefore(view);
-  revisits_.Remember(std::move(view));  // all it saw, for the keyframes after it
+std::optional<cv::Mat> KeyframeFuser::Revisit(int keyframe_id, const MapperFrame& input) {
+  std::optional<cv::Mat> seen = revisits_.Admit(
+      revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera),
+      max_seen_share_);
+  seen_before_ += seen ? 0 : 1;
   return seen;
 }
 
@@ -273,7 +287,7 @@ size_t KeyframeFuser::held_bytes() const {
 }
 
 SelectionFigures KeyframeFuser::figures() const {
-  return {selector_.invalid(), selector_.redundant(), recheck_additions_,
+  return {selector_.invalid(), selector_.redundant(), seen_before_, recheck_additions_,
           revisits_.cells_left_out()};
 }
 

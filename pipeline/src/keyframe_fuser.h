@@ -133,9 +133,13 @@ class KeyframeFuser {
   // Fuses a judged keyframe into the map (the cells earlier visits saw left out), kept compact
   // when the build may fuse it again or records the session.
   void FuseNow(const FinalKeyframe& keyframe, MapperFrame input);
-  // The depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells), or an
-  // empty matrix.
-  cv::Mat SeenBefore(int keyframe_id, const MapperFrame& input);
+  // Fuses a stored keyframe kept apart, now joined, at its pose. False when it is redundant
+  // (Revisit): then it is neither fused nor to be kept.
+  bool FuseStored(Stored* stored);
+  // The depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells), empty
+  // when none; nullopt when they are more than keyframes.revisit_max_seen_share of its view: the
+  // keyframe is redundant, not fused.
+  std::optional<cv::Mat> Revisit(int keyframe_id, const MapperFrame& input);
 
   Mapper& mapper_;
   bool keep_for_refusion_ = false;  // loop closure may move fused keyframes
@@ -149,6 +153,8 @@ class KeyframeFuser {
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   RevisitCells revisits_;
+  double max_seen_share_ = 1.0;  // keyframes.revisit_max_seen_share, 1 with the selection off
+  size_t seen_before_ = 0;       // keyframes not fused: earlier visits saw their view
   DepthFactorImages factors_;
   std::map<int, Waiting> waiting_;  // by keyframe id, i.e. in time order
   std::vector<StampedPose> fused_poses_;

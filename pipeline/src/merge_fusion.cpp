@@ -57,16 +57,17 @@ MergeFusion FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
       SessionImages images = session.reader->ReadImages(k);
       MapperFrame frame{keyframes[k].time, images.color, images.depth_m, cv::Mat(),
                         joined.first_from_keyframe[order[rank]][k]};
-      CellView view = revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
-                                        frame.world_from_camera);
-      frame.mask = revisits.SeenBefore(view);
-      const double seen_share = RevisitCells::SeenShare(view, frame.mask);
-      revisits.Remember(std::move(view));
-      if (seen_share > options.max_seen_share) {  // redundant
-        ++redundant[order[rank]];
-      } else {
+      // A redundant keyframe's view is not remembered: only fused views leave cells out.
+      std::optional<cv::Mat> seen =
+          revisits.Admit(revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
+                                           frame.world_from_camera),
+                         options.max_seen_share);
+      if (seen) {
+        frame.mask = std::move(*seen);
         mapper.Integrate(frame);
         ++fused[order[rank]];
+      } else {
+        ++redundant[order[rank]];
       }
       last_id = std::max(last_id, keyframes[k].id);
       progress.Update(++done);

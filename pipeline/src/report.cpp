@@ -72,6 +72,10 @@ std::string SelectionText(const BuildResult& result, const BuildConfig& config) 
   if (selection.revisit.enabled) {
     text += fmt::format("; only the depth cells that frames fused {} or more before it did not see",
                         selection.revisit.keyframes_apart);
+    if (selection.revisit.max_seen_share < 1.0) {
+      text +=
+          fmt::format(", none when they saw more than {} of it", selection.revisit.max_seen_share);
+    }
   }
   return text;
 }
@@ -80,6 +84,8 @@ json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
   return {{"fused", result.frames.fused},
           {"rejected_invalid", result.selection.invalid},
           {"rejected_redundant", result.selection.redundant},
+          // Not fused: fused keyframes of earlier visits saw its view (RevisitCells).
+          {"rejected_seen_before", result.selection.seen_before},
           // Culled by the tracker when final: keyframes kept before them saw their view.
           {"culled", result.tracking ? result.tracking->statistics.keyframes_culled : 0},
           {"map_recheck_added_pixels", result.selection.recheck_additions},
@@ -398,9 +404,10 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
                     *result.AteRmse() * 1e3));
   }
   lines.push_back(
-      fmt::format("keyframes: {} fused, {} invalid, {} redundant; mean masked share {:.1f} %",
+      fmt::format("keyframes: {} fused, {} invalid, {} redundant, {} seen before; mean masked "
+                  "share {:.1f} %",
                   result.frames.fused, result.selection.invalid, result.selection.redundant,
-                  100.0 * result.masking.statistics.MeanShare()));
+                  result.selection.seen_before, 100.0 * result.masking.statistics.MeanShare()));
   if (result.masking.semantics) {
     lines.push_back(fmt::format("detector: {} (models in {}, found through {})",
                                 result.masking.detector, result.masking.models_dir,

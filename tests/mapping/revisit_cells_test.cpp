@@ -138,6 +138,52 @@ TEST(RevisitCellsTest, SwitchedOffLeavesNothingOutAndBadValuesAreRefused) {
   bad = RevisitOptions{};
   bad.scale_ratio = 0.9;
   EXPECT_THROW(bad.Validate(), InputError);
+  bad = RevisitOptions{};
+  bad.max_seen_share = 1.5;
+  EXPECT_THROW(bad.Validate(), InputError);
+}
+
+// Keyframe 0 at the origin; keyframe 10 0.1 m to its right (26 px at 2 m: its last two columns
+// of cells are new, 38 of 40 seen); keyframe 20 0.4 m to the right, part of whose view only
+// keyframe 10 saw. Returns keyframe 20's cells seen, after keyframe 10 was admitted or not.
+cv::Mat SeenAfterARedundantRevisit(const Camera& camera, double max_seen_share,
+                                   bool* second_admitted) {
+  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+  EXPECT_TRUE(
+      cells
+          .Admit(cells.MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0)), max_seen_share)
+          .has_value());
+  const std::optional<cv::Mat> second = cells.Admit(
+      cells.MakeView(10, RenderWall(camera, At(0.1)), cv::Mat(), At(0.1)), max_seen_share);
+  *second_admitted = second.has_value();
+  if (second) {
+    EXPECT_NEAR(RevisitCells::SeenShare(
+                    cells.MakeView(10, RenderWall(camera, At(0.1)), cv::Mat(), At(0.1)), *second),
+                38.0 / 40.0, 1e-9);
+  }
+  return cells.SeenBefore(cells.MakeView(20, RenderWall(camera, At(0.4)), cv::Mat(), At(0.4)));
+}
+
+TEST(RevisitCellsTest, AKeyframeTheEarlierVisitSawIsRedundantAndNotRemembered) {
+  const Camera camera = TestCamera();
+  bool admitted = false;
+  // 38 of 40 seen is more than 0.9: redundant, and what it alone saw counts for nobody after.
+  const cv::Mat without = SeenAfterARedundantRevisit(camera, 0.9, &admitted);
+  EXPECT_FALSE(admitted);
+  // The same keyframe below the share, or with the rule off, is fused and remembered.
+  const cv::Mat below = SeenAfterARedundantRevisit(camera, 0.96, &admitted);
+  EXPECT_TRUE(admitted);
+  const cv::Mat off = SeenAfterARedundantRevisit(camera, 1.0, &admitted);
+  EXPECT_TRUE(admitted);
+  // Keyframe 0 saw the wall up to x = 1.22 m, keyframe 10 up to 1.32 m: keyframe 20 sees that
+  // last 0.1 m (26 px) at columns 535..560, where its cells 528..543 and 544..559 reach.
+  ASSERT_FALSE(without.empty());
+  const int columns_without = cv::countNonZero(without.row(240));
+  EXPECT_GT(cv::countNonZero(below.row(240)), columns_without);
+  EXPECT_EQ(cv::countNonZero(off.row(240)), cv::countNonZero(below.row(240)));
+  // Without keyframe 10 it is keyframe 0's view only: no cell reaching past x = 1.22 m.
+  EXPECT_EQ(cv::countNonZero(without(cv::Rect(528, 0, camera.width - 528, camera.height))), 0);
+  EXPECT_EQ(cv::countNonZero(below(cv::Rect(528, 0, 32, camera.height))), 32 * camera.height);
 }
 
 }  // namespace

@@ -12,7 +12,8 @@ namespace {
 // drifting tracker put them (20 cm nearer), then a loop correction puts them right.
 class KeyframeFuserTest : public ::testing::Test {
  protected:
-  KeyframeFuserTest() : camera_(testing::SmallCamera(96, 72)) {
+  // Whole 16 px depth cells (RevisitCells): a part cell is never seen in full.
+  KeyframeFuserTest() : camera_(testing::SmallCamera(96, 64)) {
     for (int i = 0; i < 6; ++i) {
       Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
       pose.translation() = Eigen::Vector3d(0.04 * i, 0.0, 0.0);
@@ -159,6 +160,63 @@ TEST_F(KeyframeFuserTest, KeyframesAfterANewSegmentWaitForRefuse) {
     EXPECT_EQ(pa[i].count, pb[i].count);
   }
   EXPECT_EQ(live.fuser.fused_poses().size(), waiting.fuser.fused_poses().size());
+}
+
+// Keyframe `id` from frame `frame`'s images, said to be at `pose` (a revisit, in the time after
+// the six).
+FinalKeyframe Revisit(KeyframeFuser& fuser, const Sequence& sequence, int id, size_t frame,
+                      const Eigen::Isometry3d& pose) {
+  FinalKeyframe keyframe;
+  keyframe.id = id;
+  keyframe.frame_index = frame;
+  keyframe.time = sequence.frames().back().time + id;
+  keyframe.world_from_camera = pose;
+  keyframe.landmarks = {1000 + id};  // new to the landmark rule
+  Frame images = sequence.LoadFrame(frame);
+  images.time = keyframe.time;
+  fuser.Hold(id, std::move(images), cv::Mat(), pose);
+  return keyframe;
+}
+
+// With keyframes.revisit_max_seen_share 0.9, a keyframe of a later visit that sees only what the
+// six fused keyframes saw is not fused, whether it comes live or in a map segment joined later
+// (nor is it kept for the session); one that sees 0.5 m of new plane is fused.
+TEST_F(KeyframeFuserTest, ARevisitSeeingOnlyWhatWasFusedIsNotFused) {
+  FuserOptions options = Options();
+  options.selection.revisit.max_seen_share = 0.9;
+  Mapper mapper(camera_, Fusing::Synchronous());
+  KeyframeFuser fuser(camera_, options, masks_, &mapper);
+  Fuse(fuser, 0, 6, false);
+  const Sequence sequence = Sequence::Open(dir_.path(), camera_);
+  fuser.Fuse({Revisit(fuser, sequence, 14, 2, poses_[2])}, DepthCorrection{});
+  EXPECT_EQ(fuser.figures().seen_before, 1u);
+  EXPECT_EQ(fuser.fused_poses().size(), 6u);
+  Eigen::Isometry3d beside = poses_[5];
+  beside.translation().x() += 0.5;
+  fuser.Fuse({Revisit(fuser, sequence, 15, 5, beside)}, DepthCorrection{});
+  EXPECT_EQ(fuser.figures().seen_before, 1u);
+  EXPECT_EQ(fuser.fused_poses().size(), 7u);
+  // Kept apart (its segment not joined), then joined where it saw only fused plane.
+  fuser.Fuse({Revisit(fuser, sequence, 16, 3, Eigen::Isometry3d::Identity())}, DepthCorrection{},
+             [](int id) { return id != 16; });
+  EXPECT_EQ(fuser.FuseJoined([](int) { return true; }, {{16, poses_[3]}}), 0u);
+  EXPECT_EQ(fuser.figures().seen_before, 2u);
+  EXPECT_TRUE(fuser.TakeApart([](int) { return true; }).empty());
+  EXPECT_EQ(fuser.Refuse(Corrected()), 0u);
+  EXPECT_EQ(fuser.TakeSessionKeyframes().size(), 7u);
+  EXPECT_EQ(mapper.Finish().statistics.frames, 7u);
+}
+
+// Off (1, the default), the same revisit is fused: its cells seen are left out, nothing more.
+TEST_F(KeyframeFuserTest, WithTheSeenShareRuleOffARevisitIsFused) {
+  Mapper mapper(camera_, Fusing::Synchronous());
+  KeyframeFuser fuser(camera_, Options(), masks_, &mapper);
+  Fuse(fuser, 0, 6, false);
+  const Sequence sequence = Sequence::Open(dir_.path(), camera_);
+  fuser.Fuse({Revisit(fuser, sequence, 14, 2, poses_[2])}, DepthCorrection{});
+  EXPECT_EQ(fuser.figures().seen_before, 0u);
+  EXPECT_EQ(fuser.fused_poses().size(), 7u);
+  EXPECT_GT(fuser.figures().revisit_cells_left_out, 0u);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <map>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,10 @@ struct RevisitOptions {
   // of the tracker's keyframe culling (tracking.redundant_view_angle_deg, redundant_scale_ratio).
   double view_angle_deg = 15.0;
   double scale_ratio = 1.25;
+  // A keyframe is not fused at all when earlier visits saw more than this share of its view's
+  // read cells (1 = never): the rule merge.max_seen_share applies between sessions, within one
+  // recording (a robot going round a floor again). Chosen on every sequence: docs/figures.md.
+  double max_seen_share = 1.0;
 
   // Throws InputError naming the key (keyframes.revisit_*) of the first impossible value.
   void Validate() const;
@@ -44,6 +49,9 @@ struct RevisitOptions {
     visit("scale_ratio", self.scale_ratio,
           "seen by the earlier keyframe from a distance within this ratio (tracking's culling "
           "value)");
+    visit("max_seen_share", self.max_seen_share,
+          "a keyframe is not fused when earlier visits saw more than this share of its view "
+          "(1 = never)");
   }
 };
 
@@ -84,6 +92,10 @@ class RevisitCells {
   static double SeenShare(const CellView& view, const cv::Mat& seen);
   // Remembers a fused keyframe's view for the keyframes after it.
   void Remember(CellView view);
+  // SeenBefore, then the verdict: when the cells seen are more than `max_seen_share` of `view`'s
+  // read cells, the keyframe is redundant: nullopt, and its view is not remembered. Else its view
+  // is remembered and the cells seen returned (empty when none).
+  std::optional<cv::Mat> Admit(CellView view, double max_seen_share);
   // Frees the views remembered (no keyframe comes after).
   void Forget() { std::vector<CellView>().swap(remembered_); }
 

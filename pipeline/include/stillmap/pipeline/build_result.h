@@ -80,6 +80,7 @@ struct TrackingFigures {
 struct SelectionFigures {
   size_t invalid = 0;                 // not fused: too much of the frame masked
   size_t redundant = 0;               // not fused: landmarks already seen by the selected ones
+  size_t seen_before = 0;             // not fused: an earlier visit saw its view (RevisitCells)
   size_t recheck_additions = 0;       // keyframes the map re-check added moving pixels to
   size_t revisit_cells_left_out = 0;  // depth cells (16 px) of revisits an earlier visit saw
 };
