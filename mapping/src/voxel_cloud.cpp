@@ -93,13 +93,10 @@ VoxelCloud::Record* VoxelCloud::Add(Shard* shard, std::uint64_t key, std::uint64
 }
 
 void VoxelCloud::Clear() {
-  for (Shard& shard : shards_) {
-    std::fill(shard.index.data(), shard.index.data() + shard.index.size(), 0);
-    shard.records.EmptyKeepingPages();
-  }
-  size_ = 0;
-  removed_ = 0;
-  rejected_ = 0;
+  VoxelCloudOptions options;
+  options.leaf_size = leaf_size_;
+  options.min_points = static_cast<int>(min_points_);
+  *this = VoxelCloud(options);
 }
 
 void VoxelCloud::Grow(Shard* shard) {
@@ -279,10 +276,7 @@ std::vector<VoxelPoint> VoxelCloud::TakePoints() {
     points.push_back(parts[s][i / kPartPoints][i % kPartPoints]);
     if ((i + 1) % kPartPoints == 0) parts[s][i / kPartPoints] = {};
   }
-  VoxelCloudOptions options;
-  options.leaf_size = leaf_size_;
-  options.min_points = static_cast<int>(min_points_);
-  *this = VoxelCloud(options);
+  Clear();
   return points;
 }
 

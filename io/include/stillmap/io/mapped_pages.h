@@ -75,8 +75,6 @@ class PagedArray {
   std::size_t MemoryBytes() const {
     return pages_.size() * kPageValues * sizeof(T) + pages_.capacity() * sizeof(MappedArray<T>);
   }
-  // Empties it, keeping its pages for the values pushed next.
-  void EmptyKeepingPages() { size_ = 0; }
   // Hands every page back.
   void clear() {
     std::vector<MappedArray<T>>().swap(pages_);

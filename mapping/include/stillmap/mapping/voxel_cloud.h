@@ -62,8 +62,10 @@ class VoxelCloud {
   // order. A removed voxel that receives points again starts afresh. Returns how many it removed.
   size_t RemoveIf(const std::function<bool(const VoxelPoint&)>& drop);
 
-  // Empties the cloud and keeps the table's capacity: a map fused again (loop corrections) does
-  // not grow a new table through every doubling, with the old and the new one held at each.
+  // Empties the cloud and hands its table back (pages of their own: mapped_pages.h). A map emptied
+  // to be fused again after loop corrections holds nothing until then; growing the table again
+  // costs no peak, as each of the 64 shards doubles its index on its own and records come in
+  // pages.
   void Clear();
 
   // The same points as a vector (tests and small clouds).
@@ -98,7 +100,7 @@ class VoxelCloud {
   static constexpr int kPageBits = 11;  // records a page: 2048 (72 KiB)
   struct Shard {
     MappedArray<std::uint32_t> index;       // 0: empty; else tag << kIdBits | (record number + 1)
-    PagedArray<Record, kPageBits> records;  // removed ones included; pages kept by Clear
+    PagedArray<Record, kPageBits> records;  // removed ones included
     size_t size() const { return records.size(); }
     Record& At(size_t id) { return records[id]; }
     const Record& At(size_t id) const { return records[id]; }
