@@ -136,9 +136,11 @@ double RevisitCells::SeenShare(const CellView& view, const cv::Mat& seen) {
 
 void RevisitCells::Remember(CellView view) { remembered_.push_back(std::move(view)); }
 
-std::optional<cv::Mat> RevisitCells::Admit(CellView view, double max_seen_share) {
+std::optional<cv::Mat> RevisitCells::Admit(CellView view) {
   cv::Mat seen = SeenBefore(view);
-  if (max_seen_share < 1.0 && SeenShare(view, seen) > max_seen_share) return std::nullopt;
+  if (options_.max_seen_share < 1.0 && SeenShare(view, seen) > options_.max_seen_share) {
+    return std::nullopt;
+  }
   Remember(std::move(view));
   return seen;
 }

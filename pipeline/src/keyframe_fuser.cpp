@@ -10,6 +10,13 @@
 namespace stillmap {
 namespace {
 
+// The revisit rule as the fuser applies it: with the selection off every keyframe is fused.
+RevisitOptions RevisitsOf(const KeyframeSelectionOptions& selection) {
+  RevisitOptions revisit = selection.revisit;
+  if (!selection.enabled) revisit.max_seen_share = 1.0;
+  return revisit;
+}
+
 std::vector<unsigned char> EncodePng(const cv::Mat& image) {
   std::vector<unsigned char> bytes;
   cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, 1});
@@ -28,9 +35,7 @@ KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
       depth_unit_m_(options.max_depth_m / 60000.0),
       parked_(std::make_shared<SpillFile>("the fused keyframes' compact copies")),
       selector_(options.selection),
-      revisits_(camera, options.selection.revisit, options.min_depth_m, options.max_depth_m),
-      // With the selection off every keyframe is fused.
-      max_seen_share_(options.selection.enabled ? options.selection.revisit.max_seen_share : 1.0),
+      revisits_(camera, RevisitsOf(options.selection), options.min_depth_m, options.max_depth_m),
       factors_(camera) {
   if (masks.enabled() && options.recheck && options.masking.depth_check) {
     recheck_.emplace(masks.masker()->geometry(), options.masking);
@@ -167,8 +172,7 @@ MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
 
 std::optional<cv::Mat> KeyframeFuser::Revisit(int keyframe_id, const MapperFrame& input) {
   std::optional<cv::Mat> seen = revisits_.Admit(
-      revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera),
-      max_seen_share_);
+      revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera));
   seen_before_ += seen ? 0 : 1;
   return seen;
 }

@@ -153,8 +153,7 @@ class KeyframeFuser {
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   RevisitCells revisits_;
-  double max_seen_share_ = 1.0;  // keyframes.revisit_max_seen_share, 1 with the selection off
-  size_t seen_before_ = 0;       // keyframes not fused: earlier visits saw their view
+  size_t seen_before_ = 0;  // keyframes not fused: earlier visits saw their view
   DepthFactorImages factors_;
   std::map<int, Waiting> waiting_;  // by keyframe id, i.e. in time order
   std::vector<StampedPose> fused_poses_;

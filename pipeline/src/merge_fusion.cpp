@@ -58,10 +58,8 @@ MergeFusion FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
       MapperFrame frame{keyframes[k].time, images.color, images.depth_m, cv::Mat(),
                         joined.first_from_keyframe[order[rank]][k]};
       // A redundant keyframe's view is not remembered: only fused views leave cells out.
-      std::optional<cv::Mat> seen =
-          revisits.Admit(revisits.MakeView(id_base + keyframes[k].id, frame.depth_m, cv::Mat(),
-                                           frame.world_from_camera),
-                         options.max_seen_share);
+      std::optional<cv::Mat> seen = revisits.Admit(revisits.MakeView(
+          id_base + keyframes[k].id, frame.depth_m, cv::Mat(), frame.world_from_camera));
       if (seen) {
         frame.mask = std::move(*seen);
         mapper.Integrate(frame);

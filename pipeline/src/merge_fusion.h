@@ -13,9 +13,8 @@ namespace stillmap {
 
 // What the fusion reads of the request.
 struct MergeFusionOptions {
-  MapperOptions mapping;  // in_background already off with one thread
-  RevisitOptions revisit;
-  double max_seen_share = 1.0;  // merge.max_seen_share: a keyframe seen more is redundant
+  MapperOptions mapping;   // in_background already off with one thread
+  RevisitOptions revisit;  // its max_seen_share is merge.max_seen_share
   bool show_progress = false;
 };
 

@@ -142,8 +142,9 @@ std::vector<Trajectory> WriteTrajectories(const std::vector<MergeSession>& sessi
 
 MergeFusionOptions FusionOptionsOf(const MergeRequest& request) {
   const BuildConfig& config = request.config;
-  MergeFusionOptions options{config.mapping, config.selection.revisit, config.merge.max_seen_share,
-                             request.show_progress};
+  MergeFusionOptions options{config.mapping, config.selection.revisit, request.show_progress};
+  // Between sessions a keyframe is redundant by the merge's share, not the build's.
+  options.revisit.max_seen_share = config.merge.max_seen_share;
   options.mapping.in_background = options.mapping.in_background && request.threads() > 1;
   return options;
 }

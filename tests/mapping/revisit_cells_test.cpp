@@ -148,13 +148,13 @@ TEST(RevisitCellsTest, SwitchedOffLeavesNothingOutAndBadValuesAreRefused) {
 // keyframe 10 saw. Returns keyframe 20's cells seen, after keyframe 10 was admitted or not.
 cv::Mat SeenAfterARedundantRevisit(const Camera& camera, double max_seen_share,
                                    bool* second_admitted) {
-  RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+  RevisitOptions options;
+  options.max_seen_share = max_seen_share;
+  RevisitCells cells(camera, options, 0.1, 4.0);
   EXPECT_TRUE(
-      cells
-          .Admit(cells.MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0)), max_seen_share)
-          .has_value());
-  const std::optional<cv::Mat> second = cells.Admit(
-      cells.MakeView(10, RenderWall(camera, At(0.1)), cv::Mat(), At(0.1)), max_seen_share);
+      cells.Admit(cells.MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0))).has_value());
+  const std::optional<cv::Mat> second =
+      cells.Admit(cells.MakeView(10, RenderWall(camera, At(0.1)), cv::Mat(), At(0.1)));
   *second_admitted = second.has_value();
   if (second) {
     EXPECT_NEAR(RevisitCells::SeenShare(

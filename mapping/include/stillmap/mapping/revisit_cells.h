@@ -30,7 +30,8 @@ struct RevisitOptions {
   double scale_ratio = 1.25;
   // A keyframe is not fused at all when earlier visits saw more than this share of its view's
   // read cells (1 = never): the rule merge.max_seen_share applies between sessions, within one
-  // recording (a robot going round a floor again). Chosen on every sequence: docs/figures.md.
+  // recording (a robot going round a floor again). Measured at 0.9 on every sequence:
+  // docs/figures.md.
   double max_seen_share = 1.0;
 
   // Throws InputError naming the key (keyframes.revisit_*) of the first impossible value.
@@ -92,10 +93,10 @@ class RevisitCells {
   static double SeenShare(const CellView& view, const cv::Mat& seen);
   // Remembers a fused keyframe's view for the keyframes after it.
   void Remember(CellView view);
-  // SeenBefore, then the verdict: when the cells seen are more than `max_seen_share` of `view`'s
-  // read cells, the keyframe is redundant: nullopt, and its view is not remembered. Else its view
-  // is remembered and the cells seen returned (empty when none).
-  std::optional<cv::Mat> Admit(CellView view, double max_seen_share);
+  // SeenBefore, then the verdict: when the cells seen are more than options' max_seen_share of
+  // `view`'s read cells, the keyframe is redundant: nullopt, and its view is not remembered. Else
+  // its view is remembered and the cells seen returned (empty when none).
+  std::optional<cv::Mat> Admit(CellView view);
   // Frees the views remembered (no keyframe comes after).
   void Forget() { std::vector<CellView>().swap(remembered_); }
 
