@@ -215,6 +215,24 @@ void ReadResult(const BundleAdjustmentProblem& problem, Parameters& parameters,
   }
 }
 
+// The poses' manifold, the fixed ones held; returns how many are free.
+int SetUpPoses(const BundleAdjustmentProblem& problem, Parameters* parameters,
+               ceres::Problem* ceres_problem) {
+  static PoseManifold manifold;
+  int free_poses = 0;
+  for (size_t k = 0; k < problem.keyframes.size(); ++k) {
+    double* pose = &parameters->poses[7 * k];
+    if (!ceres_problem->HasParameterBlock(pose)) continue;
+    ceres_problem->SetManifold(pose, &manifold);
+    if (problem.keyframes[k].fixed) {
+      ceres_problem->SetParameterBlockConstant(pose);
+    } else {
+      ++free_poses;
+    }
+  }
+  return free_poses;
+}
+
 }  // namespace
 
 BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& problem,
@@ -222,7 +240,6 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
   Parameters parameters = ParametersOf(problem);
   BundleAdjustmentResult result;
   result.outlier.assign(problem.observations.size(), false);
-  static PoseManifold manifold;
   for (int round = 0; round < 2; ++round) {
     ceres::Problem::Options problem_options;
     problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
@@ -237,15 +254,10 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
           new ceres::NormalPrior(weight, Eigen::Matrix<double, 5, 1>::Zero()), nullptr,
           parameters.correction);
     }
-    for (size_t k = 0; k < problem.keyframes.size(); ++k) {
-      double* pose = &parameters.poses[7 * k];
-      if (!ceres_problem.HasParameterBlock(pose)) continue;
-      ceres_problem.SetManifold(pose, &manifold);
-      if (problem.keyframes[k].fixed) ceres_problem.SetParameterBlockConstant(pose);
-    }
+    const int free_poses = SetUpPoses(problem, &parameters, &ceres_problem);
     ceres::Solver::Options solver_options;
-    // A few poses and many points: the Schur complement leaves a small dense camera system.
-    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    solver_options.linear_solver_type =
+        free_poses <= options.dense_schur_max_poses ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
     solver_options.max_num_iterations =
         round == 0 ? options.iterations_first : options.iterations_second;
     solver_options.logging_type = ceres::SILENT;

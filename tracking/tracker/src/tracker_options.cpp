@@ -216,6 +216,8 @@ void TrackerOptions::Validate() const {
   Require(bundle_adjustment.chi2_without_depth > 0.0 && bundle_adjustment.chi2_with_depth > 0.0,
           "{} and {} must be positive", key(bundle_adjustment.chi2_without_depth),
           key(bundle_adjustment.chi2_with_depth));
+  Require(bundle_adjustment.dense_schur_max_poses >= 0, "{} must be 0 or more",
+          key(bundle_adjustment.dense_schur_max_poses));
   relocalization.Validate();
   rgbd_odometry.Validate();
   loops.Validate();

@@ -19,6 +19,13 @@ struct BundleAdjustmentOptions {
   // Chi-square thresholds at 95 % for whitened residuals (2 dof without depth, 3 with).
   double chi2_without_depth = 5.991;
   double chi2_with_depth = 7.815;
+  // The Schur complement leaves a system in the free poses alone. Held dense it takes (6 N)^2
+  // doubles and O(N^3) per factorization for N poses: right for the local window (8), but a
+  // global adjustment over a floor's long segment (hundreds of poses) then took most of the
+  // build's memory and time (docs/figures.md, issue 47). Poses along a long path see few of each
+  // other, so there the system is mostly empty: above this many free poses it is solved sparse
+  // (SuiteSparse, as the pose graph). The same equations: the solutions agree to rounding.
+  int dense_schur_max_poses = 100;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -31,6 +38,8 @@ struct BundleAdjustmentOptions {
           "outlier threshold, whitened, 2 dof (chi-square 95 %: 5.991)");
     visit("chi2_with_depth", self.chi2_with_depth,
           "outlier threshold, whitened, 3 dof (chi-square 95 %: 7.815)");
+    visit("dense_schur_max_poses", self.dense_schur_max_poses,
+          "free poses up to which the reduced camera system is solved dense; sparse above");
   }
 };
 
