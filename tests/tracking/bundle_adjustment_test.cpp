@@ -11,18 +11,48 @@
 namespace stillmap {
 namespace {
 
+// The scenes' random numbers: uniform in [-1, 1] and standard normal, from one seeded generator.
+struct Noise {
+  explicit Noise(unsigned seed) : rng(seed) {}
+  double Uniform() { return uniform(rng); }
+  double Gauss() { return gauss(rng); }
+
+  std::mt19937 rng;
+  std::uniform_real_distribution<double> uniform{-1.0, 1.0};
+  std::normal_distribution<double> gauss{0.0, 1.0};
+};
+
 struct Scene {
   BundleAdjustmentProblem problem;
   std::vector<Eigen::Isometry3d> true_poses;
 };
 
+// Landmark `landmark` at `point`, observed by every keyframe of `scene` that has it inside a
+// 640x480 view, with image noise and inverse-depth noise of `sigma_inverse_depth`; raw depths
+// carry `error` (z_raw = z / (1 + delta)).
+void ObserveLandmark(int landmark, const Eigen::Vector3d& point, double sigma_inverse_depth,
+                     const DepthCorrection& error, Noise& noise, Scene* scene) {
+  for (size_t k = 0; k < scene->true_poses.size(); ++k) {
+    const Eigen::Vector3d q = scene->true_poses[k] * point;
+    const Eigen::Vector2d n = q.head<2>() / q.z();
+    if (std::abs(n.x()) > 0.55 || std::abs(n.y()) > 0.42) continue;  // outside the view
+    BundleAdjustmentObservation observation;
+    observation.keyframe = static_cast<int>(k);
+    observation.landmark = landmark;
+    RgbdObservation& o = observation.observation;
+    o.normalized = n + o.sigma_normalized * Eigen::Vector2d(noise.Gauss(), noise.Gauss());
+    o.sigma_inverse_depth = sigma_inverse_depth;
+    const double inverse_depth = 1.0 / q.z() + o.sigma_inverse_depth * noise.Gauss();
+    o.depth_m = 1.0 / inverse_depth / error.Factor(n.x(), n.y());
+    scene->problem.observations.push_back(observation);
+  }
+}
+
 // Keyframes looking at points 2-4 m away; `motion` scales how far the camera moves and turns
 // (0: every keyframe at the same place). Raw depths carry `error` (z_raw = z / (1 + delta)) and
 // noise; the solve starts from perturbed poses and points and from no correction.
 Scene MakeScene(double motion, const DepthCorrection& error, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  std::normal_distribution<double> gauss(0.0, 1.0);
+  Noise noise(seed);
   Scene scene;
   BundleAdjustmentProblem& problem = scene.problem;
   for (int k = 0; k < 8; ++k) {
@@ -36,26 +66,16 @@ Scene MakeScene(double motion, const DepthCorrection& error, unsigned seed) {
     scene.true_poses.push_back(camera_from_world);
     Eigen::Isometry3d start = camera_from_world;
     if (k > 0)
-      start.translation() += 0.005 * Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+      start.translation() +=
+          0.005 * Eigen::Vector3d(noise.Uniform(), noise.Uniform(), noise.Uniform());
     problem.keyframes.push_back({start, k == 0});
   }
   for (int i = 0; i < 600; ++i) {
-    const Eigen::Vector3d point(2.0 * uniform(rng), 1.5 * uniform(rng), 3.0 + uniform(rng));
-    problem.landmarks.push_back(point + 0.01 * Eigen::Vector3d(uniform(rng), uniform(rng), 0.0));
-    for (size_t k = 0; k < scene.true_poses.size(); ++k) {
-      const Eigen::Vector3d q = scene.true_poses[k] * point;
-      const Eigen::Vector2d n = q.head<2>() / q.z();
-      if (std::abs(n.x()) > 0.55 || std::abs(n.y()) > 0.42) continue;  // outside a 640x480 view
-      BundleAdjustmentObservation observation;
-      observation.keyframe = static_cast<int>(k);
-      observation.landmark = i;
-      RgbdObservation& o = observation.observation;
-      o.normalized = n + o.sigma_normalized * Eigen::Vector2d(gauss(rng), gauss(rng));
-      o.sigma_inverse_depth = 0.0025;
-      const double inverse_depth = 1.0 / q.z() + o.sigma_inverse_depth * gauss(rng);
-      o.depth_m = 1.0 / inverse_depth / error.Factor(n.x(), n.y());
-      problem.observations.push_back(observation);
-    }
+    const Eigen::Vector3d point(2.0 * noise.Uniform(), 1.5 * noise.Uniform(),
+                                3.0 + noise.Uniform());
+    problem.landmarks.push_back(point +
+                                0.01 * Eigen::Vector3d(noise.Uniform(), noise.Uniform(), 0.0));
+    ObserveLandmark(i, point, 0.0025, error, noise, &scene);
   }
   problem.depth_correction = DepthCorrection{};
   return scene;
@@ -125,9 +145,7 @@ TEST(BundleAdjustmentTest, WithoutACorrectionToEstimateNoneIsReturned) {
 // within its view: the global adjustment of a corridor. Every pose but the first starts 1 cm and
 // half a degree off.
 Scene MakeCorridor() {
-  std::mt19937 rng(6);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  std::normal_distribution<double> gauss(0.0, 1.0);
+  Noise noise(6);
   Scene scene;
   BundleAdjustmentProblem& problem = scene.problem;
   for (int k = 0; k < 120; ++k) {
@@ -136,27 +154,20 @@ Scene MakeCorridor() {
     scene.true_poses.push_back(world_from_camera.inverse());
     Eigen::Isometry3d start = scene.true_poses.back();
     if (k > 0) {
-      const Eigen::Vector3d axis(uniform(rng), uniform(rng), uniform(rng));
+      const Eigen::Vector3d axis(noise.Uniform(), noise.Uniform(), noise.Uniform());
       start.linear() *= Eigen::AngleAxisd(0.5 * M_PI / 180.0, axis.normalized()).matrix();
-      start.translation() += 0.01 * Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng));
+      start.translation() +=
+          0.01 * Eigen::Vector3d(noise.Uniform(), noise.Uniform(), noise.Uniform());
     }
     problem.keyframes.push_back({start, k == 0});
   }
   for (int i = 0; i < 2500; ++i) {
-    const Eigen::Vector3d point(9.0 + 10.0 * uniform(rng), 1.2 * uniform(rng), 2.5 + uniform(rng));
-    problem.landmarks.push_back(point + 0.02 * Eigen::Vector3d(uniform(rng), uniform(rng), 0.0));
-    for (size_t k = 0; k < scene.true_poses.size(); ++k) {
-      const Eigen::Vector3d q = scene.true_poses[k] * point;
-      const Eigen::Vector2d n = q.head<2>() / q.z();
-      if (std::abs(n.x()) > 0.55 || std::abs(n.y()) > 0.42) continue;  // outside a 640x480 view
-      BundleAdjustmentObservation observation;
-      observation.keyframe = static_cast<int>(k);
-      observation.landmark = i;
-      RgbdObservation& o = observation.observation;
-      o.normalized = n + o.sigma_normalized * Eigen::Vector2d(gauss(rng), gauss(rng));
-      o.depth_m = 1.0 / (1.0 / q.z() + o.sigma_inverse_depth * gauss(rng));
-      problem.observations.push_back(observation);
-    }
+    const Eigen::Vector3d point(9.0 + 10.0 * noise.Uniform(), 1.2 * noise.Uniform(),
+                                2.5 + noise.Uniform());
+    problem.landmarks.push_back(point +
+                                0.02 * Eigen::Vector3d(noise.Uniform(), noise.Uniform(), 0.0));
+    ObserveLandmark(i, point, RgbdObservation{}.sigma_inverse_depth, DepthCorrection{}, noise,
+                    &scene);
   }
   return scene;
 }
