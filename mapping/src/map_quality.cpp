@@ -101,6 +101,8 @@ MapQuality EvaluateMap(const std::vector<VoxelPoint>& map,
 
   pcl::KdTreeFLANN<pcl::PointXYZ> map_tree;
   map_tree.setInputCloud(map_cloud);
+  // The truth as queries is made again rather than kept from the accuracy's tree: kept, it would
+  // sit beside the map's tree.
   const std::vector<float> to_map =
       NearestWithin(map_tree, *ToPcl(static_groundtruth), options.completeness_distance);
   const size_t covered = static_cast<size_t>(
