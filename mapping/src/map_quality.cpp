@@ -69,9 +69,10 @@ void MeasureAccuracy(const pcl::PointCloud<pcl::PointXYZ>& map_cloud,
   coarse_tree.setInputCloud(CoarseCloud(static_groundtruth));
   std::vector<int> index(1);
   std::vector<float> squared(1);
-  size_t ghosts = 0;
+  size_t ghosts = 0, on_surface = 0;
   double sum = 0.0;
   for (size_t i = 0; i < to_groundtruth.size(); ++i) {
+    if (to_groundtruth[i] <= options.surface_distance) ++on_surface;
     if (std::isinf(to_groundtruth[i])) {
       ++ghosts;
       coarse_tree.nearestKSearch(map_cloud[i], 1, index, squared);
@@ -82,6 +83,8 @@ void MeasureAccuracy(const pcl::PointCloud<pcl::PointXYZ>& map_cloud,
   }
   quality->accuracy_mean = sum / static_cast<double>(to_groundtruth.size());
   quality->ghost_share = static_cast<double>(ghosts) / static_cast<double>(to_groundtruth.size());
+  quality->on_surface_share =
+      static_cast<double>(on_surface) / static_cast<double>(to_groundtruth.size());
   std::nth_element(to_groundtruth.begin(), to_groundtruth.begin() + to_groundtruth.size() / 2,
                    to_groundtruth.end());
   quality->accuracy_median = to_groundtruth[to_groundtruth.size() / 2];

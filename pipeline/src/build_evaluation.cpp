@@ -1,5 +1,6 @@
 #include "build_evaluation.h"
 
+#include <Eigen/SVD>
 #include <chrono>
 #include <filesystem>
 
@@ -58,6 +59,36 @@ void EvaluateGridAgainst(const std::vector<VoxelPoint>& truth,
   evaluation->moving_objects_known = !moving_in_map.empty();
 }
 
+// The rigid transform that best carries the posed frames' poses onto their ground-truth poses:
+// the rotation nearest the sum of R_truth R_posed^T (the chordal mean, from orientations, which
+// every frame fixes, unlike positions along a short or straight path: the ATE's alignment), then
+// the mean position difference. One frame's pose alone would count its heading error, 10 cm at
+// 16 m on a floor, against every far wall. Nothing when no posed frame has a ground-truth pose.
+std::optional<Eigen::Isometry3d> GroundTruthFromMap(const BuildInputs& inputs,
+                                                    const EvaluationOptions& options,
+                                                    const PosedFrames& posed) {
+  if (!inputs.sequence.groundtruth()) return std::nullopt;
+  Eigen::Matrix3d rotations = Eigen::Matrix3d::Zero();
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> positions;  // posed, truth
+  for (const StampedPose& pose : posed.trajectory.poses()) {
+    const std::optional<Eigen::Isometry3d> truth =
+        inputs.sequence.groundtruth()->Interpolate(pose.time, options.max_groundtruth_gap_s);
+    if (!truth) continue;
+    rotations += truth->linear() * pose.world_from_camera.linear().transpose();
+    positions.emplace_back(pose.world_from_camera.translation(), truth->translation());
+  }
+  if (positions.empty()) return std::nullopt;
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rotations, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  sign(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  Eigen::Isometry3d truth_from_posed = Eigen::Isometry3d::Identity();
+  truth_from_posed.linear() = svd.matrixU() * sign * svd.matrixV().transpose();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  for (const auto& [estimate, truth] : positions) offset += truth - truth_from_posed * estimate;
+  truth_from_posed.translation() = offset / static_cast<double>(positions.size());
+  return truth_from_posed;
+}
+
 // The map against the static ground truth of synthetic sequences, in the truth's frame.
 void EvaluateMapQuality(const BuildInputs& inputs, const EvaluationOptions& options,
                         const PosedFrames& posed, const std::vector<VoxelPoint>& cloud,
@@ -68,7 +99,7 @@ void EvaluateMapQuality(const BuildInputs& inputs, const EvaluationOptions& opti
   if (!PathExists(truth_path)) return;
   evaluation.static_groundtruth = truth_path;
   const std::optional<Eigen::Isometry3d> groundtruth_from_map =
-      GroundTruthFromPoses(inputs, options.max_groundtruth_gap_s, posed);
+      GroundTruthFromMap(inputs, options, posed);
   if (!groundtruth_from_map) {
     evaluation.map_quality_note =
         "not evaluated: no tracked frame has a ground-truth pose to anchor the map";

@@ -87,6 +87,7 @@ json MergeReportJson(const MergeResult& result, const MergeRequest& request) {
                              {"accuracy_median_m", quality->accuracy_median},
                              {"completeness", quality->completeness},
                              {"ghost_share", quality->ghost_share},
+                             {"on_surface_share", quality->on_surface_share},
                              {"map_points", quality->map_points},
                              {"groundtruth", "static_gt.ply of the first session's sequence"}};
   }

@@ -275,7 +275,9 @@ void AddMapQuality(const BuildResult& result, json* report) {
                               {"accuracy_mean_m", quality.accuracy_mean},
                               {"accuracy_median_m", quality.accuracy_median},
                               {"completeness", quality.completeness},
-                              {"ghost_share", quality.ghost_share}};
+                              {"ghost_share", quality.ghost_share},
+                              {"on_surface_share", quality.on_surface_share},
+                              {"on_surface_distance_m", MapQualityOptions().surface_distance}};
   if (!evaluation.grid_quality) return;
   const GridQuality& grid = *evaluation.grid_quality;
   (*report)["grid_quality"] = {
@@ -419,10 +421,11 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
   }
   if (const std::optional<MapQuality>& quality = result.evaluation.map_quality) {
     lines.push_back(fmt::format(
-        "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; completeness {:.1f} %; "
-        "ghost share {:.2f} %",
-        quality->accuracy_median * 1e3, quality->accuracy_mean * 1e3, 100.0 * quality->completeness,
-        100.0 * quality->ghost_share));
+        "map vs static_gt.ply: accuracy median {:.1f} mm, mean {:.1f} mm; within {:.0f} cm {:.1f} "
+        "%; completeness {:.1f} %; ghost share {:.2f} %",
+        quality->accuracy_median * 1e3, quality->accuracy_mean * 1e3,
+        MapQualityOptions().surface_distance * 1e2, 100.0 * quality->on_surface_share,
+        100.0 * quality->completeness, 100.0 * quality->ghost_share));
   }
   lines.push_back(WrittenLine(output_dir));
   if (!result.warnings.empty()) {

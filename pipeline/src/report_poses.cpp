@@ -24,11 +24,15 @@ const char* PoseSourceName(PoseSource poses) {
 const char* AlignedBy(PoseSource poses) {
   switch (poses) {
     case PoseSource::kTracking:
-      return "the ground-truth pose of the first tracked frame that has one";
+      return "the rigid transform that best carries the tracked poses onto their ground-truth "
+             "poses (rotation: the chordal mean over every frame with one; then the mean "
+             "position offset)";
     case PoseSource::kGroundTruth:
       return "nothing: the poses are the ground truth";
     case PoseSource::kGiven:
-      return "the ground-truth pose of the first frame with a given pose that has one";
+      return "the rigid transform that best carries the given poses onto their ground-truth "
+             "poses (rotation: the chordal mean over every frame with one; then the mean "
+             "position offset)";
   }
   return "";
 }

@@ -33,5 +33,21 @@ TEST(MapQualityTest, FiguresOfAShiftedPartialMapWithGhosts) {
   EXPECT_NEAR(quality.completeness, 0.52, 0.011);
 }
 
+TEST(MapQualityTest, PointsBetweenTheSurfaceAndGhostDistancesAreOffTheSurfaceButNotGhosts) {
+  // Ground truth: the plane z = 0. Map: a patch 1 cm above it, one 4 cm above (off the 3 cm
+  // surface, closer than the 5 cm of a ghost) and one 8 cm above (a ghost).
+  const std::vector<VoxelPoint> groundtruth = Grid(0.0f, 2.0f, 0.01f);
+  const std::vector<VoxelPoint> near = Grid(0.01f, 0.5f, 0.01f);
+  const std::vector<VoxelPoint> off = Grid(0.04f, 0.3f, 0.01f);
+  const std::vector<VoxelPoint> ghost = Grid(0.08f, 0.2f, 0.01f);
+  std::vector<VoxelPoint> map = near;
+  map.insert(map.end(), off.begin(), off.end());
+  map.insert(map.end(), ghost.begin(), ghost.end());
+  const MapQuality quality = EvaluateMap(map, groundtruth);
+  const double total = static_cast<double>(map.size());
+  EXPECT_NEAR(quality.on_surface_share, near.size() / total, 1e-9);
+  EXPECT_NEAR(quality.ghost_share, ghost.size() / total, 1e-9);
+}
+
 }  // namespace
 }  // namespace stillmap

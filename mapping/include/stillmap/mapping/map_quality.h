@@ -12,15 +12,18 @@ struct MapQualityOptions {
                                         // ground-truth point are ghosts [m] (DESIGN.md: 5 cm)
   double completeness_distance = 0.05;  // a ground-truth point is covered by a map point within
                                         // this distance [m] (DESIGN.md: 5 cm)
+  double surface_distance = 0.03;       // map points within this of a static ground-truth point
+                                        // lie on a true surface [m] (issue 47: 3 cm)
 };
 
 struct MapQuality {
   size_t map_points = 0;
   size_t groundtruth_points = 0;
-  double accuracy_mean = 0.0;    // mean distance of map points to the ground truth [m]
-  double accuracy_median = 0.0;  // median of the same [m]
-  double completeness = 0.0;     // share of ground-truth points with a map point within 5 cm
-  double ghost_share = 0.0;      // share of map points farther than 5 cm from every GT point
+  double accuracy_mean = 0.0;     // mean distance of map points to the ground truth [m]
+  double accuracy_median = 0.0;   // median of the same [m]
+  double completeness = 0.0;      // share of ground-truth points with a map point within 5 cm
+  double ghost_share = 0.0;       // share of map points farther than 5 cm from every GT point
+  double on_surface_share = 0.0;  // share of map points within 3 cm of a GT point
 };
 
 // Nearest-neighbour distances both ways (FLANN kd-trees through PCL). Both clouds in one frame.
