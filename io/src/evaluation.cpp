@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -114,6 +115,25 @@ RpeResult ComputeRpe(const Trajectory& groundtruth, const Trajectory& estimate,
   result.translation = ComputeStatistics(translation_errors);
   result.rotation = ComputeStatistics(rotation_errors_deg);
   return result;
+}
+
+Eigen::Isometry3d FitPoses(const std::vector<Eigen::Isometry3d>& groundtruth,
+                           const std::vector<Eigen::Isometry3d>& estimate) {
+  Eigen::Matrix3d rotations = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < estimate.size(); ++i) {
+    rotations += groundtruth[i].linear() * estimate[i].linear().transpose();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rotations, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
+  sign(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  Eigen::Isometry3d fit = Eigen::Isometry3d::Identity();
+  fit.linear() = svd.matrixU() * sign * svd.matrixV().transpose();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < estimate.size(); ++i) {
+    offset += groundtruth[i].translation() - fit.linear() * estimate[i].translation();
+  }
+  fit.translation() = offset / static_cast<double>(estimate.size());
+  return fit;
 }
 
 }  // namespace stillmap

@@ -59,34 +59,23 @@ void EvaluateGridAgainst(const std::vector<VoxelPoint>& truth,
   evaluation->moving_objects_known = !moving_in_map.empty();
 }
 
-// The rigid transform that best carries the posed frames' poses onto their ground-truth poses:
-// the rotation nearest the sum of R_truth R_posed^T (the chordal mean, from orientations, which
-// every frame fixes, unlike positions along a short or straight path: the ATE's alignment), then
-// the mean position difference. One frame's pose alone would count its heading error, 10 cm at
-// 16 m on a floor, against every far wall. Nothing when no posed frame has a ground-truth pose.
+// The map's place in the truth's frame: the fit of every posed frame that has a ground-truth pose
+// (FitPoses). One frame's pose alone would count its heading error, 10 cm at 16 m on a floor,
+// against every far wall. Nothing when no posed frame has a ground-truth pose.
 std::optional<Eigen::Isometry3d> GroundTruthFromMap(const BuildInputs& inputs,
                                                     const EvaluationOptions& options,
                                                     const PosedFrames& posed) {
   if (!inputs.sequence.groundtruth()) return std::nullopt;
-  Eigen::Matrix3d rotations = Eigen::Matrix3d::Zero();
-  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> positions;  // posed, truth
+  std::vector<Eigen::Isometry3d> truths, estimates;
   for (const StampedPose& pose : posed.trajectory.poses()) {
     const std::optional<Eigen::Isometry3d> truth =
         inputs.sequence.groundtruth()->Interpolate(pose.time, options.max_groundtruth_gap_s);
     if (!truth) continue;
-    rotations += truth->linear() * pose.world_from_camera.linear().transpose();
-    positions.emplace_back(pose.world_from_camera.translation(), truth->translation());
+    truths.push_back(*truth);
+    estimates.push_back(pose.world_from_camera);
   }
-  if (positions.empty()) return std::nullopt;
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(rotations, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d sign = Eigen::Matrix3d::Identity();
-  sign(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-  Eigen::Isometry3d truth_from_posed = Eigen::Isometry3d::Identity();
-  truth_from_posed.linear() = svd.matrixU() * sign * svd.matrixV().transpose();
-  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
-  for (const auto& [estimate, truth] : positions) offset += truth - truth_from_posed * estimate;
-  truth_from_posed.translation() = offset / static_cast<double>(positions.size());
-  return truth_from_posed;
+  if (truths.empty()) return std::nullopt;
+  return FitPoses(truths, estimates);
 }
 
 // The map against the static ground truth of synthetic sequences, in the truth's frame.

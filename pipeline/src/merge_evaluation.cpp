@@ -54,7 +54,8 @@ void EvaluateSessions(const std::vector<MergeSession>& sessions, const JoinedSes
 }
 
 // The merged map against the first session's static ground truth (synthetic sequences), in the
-// truth's frame: anchored at the ground-truth pose of the first session's first keyframe.
+// truth's frame: placed by the fit of the first session's keyframes to their ground-truth poses
+// (FitPoses, as a build's figures).
 std::optional<MapQuality> EvaluateMergedMap(const std::vector<MergeSession>& sessions,
                                             const std::vector<VoxelPoint>& cloud) {
   const SessionRecord& first = sessions[0].record();
@@ -67,11 +68,15 @@ std::optional<MapQuality> EvaluateMergedMap(const std::vector<MergeSession>& ses
   if (first.camera.groundtruth_body_from_camera) {
     truth = truth.RightMultiplied(*first.camera.groundtruth_body_from_camera);
   }
-  const SessionKeyframe& anchor = first.keyframes.front();
-  const std::optional<Eigen::Isometry3d> truth_from_camera = truth.Interpolate(anchor.time, 0.1);
-  if (!truth_from_camera) return std::nullopt;
-  const Eigen::Isometry3f truth_from_map =
-      (*truth_from_camera * anchor.map_from_camera.inverse()).cast<float>();
+  std::vector<Eigen::Isometry3d> truths, estimates;
+  for (const SessionKeyframe& keyframe : first.keyframes) {
+    const std::optional<Eigen::Isometry3d> truth_pose = truth.Interpolate(keyframe.time, 0.1);
+    if (!truth_pose) continue;
+    truths.push_back(*truth_pose);
+    estimates.push_back(keyframe.map_from_camera);
+  }
+  if (truths.empty()) return std::nullopt;
+  const Eigen::Isometry3f truth_from_map = FitPoses(truths, estimates).cast<float>();
   std::vector<VoxelPoint> points = cloud;
   for (VoxelPoint& point : points) point.position = truth_from_map * point.position;
   return EvaluateMap(points, ReadCloud((folder / "static_gt.ply").string()));

@@ -58,6 +58,33 @@ TEST(EvaluationTest, RigidlyMovedTrajectoryHasZeroErrorAndTheAlignmentIsRecovere
   EXPECT_LT(rpe.rotation.rmse, 1e-6);
 }
 
+TEST(EvaluationTest, FitPosesRecoversTheTransformOfAStraightPathFromItsOrientations) {
+  // A straight path along x: its positions leave a rotation about x free, its orientations do
+  // not. The estimate is the truth moved by a known transform, each rotation then turned by up to
+  // 0.5 degrees about a random axis.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<Eigen::Isometry3d> truths, exact, noisy;
+  for (int i = 0; i < 200; ++i) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(0.02 * i, 0.0, 0.9);
+    pose.linear() =
+        Eigen::AngleAxisd(0.3 * std::sin(0.05 * i), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    truths.push_back(pose);
+    exact.push_back(KnownTransform() * pose);
+    const Eigen::Vector3d axis = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+    Eigen::Isometry3d turned = exact.back();
+    turned.linear() = turned.linear() *
+                      Eigen::AngleAxisd(0.5 * M_PI / 180.0 * unit(rng), axis).toRotationMatrix();
+    noisy.push_back(turned);
+  }
+  EXPECT_TRUE(FitPoses(truths, exact).isApprox(KnownTransform().inverse(), 1e-9));
+  const Eigen::Isometry3d fit = FitPoses(truths, noisy);
+  const Eigen::AngleAxisd off(fit.linear() * KnownTransform().linear());
+  EXPECT_LT(off.angle() * 180.0 / M_PI, 0.1);
+  EXPECT_LT((fit * KnownTransform().translation()).norm(), 0.01);
+}
+
 TEST(EvaluationTest, KnownNoiseGivesExpectedAte) {
   // Isotropic Gaussian noise of sigma per axis: E[|e|^2] = 3 sigma^2, less the 6 degrees of
   // freedom the alignment absorbs: RMSE^2 ~ sigma^2 (3N - 6) / N.

@@ -53,6 +53,15 @@ struct AteResult {
 AteResult ComputeAte(const Trajectory& groundtruth, const Trajectory& estimate,
                      const AteOptions& options = {});
 
+// The rigid transform T that best carries each estimate pose onto its ground-truth pose (pairs at
+// the same index): its rotation is the one nearest the sum of R_truth R_estimate^T (the chordal
+// mean of the rotation differences, fixed by every pose, unlike the ATE's alignment from
+// positions along a short or straight path), its translation the mean of p_truth - R p_estimate.
+// Places a map in the truth's frame for its quality figures. `estimate` and `groundtruth` hold
+// at least one pose each, as many.
+Eigen::Isometry3d FitPoses(const std::vector<Eigen::Isometry3d>& groundtruth,
+                           const std::vector<Eigen::Isometry3d>& estimate);
+
 struct RpeOptions {
   double delta = 1.0;  // fixed time delta between the poses of a pair [s] (--fixed_delta --delta 1)
 
