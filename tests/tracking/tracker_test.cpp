@@ -193,6 +193,30 @@ TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
   EXPECT_EQ(stats.new_maps, 0u);
 }
 
+// The same covered lens with the ride-through cut to 2 frames: the third covered frame is lost,
+// so the two guesses before it were never confirmed. They leave the trajectory and count as
+// lost; relocalization finds the camera again.
+TEST_F(TrackerTest, PredictionsThatEndLostLeaveTheTrajectory) {
+  TrackerOptions options = Deterministic();
+  options.relocalization.max_predicted_frames = 2;
+  Tracker tracker(sequence_->camera(), options);
+  const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 20));
+  EXPECT_EQ(statuses[10], TrackStatus::kPredicted);
+  EXPECT_EQ(statuses[11], TrackStatus::kPredicted);
+  EXPECT_EQ(statuses[12], TrackStatus::kLost);
+  EXPECT_EQ(statuses[13], TrackStatus::kRelocalized);
+  tracker.Finish();
+  const Trajectory trajectory = tracker.TrackedTrajectory();
+  ASSERT_EQ(trajectory.size(), 17u);
+  for (const StampedPose& pose : trajectory.poses()) {
+    EXPECT_TRUE(pose.time < frames_[10].time || pose.time > frames_[12].time);
+  }
+  const TrackerStatistics stats = tracker.statistics();
+  EXPECT_EQ(stats.predicted, 2u);
+  EXPECT_EQ(stats.lost, 3u);
+  EXPECT_EQ(stats.tracked, 17u);
+}
+
 // The same covered lens with the defaults: the frames are posed by the constant-velocity model and
 // flagged "predicted", make no keyframe, and tracking goes on without relocalizing.
 TEST_F(TrackerTest, AnOccludedLensIsRiddenThroughByTheMotionModel) {

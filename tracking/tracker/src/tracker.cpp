@@ -235,11 +235,15 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
   if (occluded && have_last &&
       consecutive_predicted < options.relocalization.max_predicted_frames) {
     // Nothing to track behind the occluder: the motion model carries the pose through.
+    if (consecutive_predicted == 0) {
+      prediction_run = {records.size(), 0, last_good_camera_from_world, last_good_time};
+    }
     ++consecutive_predicted;
     ++stats.predicted;
     weakest_inliers_since_keyframe = 0;
     result->status = TrackStatus::kPredicted;
     Accept(predicted, time, {}, result);
+    prediction_run.end = records.size();
     return;
   }
   if (!occluded &&
@@ -248,6 +252,7 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
   }
   ++consecutive_lost;
   ++stats.lost;
+  if (consecutive_lost == 1) DropUnconfirmedPredictions();
   weakest_inliers_since_keyframe = 0;
   have_last = false;
   if (consecutive_lost >= options.relocalization.new_map_after_lost &&
@@ -301,6 +306,19 @@ bool Tracker::Impl::NearMotionModel(const Eigen::Isometry3d& camera_from_world, 
   const std::optional<Eigen::Isometry3d> carried = MotionModelPose(time);
   return !carried || CameraDistance(camera_from_world, *carried) <=
                          options.relocalization.motion_model_max_distance_m;
+}
+
+// The motion model's poses through an occlusion that ended with the camera lost, not found again,
+// were guesses nothing confirmed (a lens covered while the camera was carried: a metre off in
+// 0.5 s). They leave the trajectory and count as lost, and the last good pose is the one before.
+void Tracker::Impl::DropUnconfirmedPredictions() {
+  if (consecutive_predicted == 0 || prediction_run.end != records.size()) return;
+  const size_t dropped = prediction_run.end - prediction_run.begin;
+  records.resize(prediction_run.begin);
+  stats.tracked -= dropped;
+  stats.lost += dropped;
+  last_good_camera_from_world = prediction_run.last_good_camera_from_world;
+  last_good_time = prediction_run.last_good_time;
 }
 
 void Tracker::Impl::Accept(const Eigen::Isometry3d& camera_from_world, double time,

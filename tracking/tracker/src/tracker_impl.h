@@ -27,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "frame_records.h"
 #include "hamming.h"
 #include "stillmap/io/timing.h"
 #include "stillmap/tracking/loop_closure.h"
@@ -153,13 +154,6 @@ class FrameData {
   std::vector<std::vector<int>> cells_;
 };
 
-// A tracked frame, relative to its reference keyframe so that keyframe corrections carry over.
-struct FrameRecord {
-  double time = 0.0;
-  int reference_keyframe = 0;
-  Eigen::Isometry3d camera_from_reference = Eigen::Isometry3d::Identity();
-};
-
 // Feature -> landmark associations of the current frame.
 struct Association {
   std::vector<int> landmark;  // per feature, -1 none
@@ -215,6 +209,7 @@ struct Tracker::Impl {
   void TrackWithoutPose(const Eigen::Isometry3d& predicted, const LocalSet& local, FrameData& frame,
                         int with_depth, size_t frame_index, double time,
                         std::unique_lock<std::mutex>& lock, TrackResult* result);
+  void DropUnconfirmedPredictions();
   // Features found no pose: the frame's depth aligned to the last posed frame's
   // (rgbd_odometry.h), from the prediction. On success the frame is posed (kDepth), becomes a
   // keyframe every rgbd_odometry.keyframe_interval frames (with the local landmarks found by
@@ -455,6 +450,8 @@ struct Tracker::Impl {
   Eigen::Isometry3d last_good_camera_from_world = Eigen::Isometry3d::Identity();
   int consecutive_lost = 0;
   int consecutive_predicted = 0;  // frames posed by the motion model in a row
+  // Their records [begin, end) and the last good pose before them (DropUnconfirmedPredictions).
+  PredictionRun prediction_run;
   // Given poses (Tracker::SetPrior): the next frame's, and the last posed frame's.
   std::optional<Eigen::Isometry3d> next_prior, last_good_prior;
   double last_good_time = 0.0;
