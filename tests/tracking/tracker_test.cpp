@@ -166,55 +166,38 @@ TEST_F(TrackerTest, EveryKeyframeBecomesFinalOnceInOrder) {
   }
 }
 
-// A covered lens (no image, no depth) for three frames, with the motion model's ride-through
-// off: no pose, then relocalization.
+// A covered lens (no image, no depth) for three frames, with the motion model's ride-through off
+// or cut to 2 frames: the frames it did not pose, and the guesses that ended lost (never
+// confirmed), get no pose and count as lost; then relocalization.
 TEST_F(TrackerTest, LostFramesGetNoPoseAndTrackingResumes) {
-  TrackerOptions options = Deterministic();
-  options.relocalization.max_predicted_frames = 0;
-  Tracker tracker(sequence_->camera(), options);
-  const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 20));
-  EXPECT_EQ(statuses[10], TrackStatus::kLost);
-  EXPECT_EQ(statuses[12], TrackStatus::kLost);
-  EXPECT_EQ(statuses[13], TrackStatus::kRelocalized);
-  EXPECT_EQ(statuses[14], TrackStatus::kTracked);
-  tracker.Finish();
-  const Trajectory trajectory = tracker.TrackedTrajectory();
-  ASSERT_EQ(trajectory.size(), 17u);
-  for (const StampedPose& pose : trajectory.poses()) {
-    EXPECT_TRUE(pose.time < frames_[10].time || pose.time > frames_[12].time);
+  for (const int ride : {0, 2}) {
+    TrackerOptions options = Deterministic();
+    options.relocalization.max_predicted_frames = ride;
+    Tracker tracker(sequence_->camera(), options);
+    const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 20));
+    const TrackStatus covered = ride == 0 ? TrackStatus::kLost : TrackStatus::kPredicted;
+    EXPECT_EQ(statuses[10], covered) << ride;
+    EXPECT_EQ(statuses[11], covered) << ride;
+    EXPECT_EQ(statuses[12], TrackStatus::kLost) << ride;
+    EXPECT_EQ(statuses[13], TrackStatus::kRelocalized) << ride;
+    EXPECT_EQ(statuses[14], TrackStatus::kTracked) << ride;
+    tracker.Finish();
+    const Trajectory trajectory = tracker.TrackedTrajectory();
+    ASSERT_EQ(trajectory.size(), 17u) << ride;
+    for (const StampedPose& pose : trajectory.poses()) {
+      EXPECT_TRUE(pose.time < frames_[10].time || pose.time > frames_[12].time) << ride;
+    }
+    const Eigen::Isometry3d truth = Truth(0).inverse() * Truth(19);
+    EXPECT_LT(
+        (trajectory.poses().back().world_from_camera.translation() - truth.translation()).norm(),
+        0.002);
+    const TrackerStatistics stats = tracker.statistics();
+    EXPECT_EQ(stats.predicted, static_cast<size_t>(ride));
+    EXPECT_EQ(stats.lost, 3u);
+    EXPECT_EQ(stats.tracked, 17u);
+    EXPECT_EQ(stats.relocalized, 1u);
+    EXPECT_EQ(stats.new_maps, 0u);
   }
-  const Eigen::Isometry3d truth = Truth(0).inverse() * Truth(19);
-  EXPECT_LT(
-      (trajectory.poses().back().world_from_camera.translation() - truth.translation()).norm(),
-      0.002);
-  const TrackerStatistics stats = tracker.statistics();
-  EXPECT_EQ(stats.lost, 3u);
-  EXPECT_EQ(stats.relocalized, 1u);
-  EXPECT_EQ(stats.new_maps, 0u);
-}
-
-// The same covered lens with the ride-through cut to 2 frames: the third covered frame is lost,
-// so the two guesses before it were never confirmed. They leave the trajectory and count as
-// lost; relocalization finds the camera again.
-TEST_F(TrackerTest, PredictionsThatEndLostLeaveTheTrajectory) {
-  TrackerOptions options = Deterministic();
-  options.relocalization.max_predicted_frames = 2;
-  Tracker tracker(sequence_->camera(), options);
-  const std::vector<TrackStatus> statuses = Statuses(TrackWithCoveredLens(&tracker, 20));
-  EXPECT_EQ(statuses[10], TrackStatus::kPredicted);
-  EXPECT_EQ(statuses[11], TrackStatus::kPredicted);
-  EXPECT_EQ(statuses[12], TrackStatus::kLost);
-  EXPECT_EQ(statuses[13], TrackStatus::kRelocalized);
-  tracker.Finish();
-  const Trajectory trajectory = tracker.TrackedTrajectory();
-  ASSERT_EQ(trajectory.size(), 17u);
-  for (const StampedPose& pose : trajectory.poses()) {
-    EXPECT_TRUE(pose.time < frames_[10].time || pose.time > frames_[12].time);
-  }
-  const TrackerStatistics stats = tracker.statistics();
-  EXPECT_EQ(stats.predicted, 2u);
-  EXPECT_EQ(stats.lost, 3u);
-  EXPECT_EQ(stats.tracked, 17u);
 }
 
 // The same covered lens with the defaults: the frames are posed by the constant-velocity model and
