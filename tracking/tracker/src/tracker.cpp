@@ -312,11 +312,8 @@ bool Tracker::Impl::NearMotionModel(const Eigen::Isometry3d& camera_from_world, 
 // were guesses nothing confirmed (a lens covered while the camera was carried: a metre off in
 // 0.5 s). They leave the trajectory and count as lost, and the last good pose is the one before.
 void Tracker::Impl::DropUnconfirmedPredictions() {
-  // The run must end at the last record: no pose was taken after it.
-  if (consecutive_predicted == 0 || prediction_run.end == prediction_run.begin ||
-      prediction_run.end != records.size()) {
-    return;
-  }
+  // The run must end at the last record (records only grow, but here): no pose was taken after it.
+  if (prediction_run.end == prediction_run.begin || prediction_run.end != records.size()) return;
   const size_t dropped = prediction_run.end - prediction_run.begin;
   records.resize(prediction_run.begin);
   stats.tracked -= dropped;
