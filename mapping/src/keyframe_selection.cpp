@@ -33,6 +33,12 @@ std::string KeyframeSelectionOptions::Describe() const {
                           revisit.max_seen_share);
     }
   }
+  if (revisit.segment_max_seen_share < 1.0) {
+    rule += fmt::format(
+        "; a keyframe of a map segment is not fused when other segments' keyframes saw more than "
+        "{} of its cells at the final poses",
+        revisit.segment_max_seen_share);
+  }
   return rule;
 }
 

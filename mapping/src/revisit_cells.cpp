@@ -22,6 +22,9 @@ void RevisitOptions::Validate() const {
   if (!(max_seen_share >= 0.0 && max_seen_share <= 1.0)) {
     throw InputError(fmt::format("{} must be in [0, 1]", OptionKey(*this, max_seen_share)));
   }
+  if (!(segment_max_seen_share >= 0.0 && segment_max_seen_share <= 1.0)) {
+    throw InputError(fmt::format("{} must be in [0, 1]", OptionKey(*this, segment_max_seen_share)));
+  }
 }
 
 RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
@@ -30,19 +33,39 @@ RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, 
       options_(options),
       min_depth_(min_depth),
       max_depth_(max_depth),
-      min_cosine_(std::cos(options.view_angle_deg * M_PI / 180.0)) {}
+      min_cosine_(std::cos(options.view_angle_deg * M_PI / 180.0)) {
+  // Covered asks the two rays to a point, of lengths a and b, to lie within the angle and
+  // b / a within [1 / s, s]; the cameras are then |a - b| apart, with |a - b|^2 = a^2 + b^2 -
+  // 2 a b cos(angle) <= a^2 + b^2 - 2 a b c, convex in b: largest at b = s a or b = a / s.
+  const double s = options.scale_ratio, c = min_cosine_;
+  reach_factor_ =
+      std::sqrt(std::max({1.0 + s * s - 2.0 * s * c, 1.0 + 1.0 / (s * s) - 2.0 * c / s, 0.0}));
+}
 
 CellView RevisitCells::MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
-                                const Eigen::Isometry3d& world_from_camera) const {
-  return {keyframe_id,
-          world_from_camera,
-          world_from_camera.inverse(),
-          depth_m.size(),
-          DepthCells(depth_m, mask, kCell, min_depth_, max_depth_),
-          camera_.fx,
-          camera_.fy,
-          camera_.cx,
-          camera_.cy};
+                                const Eigen::Isometry3d& world_from_camera, int segment) const {
+  CellView view{keyframe_id,
+                world_from_camera,
+                world_from_camera.inverse(),
+                depth_m.size(),
+                DepthCells(depth_m, mask, kCell, min_depth_, max_depth_),
+                camera_.fx,
+                camera_.fy,
+                camera_.cx,
+                camera_.cy,
+                segment};
+  // The cells' points lie at their mean depth within the image, whose corners have the longest
+  // rays.
+  double deepest = 0.0;
+  for (int row = 0; row < view.cells.rows; ++row) {
+    for (int column = 0; column < view.cells.cols; ++column) {
+      deepest = std::max(deepest, static_cast<double>(view.cells.at<cv::Vec4f>(row, column)[2]));
+    }
+  }
+  const double x = std::max(view.cx, view.image_size.width - view.cx) / view.fx;
+  const double y = std::max(view.cy, view.image_size.height - view.cy) / view.fy;
+  view.reach_m = deepest * std::sqrt(x * x + y * y + 1.0);
+  return view;
 }
 
 bool RevisitCells::Covered(const Eigen::Vector3d& point_in_world, const Eigen::Vector3d& centre,
@@ -92,28 +115,47 @@ bool RevisitCells::CellSeenBefore(const CellView& view, int row, int column,
   return true;
 }
 
-cv::Mat RevisitCells::SeenBefore(const CellView& view) {
-  if (!options_.enabled) return {};
-  std::vector<const CellView*> earlier;
+template <typename Take>
+std::vector<const CellView*> RevisitCells::Candidates(const CellView& view, Take&& take) const {
+  // A centimetre of slack for rounding.
+  const double reach = reach_factor_ * view.reach_m + 0.01;
+  const Eigen::Vector3d centre = view.world_from_camera.translation();
+  std::vector<const CellView*> out;
   for (const CellView& other : remembered_) {
-    if (other.keyframe_id <= view.keyframe_id - options_.keyframes_apart) {
-      earlier.push_back(&other);
+    if (take(other) && (other.world_from_camera.translation() - centre).norm() <= reach) {
+      out.push_back(&other);
     }
   }
+  return out;
+}
+
+cv::Mat RevisitCells::SeenBy(const CellView& view, const std::vector<const CellView*>& earlier,
+                             size_t* cells) const {
+  *cells = 0;
   if (earlier.empty()) return {};
   cv::Mat seen(view.image_size, CV_8UC1, cv::Scalar(0));
   const cv::Rect image({0, 0}, view.image_size);
-  size_t left_out = 0;
   for (int row = 0; row < view.cells.rows; ++row) {
     for (int column = 0; column < view.cells.cols; ++column) {
       const cv::Vec4f& cell = view.cells.at<cv::Vec4f>(row, column);
       if (cell[3] < kReadCell) continue;
       if (!CellSeenBefore(view, row, column, earlier)) continue;
       seen(cv::Rect(column * kCell, row * kCell, kCell, kCell) & image).setTo(255);
-      ++left_out;
+      ++*cells;
     }
   }
-  if (left_out == 0) return {};
+  if (*cells == 0) return {};
+  return seen;
+}
+
+cv::Mat RevisitCells::SeenBefore(const CellView& view) {
+  if (!options_.enabled) return {};
+  const int last_earlier = view.keyframe_id - options_.keyframes_apart;
+  const auto earlier = [last_earlier](const CellView& other) {
+    return other.keyframe_id <= last_earlier;
+  };
+  size_t left_out = 0;
+  cv::Mat seen = SeenBy(view, Candidates(view, earlier), &left_out);
   cells_left_out_ += left_out;
   return seen;
 }
@@ -143,6 +185,19 @@ std::optional<cv::Mat> RevisitCells::Admit(CellView view) {
   }
   Remember(std::move(view));
   return seen;
+}
+
+std::optional<cv::Mat> RevisitCells::AdmitAcrossSegments(CellView view) {
+  if (options_.segment_max_seen_share < 1.0) {
+    const int segment = view.segment;
+    const auto other_segment = [segment](const CellView& other) {
+      return other.segment != segment;
+    };
+    size_t cells = 0;
+    const cv::Mat seen = SeenBy(view, Candidates(view, other_segment), &cells);
+    if (SeenShare(view, seen) > options_.segment_max_seen_share) return std::nullopt;
+  }
+  return Admit(std::move(view));
 }
 
 void RevisitCells::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {

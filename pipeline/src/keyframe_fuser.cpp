@@ -13,7 +13,7 @@ namespace {
 // The revisit rule as the fuser applies it: with the selection off every keyframe is fused.
 RevisitOptions RevisitsOf(const KeyframeSelectionOptions& selection) {
   RevisitOptions revisit = selection.revisit;
-  if (!selection.enabled) revisit.max_seen_share = 1.0;
+  if (!selection.enabled) revisit.max_seen_share = revisit.segment_max_seen_share = 1.0;
   return revisit;
 }
 
@@ -61,7 +61,8 @@ cv::Mat KeyframeFuser::Recheck(const FinalKeyframe& keyframe, std::map<int, Wait
 
 void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
                          const DepthCorrection& correction,
-                         const std::function<bool(int keyframe_id)>& in_map) {
+                         const std::function<bool(int keyframe_id)>& in_map,
+                         const std::function<int(int keyframe_id)>& segment_of) {
   const auto start = std::chrono::steady_clock::now();
   for (const FinalKeyframe& keyframe : finals) {
     const auto it = waiting_.find(keyframe.id);
@@ -82,10 +83,11 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
       // The depth corrected as the tracker's self-calibration has it now (the poses are
       // consistent with it).
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
+      const int segment = segment_of ? segment_of(keyframe.id) : 0;
       if (in_map && !in_map(keyframe.id)) {
-        Store(keyframe, input, cv::Mat(), true);
+        Store(keyframe, input, cv::Mat(), segment, true);
       } else {
-        FuseNow(keyframe, std::move(input));
+        FuseNow(keyframe, std::move(input), segment);
       }
     }
     if (recheck_) {
@@ -99,10 +101,17 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
   fuse_ms_ += MillisecondsSince(start);
 }
 
-void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input) {
+void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input, int segment) {
+  const size_t before = revisits_.cells_left_out();
   const std::optional<cv::Mat> seen = Revisit(keyframe.id, input);
   if (!seen) return;
-  if (KeepsEveryFused()) Store(keyframe, input, *seen).in_map = FusingLive();
+  const size_t cells = revisits_.cells_left_out() - before;
+  cells_left_out_ += cells;
+  if (KeepsEveryFused()) {
+    Stored& stored = Store(keyframe, input, *seen, segment);
+    stored.in_map = FusingLive();
+    stored.cells_left_out = cells;
+  }
   if (!seen->empty()) input.mask = input.mask.empty() ? *seen : (input.mask | *seen);
   if (FusingLive()) mapper_.Integrate(input);
   fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
@@ -130,8 +139,11 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
 
 bool KeyframeFuser::FuseStored(Stored* stored) {
   MapperFrame input = Decode(*stored);  // moving pixels are 0 in its depth
+  const size_t before = revisits_.cells_left_out();
   const std::optional<cv::Mat> seen = Revisit(stored->keyframe_id, input);
   if (!seen) return false;
+  stored->cells_left_out = revisits_.cells_left_out() - before;
+  cells_left_out_ += stored->cells_left_out;
   if (!seen->empty()) {
     stored->seen_png = parked_->Append(EncodePng(*seen));
     input.mask = *seen;
@@ -161,13 +173,19 @@ MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
   MapperFrame input;
   input.time = stored.time;
   input.color = cv::imdecode(parked_->Read(stored.color_jpeg), cv::IMREAD_COLOR);
-  cv::imdecode(parked_->Read(stored.depth_png), cv::IMREAD_UNCHANGED)
-      .convertTo(input.depth_m, CV_32F, depth_unit_m_);
+  input.depth_m = DepthOf(stored);
   if (stored.seen_png.size > 0) {
     input.mask = cv::imdecode(parked_->Read(stored.seen_png), cv::IMREAD_UNCHANGED);
   }
   input.world_from_camera = stored.world_from_camera;
   return input;
+}
+
+cv::Mat KeyframeFuser::DepthOf(const Stored& stored) const {
+  cv::Mat depth_m;
+  cv::imdecode(parked_->Read(stored.depth_png), cv::IMREAD_UNCHANGED)
+      .convertTo(depth_m, CV_32F, depth_unit_m_);
+  return depth_m;
 }
 
 std::optional<cv::Mat> KeyframeFuser::Revisit(int keyframe_id, const MapperFrame& input) {
@@ -178,9 +196,10 @@ std::optional<cv::Mat> KeyframeFuser::Revisit(int keyframe_id, const MapperFrame
 }
 
 KeyframeFuser::Stored& KeyframeFuser::Store(const FinalKeyframe& keyframe, const MapperFrame& input,
-                                            const cv::Mat& seen, bool apart) {
+                                            const cv::Mat& seen, int segment, bool apart) {
   Stored stored;
   stored.keyframe_id = keyframe.id;
+  stored.segment = segment;
   stored.time = input.time;
   stored.world_from_camera = input.world_from_camera;
   stored.apart = apart;
@@ -232,7 +251,6 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     if (!stored.apart && Moved(stored, it->second)) ++moved;
     stored.world_from_camera = it->second;
   }
-  revisits_.Repose(world_from_keyframe);
   // Nothing moved: only the keyframes kept since NoteNewSegment are fused, in the order they
   // came (the order live fusion has); else the map is fused again from the start.
   const bool again = moved > 0 || refusion_due_;
@@ -240,16 +258,63 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     mapper_.Reset();
     fused_poses_.clear();
   }
-  for (Stored& stored : stored_) {
-    if (stored.apart || (stored.in_map && !again)) continue;
-    mapper_.Integrate(Decode(stored));
-    stored.in_map = true;
-    if (again) fused_poses_.push_back({stored.time, stored.world_from_camera});
+  if (std::any_of(stored_.begin(), stored_.end(), [again](const Stored& stored) {
+        return !stored.apart && (again || !stored.in_map);
+      })) {
+    FuseAtFinalPoses(again);
   }
   refusion_due_ = false;
   deferring_ = false;
   refuse_ms_ += MillisecondsSince(start);
   return moved;
+}
+
+void KeyframeFuser::FuseAtFinalPoses(bool again) {
+  // The views judged at fusion time lay where the poses were then: every view is made again at
+  // its final pose, in fusion order, for the keyframes fused here to be judged against.
+  revisits_.Forget();
+  std::vector<double> dropped;
+  std::vector<Stored> kept;
+  kept.reserve(stored_.size());
+  for (Stored& stored : stored_) {
+    if (stored.apart) {
+      kept.push_back(std::move(stored));
+      continue;
+    }
+    // Moving pixels are 0 in the kept depth.
+    CellView view = revisits_.MakeView(stored.keyframe_id, DepthOf(stored), cv::Mat(),
+                                       stored.world_from_camera, stored.segment);
+    if (stored.in_map && !again) {  // fused before, where it still is
+      revisits_.Remember(std::move(view));
+      kept.push_back(std::move(stored));
+      continue;
+    }
+    cells_left_out_ -= stored.cells_left_out;
+    const size_t before = revisits_.cells_left_out();
+    std::optional<cv::Mat> seen = revisits_.AdmitAcrossSegments(std::move(view));
+    if (!seen) {  // redundant: neither in the map nor in the session record
+      ++seen_before_;
+      dropped.push_back(stored.time);
+      continue;
+    }
+    stored.cells_left_out = revisits_.cells_left_out() - before;
+    cells_left_out_ += stored.cells_left_out;
+    // The cells seen, judged again at the final pose, for this fusion and any after it.
+    stored.seen_png = seen->empty() ? SpillFile::Block{} : parked_->Append(EncodePng(*seen));
+    MapperFrame input = Decode(stored);
+    input.mask = std::move(*seen);
+    mapper_.Integrate(input);
+    stored.in_map = true;
+    if (again) fused_poses_.push_back({stored.time, stored.world_from_camera});
+    kept.push_back(std::move(stored));
+  }
+  stored_ = std::move(kept);
+  revisits_.Forget();
+  const auto is_dropped = [&dropped](const StampedPose& pose) {
+    return std::find(dropped.begin(), dropped.end(), pose.time) != dropped.end();
+  };
+  fused_poses_.erase(std::remove_if(fused_poses_.begin(), fused_poses_.end(), is_dropped),
+                     fused_poses_.end());
 }
 
 void KeyframeFuser::NoteCorrections(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {
@@ -292,7 +357,7 @@ size_t KeyframeFuser::held_bytes() const {
 
 SelectionFigures KeyframeFuser::figures() const {
   return {selector_.invalid(), selector_.redundant(), seen_before_, recheck_additions_,
-          revisits_.cells_left_out()};
+          cells_left_out_};
 }
 
 }  // namespace stillmap

@@ -47,8 +47,10 @@ class KeyframeFuser {
   // Re-checks, judges and fuses the keyframes whose poses are now final (in the order given),
   // their depth corrected by `correction`. A keyframe `in_map` says no to (a map segment not
   // joined to the first: map_segments.h) is judged the same but kept apart, compact, instead.
+  // `segment_of` names each keyframe's map segment (all in segment 0 without it).
   void Fuse(const std::vector<FinalKeyframe>& finals, const DepthCorrection& correction,
-            const std::function<bool(int keyframe_id)>& in_map = nullptr);
+            const std::function<bool(int keyframe_id)>& in_map = nullptr,
+            const std::function<int(int keyframe_id)>& segment_of = nullptr);
   // Fuses the keyframes kept apart that `in_map` now says yes to (their segment was joined), at
   // their poses in `world_from_keyframe`. Returns how many.
   size_t FuseJoined(const std::function<bool(int keyframe_id)>& in_map,
@@ -62,7 +64,10 @@ class KeyframeFuser {
   // emptied and every fused keyframe fused again at its final pose, from the compact copies kept
   // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG, parked in a temporary file:
   // spill_file.h). Keyframes waiting since NoteCorrections or NoteNewSegment are fused either
-  // way (when nothing moved, onto the map fused before them). Returns how many moved.
+  // way (when nothing moved, onto the map fused before them). Every keyframe fused here is judged
+  // again at its final pose (RevisitCells::AdmitAcrossSegments: the cells earlier visits saw, and
+  // whether other map segments saw its view): a keyframe found redundant leaves the map and the
+  // session record. Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
   // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
@@ -114,14 +119,16 @@ class KeyframeFuser {
     SpillFile::Block color_jpeg;  // BGR
     SpillFile::Block features;    // for the session record (AppendSessionFeatures), or empty
     size_t feature_count = 0;
-    bool apart = false;   // kept apart: not in the map (Fuse's in_map)
-    bool in_map = false;  // fused into the map as it is now
+    bool apart = false;         // kept apart: not in the map (Fuse's in_map)
+    bool in_map = false;        // fused into the map as it is now
+    int segment = 0;            // its map segment (Fuse's segment_of)
+    size_t cells_left_out = 0;  // of its view, seen on an earlier visit (RevisitCells)
   };
   // Adds `stored` to `list` (its blocks stay where they are).
   static void AddTo(const Stored& stored, SessionKeyframeList* list);
   // Keeps `input` (its mask: what moves) with the cells `seen` on earlier visits apart.
   Stored& Store(const FinalKeyframe& keyframe, const MapperFrame& input, const cv::Mat& seen,
-                bool apart = false);
+                int segment, bool apart = false);
   // Whether every keyframe fused is also kept, compact (for Refuse or the session record).
   bool KeepsEveryFused() const { return keep_for_refusion_ || keep_for_session_; }
   // Whether keyframes are fused into the map as they come (not waiting for Refuse).
@@ -130,9 +137,14 @@ class KeyframeFuser {
   static bool Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera);
   // A stored keyframe as the mapper takes it.
   MapperFrame Decode(const Stored& stored) const;
+  // Its depth [m] alone (moving pixels 0).
+  cv::Mat DepthOf(const Stored& stored) const;
   // Fuses a judged keyframe into the map (the cells earlier visits saw left out), kept compact
   // when the build may fuse it again or records the session.
-  void FuseNow(const FinalKeyframe& keyframe, MapperFrame input);
+  void FuseNow(const FinalKeyframe& keyframe, MapperFrame input, int segment);
+  // Refuse's fusion when keyframes wait for it: each keyframe judged again at its final pose
+  // (`again`: the map was emptied, every keyframe is fused; else those not in the map yet).
+  void FuseAtFinalPoses(bool again);
   // Fuses a stored keyframe kept apart, now joined, at its pose. False when it is redundant
   // (Revisit): then it is neither fused nor to be kept.
   bool FuseStored(Stored* stored);
@@ -153,7 +165,8 @@ class KeyframeFuser {
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   RevisitCells revisits_;
-  size_t seen_before_ = 0;  // keyframes not fused: earlier visits saw their view
+  size_t seen_before_ = 0;     // keyframes not fused: earlier visits saw their view
+  size_t cells_left_out_ = 0;  // of the keyframes fused, seen on earlier visits
   DepthFactorImages factors_;
   std::map<int, Waiting> waiting_;  // by keyframe id, i.e. in time order
   std::vector<StampedPose> fused_poses_;

@@ -31,7 +31,8 @@ void SegmentKeeper::Fuse(std::vector<FinalKeyframe> finals, Tracker& tracker,
     segments_.Repose(poses);
   }
   const auto in_map = [this](int id) { return segments_.InMap(segments_.SegmentOf(id)); };
-  fuser.Fuse(finals, tracker.depth_correction(), in_map);
+  fuser.Fuse(finals, tracker.depth_correction(), in_map,
+             [this](int id) { return segments_.SegmentOf(id); });
   if (joined) fuser.FuseJoined(in_map, poses);
 }
 

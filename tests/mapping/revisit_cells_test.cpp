@@ -186,5 +186,42 @@ TEST(RevisitCellsTest, AKeyframeTheEarlierVisitSawIsRedundantAndNotRemembered) {
   EXPECT_EQ(cv::countNonZero(below(cv::Rect(528, 0, 32, camera.height))), 32 * camera.height);
 }
 
+// Across map segments the share counts whatever the keyframe ids: keyframe 1 of segment 1, 1 cm
+// beside keyframe 0 of segment 0, saw 39 of its 40 columns of cells. Within segment 0 it is too
+// near keyframe 0 to count as another visit.
+TEST(RevisitCellsTest, AKeyframeAnotherSegmentSawIsRedundantWhateverItsId) {
+  const Camera camera = TestCamera();
+  for (const int segment : {1, 0}) {
+    for (const double max_share : {0.9, 1.0}) {
+      RevisitOptions options;
+      options.segment_max_seen_share = max_share;
+      RevisitCells cells(camera, options, 0.1, 4.0);
+      ASSERT_TRUE(cells.AdmitAcrossSegments(
+          cells.MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0), 0)));
+      const std::optional<cv::Mat> second = cells.AdmitAcrossSegments(
+          cells.MakeView(1, RenderWall(camera, At(0.01)), cv::Mat(), At(0.01), segment));
+      EXPECT_EQ(second.has_value(), segment == 0 || max_share == 1.0)
+          << "segment " << segment << ", share " << max_share;
+      if (second) {
+        EXPECT_TRUE(second->empty());  // no keyframe far enough back to leave cells out
+      }
+    }
+  }
+}
+
+// Views whose cameras lie too far for the distance ratio and angle are never asked (the bound
+// RevisitCells uses to skip them): a view 0.45 m behind keyframe 0 (ranges 2.45 against 2 m,
+// 1.225 x) still finds every cell seen, one 0.6 m behind (1.3 x) none.
+TEST(RevisitCellsTest, EarlierViewsAtTheEdgeOfTheDistanceRatioAreStillAsked) {
+  const Camera camera = TestCamera();
+  for (const auto& [back, seen_cells] : {std::pair{0.45, true}, std::pair{0.6, false}}) {
+    RevisitCells cells(camera, RevisitOptions{}, 0.1, 4.0);
+    const Eigen::Isometry3d behind = At(0.0, -back);
+    const cv::Mat seen = SeenAfterFirst(&cells, camera, 10, behind, RenderWall(camera, behind));
+    const int middle = seen.empty() ? 0 : cv::countNonZero(seen(cv::Rect(240, 160, 160, 160)));
+    EXPECT_EQ(middle, seen_cells ? 160 * 160 : 0) << back << " m behind";
+  }
+}
+
 }  // namespace
 }  // namespace stillmap

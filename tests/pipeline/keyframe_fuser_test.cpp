@@ -219,5 +219,35 @@ TEST_F(KeyframeFuserTest, WithTheSeenShareRuleOffARevisitIsFused) {
   EXPECT_GT(fuser.figures().revisit_cells_left_out, 0u);
 }
 
+// A map segment whose keyframes see only what another segment's keyframes fused is not fused at
+// the refusion (keyframes.revisit_segment_max_seen_share, 0.9), judged at the final poses
+// whatever the keyframe ids; the same keyframes in the first segment are fused.
+TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinalPoses) {
+  for (const bool later_segment : {true, false}) {
+    SCOPED_TRACE(later_segment ? "a later segment" : "one segment");
+    Mapper mapper(camera_, Fusing::Synchronous());
+    KeyframeFuser fuser(camera_, Options(), masks_, &mapper);
+    Fuse(fuser, 0, 6, false);
+    fuser.NoteNewSegment();
+    const Sequence sequence = Sequence::Open(dir_.path(), camera_);
+    // Frames 1..3 again as keyframes 6..8, tracked 20 cm off (there they would see nothing
+    // fused): the refusion judges them where the join put them, on frames 1..3's poses.
+    std::vector<FinalKeyframe> finals;
+    std::map<int, Eigen::Isometry3d> final_poses = Corrected();
+    for (int k = 0; k < 3; ++k) {
+      finals.push_back(Revisit(fuser, sequence, 6 + k, 1 + k, drift_ * poses_[1 + k]));
+      final_poses[6 + k] = poses_[1 + k];
+    }
+    fuser.Fuse(finals, DepthCorrection{}, nullptr,
+               [later_segment](int id) { return later_segment && id >= 6 ? 1 : 0; });
+    EXPECT_EQ(fuser.Refuse(final_poses), 3u);  // the three the join moved
+    const size_t fused = later_segment ? 6u : 9u;
+    EXPECT_EQ(fuser.figures().seen_before, later_segment ? 3u : 0u);
+    EXPECT_EQ(fuser.fused_poses().size(), fused);
+    EXPECT_EQ(fuser.TakeSessionKeyframes().size(), fused);
+    EXPECT_EQ(mapper.Finish().statistics.frames, fused);
+  }
+}
+
 }  // namespace
 }  // namespace stillmap

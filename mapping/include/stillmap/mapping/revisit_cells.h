@@ -33,6 +33,12 @@ struct RevisitOptions {
   // recording (a robot going round a floor again). Measured at 0.9 on every sequence:
   // docs/figures.md.
   double max_seen_share = 1.0;
+  // A keyframe of a map segment is not fused when keyframes of the build's other segments saw
+  // more than this share of its view's read cells (1 = never): whatever their keyframe ids, as
+  // the merge judges sessions (merge.max_seen_share, its value). Only at the final poses, once
+  // segments are joined and settled (AdmitAcrossSegments). Within a segment the tracker's own
+  // culling and map reuse keep a revisit's keyframes few; across segments it holds neither.
+  double segment_max_seen_share = 0.9;
 
   // Throws InputError naming the key (keyframes.revisit_*) of the first impossible value.
   void Validate() const;
@@ -53,6 +59,9 @@ struct RevisitOptions {
     visit("max_seen_share", self.max_seen_share,
           "a keyframe is not fused when earlier visits saw more than this share of its view "
           "(1 = never)");
+    visit("segment_max_seen_share", self.segment_max_seen_share,
+          "a keyframe is not fused when other map segments' keyframes saw more than this share of "
+          "its view, judged at the final poses (1 = never; merge.max_seen_share's value)");
   }
 };
 
@@ -65,6 +74,8 @@ struct CellView {
   cv::Size image_size;  // of the depth it was made from [px]
   cv::Mat cells;
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // of the camera that made it [px]
+  int segment = 0;       // the map segment of its keyframe (map_segments.h; 0 in one segment)
+  double reach_m = 0.0;  // the farthest its cells' points lie from the camera [m]
 };
 
 class RevisitCells {
@@ -81,7 +92,7 @@ class RevisitCells {
   // The view of a keyframe: depth_m (CV_32FC1 [m], 0 = none) without the pixels of `mask`
   // (CV_8UC1, non-zero = left out; or empty).
   CellView MakeView(int keyframe_id, const cv::Mat& depth_m, const cv::Mat& mask,
-                    const Eigen::Isometry3d& world_from_camera) const;
+                    const Eigen::Isometry3d& world_from_camera, int segment = 0) const;
 
   // The pixels of `view` that keyframes remembered from earlier visits saw (CV_8UC1, 255 = seen,
   // whole cells), or an empty matrix when there are none.
@@ -97,6 +108,9 @@ class RevisitCells {
   // `view`'s read cells, the keyframe is redundant: nullopt, and its view is not remembered. Else
   // its view is remembered and the cells seen returned (empty when none).
   std::optional<cv::Mat> Admit(CellView view);
+  // Admit, and the keyframe is redundant as well when the views remembered of other map segments
+  // saw more than options' segment_max_seen_share of its read cells (for final poses only).
+  std::optional<cv::Mat> AdmitAcrossSegments(CellView view);
   // Frees the views remembered (no keyframe comes after).
   void Forget() { std::vector<CellView>().swap(remembered_); }
 
@@ -107,6 +121,13 @@ class RevisitCells {
   size_t cells_left_out() const { return cells_left_out_; }
 
  private:
+  // The remembered views `take` says yes to that can have seen part of `view`: their camera
+  // near enough for Covered's distance ratio and angle (an exact bound, not a guess).
+  template <typename Take>
+  std::vector<const CellView*> Candidates(const CellView& view, Take&& take) const;
+  // The pixels of `view` whose cells `earlier` saw (whole cells, 255), and how many cells.
+  cv::Mat SeenBy(const CellView& view, const std::vector<const CellView*>& earlier,
+                 size_t* cells) const;
   bool CellSeenBefore(const CellView& view, int row, int column,
                       const std::vector<const CellView*>& earlier) const;
   bool Covered(const Eigen::Vector3d& point_in_world, const Eigen::Vector3d& centre,
@@ -116,7 +137,8 @@ class RevisitCells {
   RevisitOptions options_;
   double min_depth_ = 0.0, max_depth_ = 0.0;  // [m]
   double min_cosine_ = 1.0;                   // of options_.view_angle_deg
-  std::vector<CellView> remembered_;          // in keyframe order
+  double reach_factor_ = 0.0;         // cameras' distance over the range for Covered, at most
+  std::vector<CellView> remembered_;  // in keyframe order
   size_t cells_left_out_ = 0;
 };
 
