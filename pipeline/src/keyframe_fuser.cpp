@@ -37,6 +37,7 @@ KeyframeFuser::KeyframeFuser(const Camera& camera, const FuserOptions& options,
       selector_(options.selection),
       revisits_(camera, RevisitsOf(options.selection), options.min_depth_m, options.max_depth_m),
       factors_(camera) {
+  judge_segments_ = RevisitsOf(options.selection).segment_max_seen_share < 1.0;
   if (masks.enabled() && options.recheck && options.masking.depth_check) {
     recheck_.emplace(masks.masker()->geometry(), options.masking);
   }
@@ -258,10 +259,18 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     mapper_.Reset();
     fused_poses_.clear();
   }
-  if (std::any_of(stored_.begin(), stored_.end(), [again](const Stored& stored) {
-        return !stored.apart && (again || !stored.in_map);
-      })) {
-    FuseAtFinalPoses(again);
+  if (judge_segments_) {
+    const auto waits = [again](const Stored& stored) {
+      return !stored.apart && (again || !stored.in_map);
+    };
+    if (std::any_of(stored_.begin(), stored_.end(), waits)) FuseAtFinalPoses(again);
+  } else {
+    for (Stored& stored : stored_) {
+      if (stored.apart || (stored.in_map && !again)) continue;
+      mapper_.Integrate(Decode(stored));
+      stored.in_map = true;
+      if (again) fused_poses_.push_back({stored.time, stored.world_from_camera});
+    }
   }
   refusion_due_ = false;
   deferring_ = false;

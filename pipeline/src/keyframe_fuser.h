@@ -64,10 +64,11 @@ class KeyframeFuser {
   // emptied and every fused keyframe fused again at its final pose, from the compact copies kept
   // since (masked, corrected depth as a 16-bit PNG, colour as a JPEG, parked in a temporary file:
   // spill_file.h). Keyframes waiting since NoteCorrections or NoteNewSegment are fused either
-  // way (when nothing moved, onto the map fused before them). Every keyframe fused here is judged
-  // again at its final pose (RevisitCells::AdmitAcrossSegments: the cells earlier visits saw, and
-  // whether other map segments saw its view): a keyframe found redundant leaves the map and the
-  // session record. Returns how many moved.
+  // way (when nothing moved, onto the map fused before them). With
+  // keyframes.revisit_segment_max_seen_share below 1, every keyframe fused here is judged again at
+  // its final pose (RevisitCells::AdmitAcrossSegments: the cells earlier visits saw, and whether
+  // other map segments saw its view): a keyframe found redundant leaves the map and the session
+  // record. Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
   // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
@@ -160,8 +161,9 @@ class KeyframeFuser {
   std::shared_ptr<SpillFile> parked_;
   std::vector<Stored> stored_;
   double refuse_ms_ = 0.0;
-  bool refusion_due_ = false;  // the map was emptied: keyframes are kept until Refuse
-  bool deferring_ = false;     // keyframes are kept until Refuse (NoteNewSegment)
+  bool refusion_due_ = false;    // the map was emptied: keyframes are kept until Refuse
+  bool judge_segments_ = false;  // keyframes.revisit_segment_max_seen_share < 1
+  bool deferring_ = false;       // keyframes are kept until Refuse (NoteNewSegment)
   std::optional<MapRecheck> recheck_;
   KeyframeSelector selector_;
   RevisitCells revisits_;

@@ -219,14 +219,17 @@ TEST_F(KeyframeFuserTest, WithTheSeenShareRuleOffARevisitIsFused) {
   EXPECT_GT(fuser.figures().revisit_cells_left_out, 0u);
 }
 
-// A map segment whose keyframes see only what another segment's keyframes fused is not fused at
-// the refusion (keyframes.revisit_segment_max_seen_share, 0.9), judged at the final poses
-// whatever the keyframe ids; the same keyframes in the first segment are fused.
+// With keyframes.revisit_segment_max_seen_share 0.9, a map segment whose keyframes see only what
+// another segment's keyframes fused is not fused at the refusion, judged at the final poses
+// whatever the keyframe ids; the same keyframes in the first segment, or with the rule off (1,
+// the default), are fused.
 TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinalPoses) {
-  for (const bool later_segment : {true, false}) {
-    SCOPED_TRACE(later_segment ? "a later segment" : "one segment");
+  for (const auto& [later_segment, share] : {std::pair{true, 0.9}, {false, 0.9}, {true, 1.0}}) {
+    SCOPED_TRACE(::testing::Message() << "later segment " << later_segment << ", share " << share);
+    FuserOptions options = Options();
+    options.selection.revisit.segment_max_seen_share = share;
     Mapper mapper(camera_, Fusing::Synchronous());
-    KeyframeFuser fuser(camera_, Options(), masks_, &mapper);
+    KeyframeFuser fuser(camera_, options, masks_, &mapper);
     Fuse(fuser, 0, 6, false);
     fuser.NoteNewSegment();
     const Sequence sequence = Sequence::Open(dir_.path(), camera_);
@@ -241,8 +244,9 @@ TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinal
     fuser.Fuse(finals, DepthCorrection{}, nullptr,
                [later_segment](int id) { return later_segment && id >= 6 ? 1 : 0; });
     EXPECT_EQ(fuser.Refuse(final_poses), 3u);  // the three the join moved
-    const size_t fused = later_segment ? 6u : 9u;
-    EXPECT_EQ(fuser.figures().seen_before, later_segment ? 3u : 0u);
+    const bool dropped = later_segment && share < 1.0;
+    const size_t fused = dropped ? 6u : 9u;
+    EXPECT_EQ(fuser.figures().seen_before, dropped ? 3u : 0u);
     EXPECT_EQ(fuser.fused_poses().size(), fused);
     EXPECT_EQ(fuser.TakeSessionKeyframes().size(), fused);
     EXPECT_EQ(mapper.Finish().statistics.frames, fused);

@@ -35,10 +35,12 @@ struct RevisitOptions {
   double max_seen_share = 1.0;
   // A keyframe of a map segment is not fused when keyframes of the build's other segments saw
   // more than this share of its view's read cells (1 = never): whatever their keyframe ids, as
-  // the merge judges sessions (merge.max_seen_share, its value). Only at the final poses, once
-  // segments are joined and settled (AdmitAcrossSegments). Within a segment the tracker's own
-  // culling and map reuse keep a revisit's keyframes few; across segments it holds neither.
-  double segment_max_seen_share = 0.9;
+  // the merge judges sessions. Only at the final poses, once segments are joined and settled
+  // (AdmitAcrossSegments); then every keyframe's cells are judged again there too. Within a
+  // segment the tracker's own culling and map reuse keep a revisit's keyframes few; across
+  // segments it holds neither. Off: at 0.9 (the merge's value) the floors' maps lost up to 0.7
+  // points of completeness (docs/figures.md).
+  double segment_max_seen_share = 1.0;
 
   // Throws InputError naming the key (keyframes.revisit_*) of the first impossible value.
   void Validate() const;
@@ -61,7 +63,7 @@ struct RevisitOptions {
           "(1 = never)");
     visit("segment_max_seen_share", self.segment_max_seen_share,
           "a keyframe is not fused when other map segments' keyframes saw more than this share of "
-          "its view, judged at the final poses (1 = never; merge.max_seen_share's value)");
+          "its view, judged at the final poses (1 = never)");
   }
 };
 
