@@ -224,7 +224,8 @@ TEST_F(KeyframeFuserTest, WithTheSeenShareRuleOffARevisitIsFused) {
 // whatever the keyframe ids; the same keyframes in the first segment, or with the rule off (1,
 // the default), are fused.
 TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinalPoses) {
-  for (const auto& [later_segment, share] : {std::pair{true, 0.9}, {false, 0.9}, {true, 1.0}}) {
+  for (const auto& [later, share] : {std::pair{true, 0.9}, {false, 0.9}, {true, 1.0}}) {
+    const bool later_segment = later;  // a lambda below takes it
     SCOPED_TRACE(::testing::Message() << "later segment " << later_segment << ", share " << share);
     FuserOptions options = Options();
     options.selection.revisit.segment_max_seen_share = share;
