@@ -103,11 +103,9 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
 }
 
 void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input, int segment) {
-  const size_t before = revisits_.cells_left_out();
-  const std::optional<cv::Mat> seen = Revisit(keyframe.id, input);
+  size_t cells = 0;
+  const std::optional<cv::Mat> seen = Revisit(keyframe.id, input, &cells);
   if (!seen) return;
-  const size_t cells = revisits_.cells_left_out() - before;
-  cells_left_out_ += cells;
   if (KeepsEveryFused()) {
     Stored& stored = Store(keyframe, input, *seen, segment);
     stored.in_map = FusingLive();
@@ -140,11 +138,8 @@ size_t KeyframeFuser::FuseJoined(const std::function<bool(int keyframe_id)>& in_
 
 bool KeyframeFuser::FuseStored(Stored* stored) {
   MapperFrame input = Decode(*stored);  // moving pixels are 0 in its depth
-  const size_t before = revisits_.cells_left_out();
-  const std::optional<cv::Mat> seen = Revisit(stored->keyframe_id, input);
+  const std::optional<cv::Mat> seen = Revisit(stored->keyframe_id, input, &stored->cells_left_out);
   if (!seen) return false;
-  stored->cells_left_out = revisits_.cells_left_out() - before;
-  cells_left_out_ += stored->cells_left_out;
   if (!seen->empty()) {
     stored->seen_png = parked_->Append(EncodePng(*seen));
     input.mask = *seen;
@@ -189,10 +184,14 @@ cv::Mat KeyframeFuser::DepthOf(const Stored& stored) const {
   return depth_m;
 }
 
-std::optional<cv::Mat> KeyframeFuser::Revisit(int keyframe_id, const MapperFrame& input) {
+std::optional<cv::Mat> KeyframeFuser::Revisit(int keyframe_id, const MapperFrame& input,
+                                              size_t* cells_left_out) {
+  const size_t before = revisits_.cells_left_out();
   std::optional<cv::Mat> seen = revisits_.Admit(
       revisits_.MakeView(keyframe_id, input.depth_m, input.mask, input.world_from_camera));
   seen_before_ += seen ? 0 : 1;
+  *cells_left_out = seen ? revisits_.cells_left_out() - before : 0;
+  cells_left_out_ += *cells_left_out;
   return seen;
 }
 
@@ -252,6 +251,7 @@ size_t KeyframeFuser::Refuse(const std::map<int, Eigen::Isometry3d>& world_from_
     if (!stored.apart && Moved(stored, it->second)) ++moved;
     stored.world_from_camera = it->second;
   }
+  revisits_.Repose(world_from_keyframe);
   // Nothing moved: only the keyframes kept since NoteNewSegment are fused, in the order they
   // came (the order live fusion has); else the map is fused again from the start.
   const bool again = moved > 0 || refusion_due_;
@@ -308,9 +308,9 @@ void KeyframeFuser::FuseAtFinalPoses(bool again) {
     }
     stored.cells_left_out = revisits_.cells_left_out() - before;
     cells_left_out_ += stored.cells_left_out;
-    // The cells seen, judged again at the final pose, for this fusion and any after it.
-    stored.seen_png = seen->empty() ? SpillFile::Block{} : parked_->Append(EncodePng(*seen));
+    stored.seen_png = {};  // judged again at the final pose: kept below for any fusion after this
     MapperFrame input = Decode(stored);
+    if (!seen->empty()) stored.seen_png = parked_->Append(EncodePng(*seen));
     input.mask = std::move(*seen);
     mapper_.Integrate(input);
     stored.in_map = true;

@@ -151,8 +151,9 @@ class KeyframeFuser {
   bool FuseStored(Stored* stored);
   // The depth cells of `input` that fused keyframes of earlier visits saw (RevisitCells), empty
   // when none; nullopt when they are more than keyframes.revisit_max_seen_share of its view: the
-  // keyframe is redundant, not fused.
-  std::optional<cv::Mat> Revisit(int keyframe_id, const MapperFrame& input);
+  // keyframe is redundant, not fused. `cells_left_out` gets how many cells it leaves out (0 when
+  // redundant), which the fuser's count takes too.
+  std::optional<cv::Mat> Revisit(int keyframe_id, const MapperFrame& input, size_t* cells_left_out);
 
   Mapper& mapper_;
   bool keep_for_refusion_ = false;  // loop closure may move fused keyframes
