@@ -1,21 +1,15 @@
 #include "stillmap/mapping/occupancy_grid.h"
 
 #include <fmt/format.h>
-#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
-#include <iomanip>
 #include <limits>
 #include <opencv2/core/utility.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
 #include "stillmap/io/error.h"
 #include "stillmap/io/option_names.h"
-#include "stillmap/io/yaml_file.h"
 
 namespace stillmap {
 
@@ -63,6 +57,12 @@ void GridOptions::Validate() const {
   }
   if (min_cloud_points < 0)
     throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, min_cloud_points)));
+  if (!(surface_spill_m >= 0.0 && surface_spill_m <= 0.5 * resolution) ||
+      !(surface_spill_ratio >= 1.0 && surface_spill_ratio <= 1000.0)) {
+    throw InputError(fmt::format("{} must be 0..half of {} and {} 1..1000",
+                                 OptionKey(*this, surface_spill_m), OptionKey(*this, resolution),
+                                 OptionKey(*this, surface_spill_ratio)));
+  }
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError(fmt::format("{} must be in [0.5, 1)", OptionKey(*this, occupied_probability)));
   }
@@ -187,24 +187,85 @@ std::vector<float> ClassifyCells(const OccupancyMap& map, const GridOptions& opt
   return support;
 }
 
-// Occupied cells whose band holds fewer than min_cloud_points points of the cleaned cloud: free
-// when the cloud shows the floor there (points below min_height), else unknown.
-void RequireCloudSupport(const std::vector<VoxelPoint>& cloud, const GridOptions& options,
-                         double floor_low, OccupancyGrid* grid) {
-  std::vector<int> in_band(grid->cells.size(), 0), on_floor(grid->cells.size(), 0);
-  const Eigen::Isometry3f grid_from_world = grid->world_from_grid.inverse().cast<float>();
+// The cleaned cloud's points over each cell: how many lie in the band and below it (the floor),
+// and the extent of the band's points across the cell [m, from the cell's lower-left corner].
+struct CellPoints {
+  int in_band = 0;
+  int on_floor = 0;
+  Eigen::Vector2f low = Eigen::Vector2f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector2f high = -low;
+};
+
+std::vector<CellPoints> CountCloudPoints(const std::vector<VoxelPoint>& cloud,
+                                         const GridOptions& options, double floor_low,
+                                         const OccupancyGrid& grid) {
+  std::vector<CellPoints> cells(grid.cells.size());
+  const Eigen::Isometry3f grid_from_world = grid.world_from_grid.inverse().cast<float>();
+  const float resolution = static_cast<float>(grid.resolution);
   for (const VoxelPoint& point : cloud) {
     const Eigen::Vector3f g = grid_from_world * point.position;
     if (g.z() < floor_low || g.z() > options.max_height) continue;
-    const std::optional<Eigen::Vector2i> cell = grid->CellAtGridPoint(g.x(), g.y());
+    const std::optional<Eigen::Vector2i> cell = grid.CellAtGridPoint(g.x(), g.y());
     if (!cell) continue;
-    ++(g.z() >= options.min_height ? in_band : on_floor)[grid->Index(*cell)];
+    CellPoints& counts = cells[grid.Index(*cell)];
+    if (g.z() < options.min_height) {
+      ++counts.on_floor;
+      continue;
+    }
+    ++counts.in_band;
+    const Eigen::Vector2f corner = grid.origin.cast<float>() + resolution * cell->cast<float>();
+    counts.low = counts.low.cwiseMin(g.head<2>() - corner);
+    counts.high = counts.high.cwiseMax(g.head<2>() - corner);
   }
+  return cells;
+}
+
+// Occupied cells whose band holds fewer than min_cloud_points points of the cleaned cloud: free
+// when the cloud shows the floor there (points below min_height), else unknown.
+void RequireCloudSupport(const std::vector<CellPoints>& points, const GridOptions& options,
+                         OccupancyGrid* grid) {
   for (size_t k = 0; k < grid->cells.size(); ++k) {
-    if (grid->cells[k] != kGridOccupied || in_band[k] >= options.min_cloud_points) continue;
-    grid->cells[k] = on_floor[k] > 0 ? kGridFree : kGridUnknown;
+    if (grid->cells[k] != kGridOccupied || points[k].in_band >= options.min_cloud_points) continue;
+    grid->cells[k] = points[k].on_floor > 0 ? kGridFree : kGridUnknown;
     ++grid->unsupported_cells;
   }
+}
+
+// A surface lying just inside one cell puts a few of its points, scattered by depth noise and
+// pose error, over the cell next to it: that cell is occupied only by the neighbour's surface
+// (a wall one cell thicker than it is). An occupied cell whose band points all lie within
+// surface_spill_m of its edge with an occupied 4-neighbour holding at least surface_spill_ratio
+// times as many is that spill: free when the cloud shows the floor there, else unknown. Decided
+// on the cells as they are before any is changed.
+void DropSurfaceSpill(const std::vector<CellPoints>& points, const GridOptions& options,
+                      OccupancyGrid* grid) {
+  const float reach = static_cast<float>(options.surface_spill_m);
+  const float far_edge = static_cast<float>(grid->resolution) - reach;
+  std::vector<size_t> spilled;
+  for (int j = 0; j < grid->height; ++j) {
+    for (int i = 0; i < grid->width; ++i) {
+      const size_t k = grid->Index(Eigen::Vector2i(i, j));
+      const CellPoints& cell = points[k];
+      if (grid->cells[k] != kGridOccupied || cell.in_band == 0) continue;
+      // The neighbours across the cell's edges -x, +x, -y, +y, and whether all its points lie
+      // near that edge.
+      const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+      const bool near_edge[4] = {cell.high.x() <= reach, cell.low.x() >= far_edge,
+                                 cell.high.y() <= reach, cell.low.y() >= far_edge};
+      for (int e = 0; e < 4; ++e) {
+        const int a = i + di[e], b = j + dj[e];
+        if (!near_edge[e] || a < 0 || b < 0 || a >= grid->width || b >= grid->height) continue;
+        const size_t n = grid->Index(Eigen::Vector2i(a, b));
+        if (grid->cells[n] == kGridOccupied &&
+            points[n].in_band >= options.surface_spill_ratio * cell.in_band) {
+          spilled.push_back(k);
+          break;
+        }
+      }
+    }
+  }
+  for (size_t k : spilled) grid->cells[k] = points[k].on_floor > 0 ? kGridFree : kGridUnknown;
+  grid->spilled_cells = spilled.size();
 }
 
 // Hysteresis: an occupied cell whose voxels were hit only weakly (about once, as the remnant of a
@@ -259,8 +320,11 @@ OccupancyGrid ProjectToGrid(const GridSources& sources, const GridOptions& optio
     return grid;  // nothing near the band: an empty grid
   }
   const std::vector<float> support = ClassifyCells(map, options, floor_low, &grid);
-  if (sources.cloud != nullptr && options.min_cloud_points > 0) {
-    RequireCloudSupport(*sources.cloud, options, floor_low, &grid);
+  if (sources.cloud != nullptr) {
+    const std::vector<CellPoints> points =
+        CountCloudPoints(*sources.cloud, options, floor_low, grid);
+    if (options.min_cloud_points > 0) RequireCloudSupport(points, options, &grid);
+    if (options.surface_spill_m > 0.0) DropSurfaceSpill(points, options, &grid);
   }
   if (options.confirm_probability > options.occupied_probability) {
     DropUnconfirmed(support, options.confirm_probability, &grid);
@@ -282,109 +346,6 @@ OccupancyGrid ProjectToGrid(const OccupancyMap& map, const FloorPlane& floor,
   sources.floor = floor;
   sources.world_from_grid = FloorFrame(floor, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX());
   return ProjectToGrid(sources, options);
-}
-
-void WriteGrid(const OccupancyGrid& grid, const std::string& pgm_path, const std::string& yaml_path,
-               const std::string& image_name) {
-  {
-    std::ofstream out(pgm_path, std::ios::binary);
-    out << "P5\n# stillmap occupancy grid: 0 occupied, 254 free, 205 unknown\n"
-        << grid.width << " " << grid.height << "\n255\n";
-    std::vector<unsigned char> row(static_cast<size_t>(grid.width));
-    for (int j = grid.height - 1; j >= 0; --j) {  // the image's top row is the highest y
-      for (int i = 0; i < grid.width; ++i) {
-        const std::int8_t value = grid.At(i, j);
-        row[static_cast<size_t>(i)] = value == kGridOccupied ? 0 : value == kGridFree ? 254 : 205;
-      }
-      out.write(reinterpret_cast<const char*>(row.data()),
-                static_cast<std::streamsize>(row.size()));
-    }
-    if (!out.flush()) throw std::runtime_error(WriteFailure(pgm_path, "the grid image"));
-  }
-  std::ofstream out(yaml_path);
-  out << std::setprecision(9);
-  const Eigen::Matrix4d m = grid.world_from_grid.matrix();
-  out << "# stillmap 2-D occupancy grid (ROS map_server format).\n"
-      << "# Frame: x, y in the floor plane, z up from the floor; the origin lies on the floor\n"
-      << "# under the first camera, x along its view. world_from_map places this frame in the\n"
-      << "# frame of stillmap's 3-D outputs (map.ply, map.bt, trajectory.txt; report.json\n"
-      << "# map_frame), row-major 4x4: the identity when map.frame=floor.\n"  // file format
-      << "# Occupied: an occupied OctoMap voxel between min_height and max_height above the\n"
-      << "# floor, with voxel-cloud points there; free: that band observed free, or the floor\n"
-      << "# seen with nothing above it.\n"
-      << "image: " << image_name << "\n"
-      << "resolution: " << grid.resolution << "\n"
-      << "origin: [" << grid.origin.x() << ", " << grid.origin.y() << ", 0.0]\n"
-      << "negate: 0\n"
-      << "occupied_thresh: 0.65\n"
-      << "free_thresh: 0.196\n"
-      << "mode: trinary\n"
-      << "min_height: " << grid.min_height << "\n"
-      << "max_height: " << grid.max_height << "\n"
-      << "floor_source: \"" << grid.floor.source << "\"\n"
-      << "world_from_map: [";
-  // Rounding leaves 1e-17 where a rotation's entry is 0 (cos 90 deg): written as 0 (and 1 as 1).
-  const auto tidy = [](double value) {
-    for (const double exact : {0.0, 1.0, -1.0}) {
-      if (std::abs(value - exact) < 1e-12) return exact;
-    }
-    return value;
-  };
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) out << (r + c > 0 ? ", " : "") << tidy(m(r, c));
-  }
-  out << "]\n";
-  if (!out.flush()) throw std::runtime_error(WriteFailure(yaml_path, "the grid description"));
-}
-
-OccupancyGrid ReadGrid(const std::string& yaml_path) {
-  const YAML::Node yaml = LoadYamlFile(yaml_path, "grid description");
-  auto need = [&](const char* key) {
-    if (!yaml[key]) throw InputError(yaml_path + ": missing key '" + key + "'");
-    return yaml[key];
-  };
-  OccupancyGrid grid;
-  try {
-    grid.resolution = need("resolution").as<double>();
-    const auto origin = need("origin").as<std::vector<double>>();
-    if (origin.size() != 3) throw InputError(yaml_path + ": 'origin' needs [x, y, yaw]");
-    grid.origin = Eigen::Vector2d(origin[0], origin[1]);
-    grid.min_height = need("min_height").as<double>();
-    grid.max_height = need("max_height").as<double>();
-    const auto m = need("world_from_map").as<std::vector<double>>();
-    if (m.size() != 16) throw InputError(yaml_path + ": 'world_from_map' needs 16 numbers");
-    Eigen::Matrix4d matrix;
-    for (int k = 0; k < 16; ++k) matrix(k / 4, k % 4) = m[static_cast<size_t>(k)];
-    grid.world_from_grid.matrix() = matrix;
-    if (yaml["floor_source"]) grid.floor.source = yaml["floor_source"].as<std::string>();
-  } catch (const YAML::Exception& e) {
-    throw InputError(WhereInFile(yaml_path, e.mark.line + 1) + ": malformed grid description (" +
-                     YamlProblem(e.msg) + ")");
-  }
-  // The map frame's z is the floor's normal and its origin lies on the floor.
-  grid.floor.up = grid.world_from_grid.linear().col(2);
-  grid.floor.offset = -grid.floor.up.dot(grid.world_from_grid.translation());
-  const std::string image_path =
-      (std::filesystem::path(yaml_path).parent_path() / need("image").as<std::string>()).string();
-  const cv::Mat image = cv::imread(image_path, cv::IMREAD_UNCHANGED);
-  if (image.empty() || image.type() != CV_8UC1) {
-    throw InputError(image_path + ": missing, unreadable or not an 8-bit gray image");
-  }
-  grid.width = image.cols;
-  grid.height = image.rows;
-  grid.cells.assign(static_cast<size_t>(grid.width) * static_cast<size_t>(grid.height),
-                    kGridUnknown);
-  for (int row = 0; row < image.rows; ++row) {
-    for (int col = 0; col < image.cols; ++col) {
-      const std::uint8_t p = image.at<std::uint8_t>(row, col);
-      const size_t j = static_cast<size_t>(grid.height - 1 - row);
-      grid.cells[j * static_cast<size_t>(grid.width) + static_cast<size_t>(col)] =
-          p == 0     ? kGridOccupied
-          : p == 254 ? kGridFree
-                     : kGridUnknown;
-    }
-  }
-  return grid;
 }
 
 GridQuality EvaluateGrid(const OccupancyGrid& grid,

@@ -225,6 +225,7 @@ json GridJson(const OccupancyGrid& grid) {
             {"unknown", grid.Count(kGridUnknown)},
             {"occupied_unconfirmed_made_unknown", grid.unconfirmed_cells},
             {"occupied_without_cloud_points_in_band", grid.unsupported_cells},
+            {"occupied_by_a_neighbours_surface_spill", grid.spilled_cells},
             {"start_cell_made_free", grid.start_made_free}}},
           {"frame",
            fmt::format(

@@ -60,10 +60,10 @@ struct FieldCount {
 // instead, which compiles only with exactly as many names as the struct has fields.
 template <>
 struct FieldCount<GridOptions> {
-  static constexpr size_t kValue = 13;
+  static constexpr size_t kValue = 15;
 };
-[[maybe_unused]] void GridOptionsHasThirteenFields(GridOptions& options) {
-  [[maybe_unused]] auto& [a, b, c, d, e, f, g, h, i, j, k, l, m] = options;
+[[maybe_unused]] void GridOptionsHasFifteenFields(GridOptions& options) {
+  [[maybe_unused]] auto& [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o] = options;
 }
 
 template <typename Options>

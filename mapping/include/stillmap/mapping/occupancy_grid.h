@@ -28,6 +28,13 @@ struct GridOptions {
   // OctoMap reaches into the band with nothing above the floor. Cells that fail it are free
   // when the cloud shows the floor there, else unknown. 0: the OctoMap alone decides.
   int min_cloud_points = 2;
+  // Surface spill: an occupied cell whose band points (of the cleaned cloud) all lie within
+  // surface_spill_m of its edge with an occupied 4-neighbour that holds at least
+  // surface_spill_ratio times as many is that neighbour's surface scattered over the edge by
+  // depth noise and pose error (walls one cell thicker than they are): free when the cloud shows
+  // the floor there, else unknown. 0: off.
+  double surface_spill_m = 0.015;
+  double surface_spill_ratio = 4.0;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
   // (grid.floor "a b c d"); otherwise fitted to the map.
   std::optional<Eigen::Vector4d> floor;
@@ -62,6 +69,11 @@ struct GridOptions {
     visit("resolution", self.resolution, "grid cell edge [m] (independent of octomap.resolution)");
     visit("min_cloud_points", self.min_cloud_points,
           "voxel-cloud points in the band a cell needs to be occupied (0: OctoMap alone)");
+    visit("surface_spill_m", self.surface_spill_m,
+          "an occupied cell whose band points all lie this near its edge with a much denser "
+          "occupied neighbour is that neighbour's surface spilled over [m] (0: off)");
+    visit("surface_spill_ratio", self.surface_spill_ratio,
+          "surface spill: how many times as many band points the neighbour holds");
     visit(
         "floor", self.floor,
         "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 [m] in the "
@@ -146,6 +158,9 @@ struct OccupancyGrid {
   // Occupied in the OctoMap with fewer than min_cloud_points cloud points in the band: made free
   // (the cloud shows the floor there) or unknown.
   size_t unsupported_cells = 0;
+  // Occupied only by a denser neighbour's surface spilled over their shared edge
+  // (GridOptions::surface_spill_m): made free or unknown.
+  size_t spilled_cells = 0;
   bool start_made_free = false;  // the cell under the first camera was unknown, now free
 
   std::int8_t At(int i, int j) const {
