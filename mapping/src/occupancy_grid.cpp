@@ -57,11 +57,11 @@ void GridOptions::Validate() const {
   }
   if (min_cloud_points < 0)
     throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, min_cloud_points)));
-  if (!(surface_spill_m >= 0.0 && surface_spill_m <= 0.5 * resolution) ||
-      !(surface_spill_ratio >= 1.0 && surface_spill_ratio <= 1000.0)) {
-    throw InputError(fmt::format("{} must be 0..half of {} and {} 1..1000",
-                                 OptionKey(*this, surface_spill_m), OptionKey(*this, resolution),
-                                 OptionKey(*this, surface_spill_ratio)));
+  if (!(surface_spill_m >= 0.0 && surface_spill_m <= 1.0)) {
+    throw InputError(fmt::format("{} must be 0..1 m", OptionKey(*this, surface_spill_m)));
+  }
+  if (!(surface_spill_ratio >= 1.0 && surface_spill_ratio <= 1e6)) {
+    throw InputError(fmt::format("{} must be 1..1e6", OptionKey(*this, surface_spill_ratio)));
   }
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError(fmt::format("{} must be in [0.5, 1)", OptionKey(*this, occupied_probability)));
@@ -234,12 +234,12 @@ void RequireCloudSupport(const std::vector<CellPoints>& points, const GridOption
 // A surface lying just inside one cell puts a few of its points, scattered by depth noise and
 // pose error, over the cell next to it: that cell is occupied only by the neighbour's surface
 // (a wall one cell thicker than it is). An occupied cell whose band points all lie within
-// surface_spill_m of its edge with an occupied 4-neighbour holding at least surface_spill_ratio
-// times as many is that spill: free when the cloud shows the floor there, else unknown. Decided
-// on the cells as they are before any is changed.
+// surface_spill_m (at most half a cell) of its edge with an occupied 4-neighbour holding at least
+// surface_spill_ratio times as many is that spill: free when the cloud shows the floor there, else
+// unknown. Decided on the cells as they are before any is changed.
 void DropSurfaceSpill(const std::vector<CellPoints>& points, const GridOptions& options,
                       OccupancyGrid* grid) {
-  const float reach = static_cast<float>(options.surface_spill_m);
+  const float reach = static_cast<float>(std::min(options.surface_spill_m, 0.5 * grid->resolution));
   const float far_edge = static_cast<float>(grid->resolution) - reach;
   std::vector<size_t> spilled;
   for (int j = 0; j < grid->height; ++j) {

@@ -1,6 +1,7 @@
 // The grid's surface-spill rule (GridOptions::surface_spill_m) against a scene with exact truth:
-// a wall whose surface lies 7 mm inside a cell, its points scattered +-8 mm across it (as depth
-// noise scatters them), and a thin board standing right on the edge between two cells. The
+// a wall whose surface lies 7 mm inside a cell, its points scattered across it as depth noise
+// scatters them (one in a hundred 8 mm out, over the cell's edge), and a thin board standing
+// right on the edge between two cells. The
 // OctoMap's voxels straddle the cell edges, so it marks the cell beside the wall occupied too;
 // the cloud's points show that cell holds only a few strays near its edge.
 #include <gtest/gtest.h>
@@ -17,15 +18,16 @@ constexpr double kWallX = 0.018;   // the wall's surface [m]; its cell spans -0.
 constexpr double kBoardX = 0.525;  // the board: right on the edge of the cells 10 and 11
 constexpr double kHeight = 1.0;    // both stand 1 m tall
 
-// A vertical rectangle x = x0 over y0..y1, 0..kHeight, its points every 1 cm with x scattered
-// -8..+8 mm in nine steps.
+// A vertical rectangle x = x0 over y0..y1, 0..kHeight, its points every 1 cm with x scattered:
+// -6..+6 mm in 1 mm steps, and one point in a hundred 8 mm out on either side.
 struct Panel {
   double x0, y0, y1;
   void AddPoints(std::vector<Eigen::Vector3d>* points) const {
     int k = 0;
     for (double y = y0; y <= y1 + 1e-9; y += 0.01) {
       for (double z = 0.0; z <= kHeight + 1e-9; z += 0.01, ++k) {
-        points->emplace_back(x0 + 0.002 * (k % 9 - 4), y, z);
+        const double scatter = k % 100 == 0 ? 0.008 : k % 100 == 50 ? -0.008 : 0.001 * (k % 13 - 6);
+        points->emplace_back(x0 + scatter, y, z);
       }
     }
   }
@@ -62,9 +64,10 @@ class GridSurfaceSpillTest : public ::testing::Test {
     for (int k = 0; k < 2; ++k) map_.InsertScan(scan, eye.cast<float>());
   }
 
-  OccupancyGrid Grid(double surface_spill_m) const {
+  // The defaults, or with the spill rule off.
+  OccupancyGrid Grid(bool spill_rule) const {
     GridOptions options;
-    options.surface_spill_m = surface_spill_m;
+    if (!spill_rule) options.surface_spill_m = 0.0;
     GridSources sources;
     sources.map = &map_;
     sources.cloud = &cloud_;  // world = the grid frame: the floor is z = 0
@@ -81,7 +84,7 @@ class GridSurfaceSpillTest : public ::testing::Test {
 };
 
 TEST_F(GridSurfaceSpillTest, TheCellBesideAWallHoldsOnlyItsStrays) {
-  const OccupancyGrid off = Grid(0.0), on = Grid(0.015);
+  const OccupancyGrid off = Grid(false), on = Grid(true);
   size_t rows = 0;
   for (double y = -0.85; y <= -0.35; y += 0.05, ++rows) {
     EXPECT_EQ(At(off, 0.0, y), kGridOccupied) << y;  // the wall's own cell
@@ -95,7 +98,7 @@ TEST_F(GridSurfaceSpillTest, TheCellBesideAWallHoldsOnlyItsStrays) {
 
 // A thin board on a cell edge puts as many points on either side: both cells are the board.
 TEST_F(GridSurfaceSpillTest, AThinSurfaceOnAnEdgeKeepsBothCells) {
-  const OccupancyGrid on = Grid(0.015);
+  const OccupancyGrid on = Grid(true);
   for (double y = 0.35; y <= 0.85; y += 0.05) {
     EXPECT_EQ(At(on, 0.5, y), kGridOccupied) << y;
     EXPECT_EQ(At(on, 0.55, y), kGridOccupied) << y;
@@ -110,17 +113,18 @@ TEST_F(GridSurfaceSpillTest, AgreementWithTheTruthRises) {
   for (Eigen::Vector3d& p : truth) {
     p.x() = p.x() < 0.3 ? kWallX : kBoardX;  // no scatter
   }
-  const GridQuality off = EvaluateGrid(Grid(0.0), truth), on = EvaluateGrid(Grid(0.015), truth);
+  const GridQuality off = EvaluateGrid(Grid(false), truth), on = EvaluateGrid(Grid(true), truth);
   EXPECT_GT(on.agreement, off.agreement);
   EXPECT_LT(on.occupied_cells, off.occupied_cells);
   EXPECT_EQ(on.missed_occupied, 0u);
 }
 
-TEST(GridSurfaceSpillOptionsTest, ReachBeyondHalfACellIsRejected) {
+TEST(GridSurfaceSpillOptionsTest, ImpossibleValuesAreRejected) {
   GridOptions options;
-  options.surface_spill_m = 0.03;  // more than half the 5 cm cell
+  options.surface_spill_m = -0.01;
   EXPECT_THROW(options.Validate(), InputError);
-  options.surface_spill_m = 0.015;
+  options.surface_spill_m = 0.1;  // beyond half a cell: half a cell
+  EXPECT_NO_THROW(options.Validate());
   options.surface_spill_ratio = 0.5;
   EXPECT_THROW(options.Validate(), InputError);
 }

@@ -29,12 +29,13 @@ struct GridOptions {
   // when the cloud shows the floor there, else unknown. 0: the OctoMap alone decides.
   int min_cloud_points = 2;
   // Surface spill: an occupied cell whose band points (of the cleaned cloud) all lie within
-  // surface_spill_m of its edge with an occupied 4-neighbour that holds at least
-  // surface_spill_ratio times as many is that neighbour's surface scattered over the edge by
-  // depth noise and pose error (walls one cell thicker than they are): free when the cloud shows
-  // the floor there, else unknown. 0: off.
-  double surface_spill_m = 0.015;
-  double surface_spill_ratio = 4.0;
+  // surface_spill_m (at most half a cell) of one edge, with an occupied neighbour across it that
+  // holds at least surface_spill_ratio times as many, is that neighbour's surface scattered over
+  // the edge by depth noise and pose error (walls one cell thicker than they are): free when the
+  // cloud shows the floor there, else unknown. 0: off. Chosen on the 13 room scenarios and the
+  // floor (docs/figures.md).
+  double surface_spill_m = 0.025;
+  double surface_spill_ratio = 64.0;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
   // (grid.floor "a b c d"); otherwise fitted to the map.
   std::optional<Eigen::Vector4d> floor;
@@ -70,8 +71,9 @@ struct GridOptions {
     visit("min_cloud_points", self.min_cloud_points,
           "voxel-cloud points in the band a cell needs to be occupied (0: OctoMap alone)");
     visit("surface_spill_m", self.surface_spill_m,
-          "an occupied cell whose band points all lie this near its edge with a much denser "
-          "occupied neighbour is that neighbour's surface spilled over [m] (0: off)");
+          "an occupied cell whose band points all lie this near one edge (at most half a cell), "
+          "with a much denser occupied neighbour across it, is that neighbour's surface spilled "
+          "over [m] (0: off)");
     visit("surface_spill_ratio", self.surface_spill_ratio,
           "surface spill: how many times as many band points the neighbour holds");
     visit(
