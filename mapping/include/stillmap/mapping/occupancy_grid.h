@@ -32,8 +32,7 @@ struct GridOptions {
   // surface_spill_m (at most half a cell) of one edge, with an occupied neighbour across it that
   // holds at least surface_spill_ratio times as many, is that neighbour's surface scattered over
   // the edge by depth noise and pose error (walls one cell thicker than they are): free when the
-  // cloud shows the floor there, else unknown. 0: off. Chosen on the 13 room scenarios and the
-  // floor (docs/figures.md).
+  // cloud shows the floor there, else unknown. 0: off.
   double surface_spill_m = 0.025;
   double surface_spill_ratio = 64.0;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
