@@ -194,6 +194,9 @@ struct CellPoints {
   int on_floor = 0;
   Eigen::Vector2f low = Eigen::Vector2f::Constant(std::numeric_limits<float>::infinity());
   Eigen::Vector2f high = -low;
+  // What an occupied cell the cloud does not bear out becomes: free when the cloud shows the
+  // floor there, else unknown.
+  std::int8_t WithoutObstacle() const { return on_floor > 0 ? kGridFree : kGridUnknown; }
 };
 
 std::vector<CellPoints> CountCloudPoints(const std::vector<VoxelPoint>& cloud,
@@ -226,7 +229,7 @@ void RequireCloudSupport(const std::vector<CellPoints>& points, const GridOption
                          OccupancyGrid* grid) {
   for (size_t k = 0; k < grid->cells.size(); ++k) {
     if (grid->cells[k] != kGridOccupied || points[k].in_band >= options.min_cloud_points) continue;
-    grid->cells[k] = points[k].on_floor > 0 ? kGridFree : kGridUnknown;
+    grid->cells[k] = points[k].WithoutObstacle();
     ++grid->unsupported_cells;
   }
 }
@@ -241,19 +244,19 @@ void DropSurfaceSpill(const std::vector<CellPoints>& points, const GridOptions& 
                       OccupancyGrid* grid) {
   const float reach = static_cast<float>(std::min(options.surface_spill_m, 0.5 * grid->resolution));
   const float far_edge = static_cast<float>(grid->resolution) - reach;
+  // The neighbours across a cell's edges -x, +x, -y, +y.
+  constexpr int kStepI[4] = {-1, 1, 0, 0}, kStepJ[4] = {0, 0, -1, 1};
   std::vector<size_t> spilled;
   for (int j = 0; j < grid->height; ++j) {
     for (int i = 0; i < grid->width; ++i) {
       const size_t k = grid->Index(Eigen::Vector2i(i, j));
       const CellPoints& cell = points[k];
       if (grid->cells[k] != kGridOccupied || cell.in_band == 0) continue;
-      // The neighbours across the cell's edges -x, +x, -y, +y, and whether all its points lie
-      // near that edge.
-      const int di[4] = {-1, 1, 0, 0}, dj[4] = {0, 0, -1, 1};
+      // Whether all its points lie near that edge.
       const bool near_edge[4] = {cell.high.x() <= reach, cell.low.x() >= far_edge,
                                  cell.high.y() <= reach, cell.low.y() >= far_edge};
       for (int e = 0; e < 4; ++e) {
-        const int a = i + di[e], b = j + dj[e];
+        const int a = i + kStepI[e], b = j + kStepJ[e];
         if (!near_edge[e] || a < 0 || b < 0 || a >= grid->width || b >= grid->height) continue;
         const size_t n = grid->Index(Eigen::Vector2i(a, b));
         if (grid->cells[n] == kGridOccupied &&
@@ -264,7 +267,7 @@ void DropSurfaceSpill(const std::vector<CellPoints>& points, const GridOptions& 
       }
     }
   }
-  for (size_t k : spilled) grid->cells[k] = points[k].on_floor > 0 ? kGridFree : kGridUnknown;
+  for (size_t k : spilled) grid->cells[k] = points[k].WithoutObstacle();
   grid->spilled_cells = spilled.size();
 }
 
