@@ -95,7 +95,7 @@ std::optional<Eigen::Vector2i> OccupancyGrid::CellOf(const Eigen::Vector3d& poin
 std::optional<Eigen::Vector2i> OccupancyGrid::CellAtGridPoint(double x, double y) const {
   const int i = static_cast<int>(std::floor((x - origin.x()) / resolution));
   const int j = static_cast<int>(std::floor((y - origin.y()) / resolution));
-  if (i < 0 || j < 0 || i >= width || j >= height) return std::nullopt;
+  if (!Contains(i, j)) return std::nullopt;
   return Eigen::Vector2i(i, j);
 }
 
@@ -257,7 +257,7 @@ void DropSurfaceSpill(const std::vector<CellPoints>& points, const GridOptions& 
                                  cell.high.y() <= reach, cell.low.y() >= far_edge};
       for (int e = 0; e < 4; ++e) {
         const int a = i + kStepI[e], b = j + kStepJ[e];
-        if (!near_edge[e] || a < 0 || b < 0 || a >= grid->width || b >= grid->height) continue;
+        if (!near_edge[e] || !grid->Contains(a, b)) continue;
         const size_t n = grid->Index(Eigen::Vector2i(a, b));
         if (grid->cells[n] == kGridOccupied &&
             points[n].in_band >= options.surface_spill_ratio * cell.in_band) {
@@ -289,9 +289,8 @@ void DropUnconfirmed(const std::vector<float>& support, double confirm_probabili
     for (int dj = -1; dj <= 1; ++dj) {
       for (int di = -1; di <= 1; ++di) {
         const int a = i + di, b = j + dj;
-        if (a < 0 || b < 0 || a >= grid->width || b >= grid->height) continue;
-        const size_t k =
-            static_cast<size_t>(b) * static_cast<size_t>(grid->width) + static_cast<size_t>(a);
+        if (!grid->Contains(a, b)) continue;
+        const size_t k = grid->Index(Eigen::Vector2i(a, b));
         if (reached[k] != 0 || grid->cells[k] != kGridOccupied) continue;
         reached[k] = 1;
         queue.push_back(static_cast<int>(k));
@@ -384,7 +383,7 @@ GridQuality EvaluateGrid(const OccupancyGrid& grid,
     for (int dj = -1; dj <= 1; ++dj) {
       for (int di = -1; di <= 1; ++di) {
         const int a = i + di, b = j + dj;
-        if (a >= 0 && b >= 0 && a < grid.width && b < grid.height && is(a, b)) return true;
+        if (grid.Contains(a, b) && is(a, b)) return true;
       }
     }
     return false;

@@ -380,7 +380,7 @@ TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
   std::vector<bool> passable(static_cast<size_t>(image.rows * image.cols));
   for (int r = 0; r < image.rows; ++r) {
     for (int c = 0; c < image.cols; ++c) {
-      passable[static_cast<size_t>(r * image.cols + c)] =
+      passable[static_cast<size_t>(r) * static_cast<size_t>(image.cols) + static_cast<size_t>(c)] =
           (255.0 - image.at<std::uint8_t>(r, c)) / 255.0 < free_thresh;
     }
   }
@@ -405,6 +405,26 @@ TEST_F(OccupancyGridTest, FilesReadAsMapServerReadsThem) {
         centre.x() > 0.5 && centre.x() < 1.0 && centre.y() > 2.0 && centre.y() < 2.5;
     EXPECT_FALSE(on_box) << centre.transpose();
   }
+}
+
+TEST(OccupancyGridCellsTest, CellsAtTheGridsEdgesAreInsideAndOneBeyondAreNot) {
+  OccupancyGrid grid;
+  grid.width = 3;
+  grid.height = 2;
+  grid.resolution = 0.5;
+  grid.origin = Eigen::Vector2d(-1.0, 2.0);
+  EXPECT_TRUE(grid.Contains(0, 0));
+  EXPECT_TRUE(grid.Contains(2, 1));
+  EXPECT_FALSE(grid.Contains(3, 1));
+  EXPECT_FALSE(grid.Contains(2, 2));
+  EXPECT_FALSE(grid.Contains(-1, 0));
+  EXPECT_FALSE(grid.Contains(0, -1));
+  // The grid spans x in [-1, 0.5) and y in [2, 3) metres.
+  ASSERT_TRUE(grid.CellAtGridPoint(0.49, 2.99));
+  EXPECT_EQ(*grid.CellAtGridPoint(0.49, 2.99), Eigen::Vector2i(2, 1));
+  EXPECT_FALSE(grid.CellAtGridPoint(0.5, 2.5));
+  EXPECT_FALSE(grid.CellAtGridPoint(-1.01, 2.5));
+  EXPECT_FALSE(grid.CellAtGridPoint(0.0, 3.0));
 }
 
 TEST(GridOptionsTest, ImpossibleValuesAreRejectedByName) {

@@ -164,6 +164,8 @@ struct OccupancyGrid {
   size_t spilled_cells = 0;
   bool start_made_free = false;  // the cell under the first camera was unknown, now free
 
+  // Whether cell (i, j) lies inside the grid.
+  bool Contains(int i, int j) const { return i >= 0 && j >= 0 && i < width && j < height; }
   std::int8_t At(int i, int j) const {
     return cells[static_cast<size_t>(j) * static_cast<size_t>(width) + static_cast<size_t>(i)];
   }
