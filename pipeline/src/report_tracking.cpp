@@ -47,6 +47,24 @@ json ShareJson(std::vector<double> shares) {
           {"median", shares[shares.size() / 2]}};
 }
 
+// tracking.planar_motion: the plane of motion, and how far the tracked poses were from it.
+json PlanarMotionJson(const TrackingFigures& tracking, const TrackerOptions& options) {
+  if (!options.planar_motion) return {{"enabled", false}};
+  if (!tracking.planar_motion) {
+    return {{"enabled", true}, {"applied", false}, {"refused", tracking.planar_motion_refused}};
+  }
+  const PlanarMotion& plane = *tracking.planar_motion;
+  const auto vector = [](const Eigen::Vector3d& v) { return json{v.x(), v.y(), v.z()}; };
+  return {{"enabled", true},
+          {"applied", true},
+          {"up_in_first_camera", vector(plane.up_in_world)},  // the tracking world
+          {"up_in_camera", vector(plane.up_in_camera)},
+          {"height_m", plane.height_m},
+          {"tracked_height_spread_m", plane.height_spread_m},
+          {"tracked_tilt_spread_deg", plane.tilt_spread_deg},
+          {"heading_spread", plane.heading_spread}};
+}
+
 json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options) {
   const TrackerStatistics& t = tracking.statistics;
   return {{"frames", t.frames},
@@ -89,7 +107,8 @@ json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options)
           {"bundle_adjustments", t.bundle_adjustments},
           {"bundle_adjustment_observations_rejected", t.observations_rejected},
           {"depth_self_calibration", DepthCalibrationJson(t, options)},
-          {"bundle_adjustment_thread", tracking.bundle_adjustment_thread}};
+          {"bundle_adjustment_thread", tracking.bundle_adjustment_thread},
+          {"planar_motion", PlanarMotionJson(tracking, options)}};
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include "pose_loops.h"
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/option_names.h"
+#include "stillmap/tracking/planar_motion.h"
 
 namespace stillmap {
 namespace {
@@ -36,6 +37,26 @@ std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker
           {"tracked_frame_records", memory.frames},
           {"keyframes_held", fuser.held_bytes()},
           {"keyframe_copies", fuser.stored_bytes()}};
+}
+
+// tracking.planar_motion: the tracked poses fix the plane of motion; the trajectory and the final
+// keyframe poses are put on it (nothing when the camera turned too little to find it).
+std::optional<PlanarMotion> PutOnPlane(Trajectory* trajectory,
+                                       std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
+  std::vector<Eigen::Isometry3d> poses;
+  poses.reserve(trajectory->size());
+  for (const StampedPose& pose : trajectory->poses()) poses.push_back(pose.world_from_camera);
+  std::optional<PlanarMotion> plane = FitPlanarMotion(poses);
+  if (!plane) return plane;
+  std::vector<StampedPose> on_plane = trajectory->poses();
+  for (StampedPose& pose : on_plane) {
+    pose.world_from_camera = OntoPlane(*plane, pose.world_from_camera);
+  }
+  *trajectory = Trajectory(std::move(on_plane));
+  for (auto& [id, world_from_camera] : *world_from_keyframe) {
+    world_from_camera = OntoPlane(*plane, world_from_camera);
+  }
+  return plane;
 }
 
 }  // namespace
@@ -96,11 +117,21 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   stages.memory.DropFixed(kDetectorMemoryOwner);
   // What is left to take from the tracker, before it is freed: the final refusion does not carry
   // its place index, keyframes and landmarks (floor seed 1: report peak 1225 -> 1188 MiB).
-  const std::map<int, Eigen::Isometry3d> final_poses = tracker.KeyframePoses();
+  std::map<int, Eigen::Isometry3d> final_poses = tracker.KeyframePoses();
   Trajectory trajectory = tracker.TrackedTrajectory();
   figures.statistics = tracker.statistics();
   tracker_held.reset();
   ReleaseFreedMemory();
+  if (options.tracking.planar_motion) {
+    figures.planar_motion = PutOnPlane(&trajectory, &final_poses);
+    figures.planar_motion_refused = !figures.planar_motion && !trajectory.empty();
+    if (figures.planar_motion_refused) {
+      result->warnings.push_back(fmt::format(
+          "{}: the camera turned too little to show which way is up (its headings spread less "
+          "than {:g}); the poses are left as tracked",
+          OptionKey(options.tracking, options.tracking.planar_motion), kMinPlanarHeadingSpread));
+    }
+  }
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
   stages.memory.Phase("frame loop's end: fusing moved keyframes again");
   const size_t moved = fuser.Refuse(final_poses);

@@ -15,6 +15,7 @@
 #include "stillmap/mapping/occupancy_grid.h"
 #include "stillmap/tracking/map_segments.h"
 #include "stillmap/tracking/mask_stage.h"
+#include "stillmap/tracking/planar_motion.h"
 #include "stillmap/tracking/tracker.h"
 
 namespace stillmap {
@@ -74,6 +75,10 @@ struct TrackingFigures {
   size_t refused_keyframes_moved = 0;
   double refusion_store_mib = 0.0;
   bool bundle_adjustment_thread = false;
+  // tracking.planar_motion: the plane the final poses were put on (nothing when off or refused),
+  // and whether the fit refused (too few turns to find the vertical).
+  std::optional<PlanarMotion> planar_motion;
+  bool planar_motion_refused = false;
 };
 
 // Keyframe selection and the map re-check (tracked runs; with known poses every frame is fused).

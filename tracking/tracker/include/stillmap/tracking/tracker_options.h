@@ -272,6 +272,10 @@ struct TrackerOptions {
   RelocalizationOptions relocalization;
   RgbdOdometryOptions rgbd_odometry;
   LoopClosureOptions loops;
+  // The camera rides on a ground robot: its height and tilt are fixed, and the final poses are put
+  // back on their plane of motion (planar_motion.h). Off by default: a hand-held camera turns and
+  // rises freely.
+  bool planar_motion = false;
 
   // Throws InputError naming the first impossible value: each part's, the solvers', and the
   // checks across parts (tracker_options.cpp).
@@ -289,6 +293,9 @@ struct TrackerOptions {
     visit.Nested("", self.relocalization);
     visit.Nested("rgbd_odometry_", self.rgbd_odometry);
     visit.Nested("", self.loops);
+    visit("planar_motion", self.planar_motion,
+          "a ground robot's camera: the final poses are put on their plane of motion (height and "
+          "tilt fixed; x, y and heading as tracked)");
   }
 };
 
