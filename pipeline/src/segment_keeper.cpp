@@ -44,6 +44,17 @@ int SegmentKeeper::SegmentAt(double time, const std::vector<SegmentSummary>& sum
   return segment;
 }
 
+std::vector<bool> SegmentKeeper::FramesInMap(const Trajectory& all) const {
+  const std::vector<SegmentSummary> summaries = segments_.Summaries();
+  std::vector<bool> in_map;
+  in_map.reserve(all.size());
+  for (const StampedPose& pose : all.poses()) {
+    in_map.push_back(summaries.empty() ||
+                     summaries[static_cast<size_t>(SegmentAt(pose.time, summaries))].in_map);
+  }
+  return in_map;
+}
+
 std::vector<ApartSegment> SegmentKeeper::TakeApart(KeyframeFuser& fuser, Trajectory* all) const {
   const std::vector<SegmentSummary> summaries = segments_.Summaries();
   std::vector<ApartSegment> apart;

@@ -46,6 +46,11 @@ class SegmentKeeper {
   // After the last frame: the trajectory's frames of the map's segments (`all` without those of
   // the segments written apart), and the segments apart.
   std::vector<ApartSegment> TakeApart(KeyframeFuser& fuser, Trajectory* all) const;
+  // Per pose of `all`: whether its frame belongs to a segment of the map (by now).
+  std::vector<bool> FramesInMap(const Trajectory& all) const;
+  bool KeyframeInMap(int keyframe_id) const {
+    return segments_.InMap(segments_.SegmentOf(keyframe_id));
+  }
   std::vector<SegmentSummary> Summaries() const { return segments_.Summaries(); }
   const MapSegments& segments() const { return segments_; }
 

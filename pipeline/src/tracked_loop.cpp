@@ -39,22 +39,26 @@ std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker
           {"keyframe_copies", fuser.stored_bytes()}};
 }
 
-// tracking.planar_motion: the tracked poses fix the plane of motion; the trajectory and the final
-// keyframe poses are put on it (nothing when the camera turned too little to find it).
-std::optional<PlanarMotion> PutOnPlane(Trajectory* trajectory,
+// tracking.planar_motion: the poses of the map's segments fix the plane of motion; their frames
+// and keyframes are put on it (nothing when the camera turned too little to find it). Segments
+// never joined stay as tracked, in frames of their own.
+std::optional<PlanarMotion> PutOnPlane(const SegmentKeeper& segments, Trajectory* trajectory,
                                        std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
+  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
   std::vector<Eigen::Isometry3d> poses;
   poses.reserve(trajectory->size());
-  for (const StampedPose& pose : trajectory->poses()) poses.push_back(pose.world_from_camera);
+  for (size_t i = 0; i < trajectory->size(); ++i) {
+    if (in_map[i]) poses.push_back(trajectory->poses()[i].world_from_camera);
+  }
   std::optional<PlanarMotion> plane = FitPlanarMotion(poses);
   if (!plane) return plane;
   std::vector<StampedPose> on_plane = trajectory->poses();
-  for (StampedPose& pose : on_plane) {
-    pose.world_from_camera = OntoPlane(*plane, pose.world_from_camera);
+  for (size_t i = 0; i < on_plane.size(); ++i) {
+    if (in_map[i]) on_plane[i].world_from_camera = OntoPlane(*plane, on_plane[i].world_from_camera);
   }
   *trajectory = Trajectory(std::move(on_plane));
   for (auto& [id, world_from_camera] : *world_from_keyframe) {
-    world_from_camera = OntoPlane(*plane, world_from_camera);
+    if (segments.KeyframeInMap(id)) world_from_camera = OntoPlane(*plane, world_from_camera);
   }
   return plane;
 }
@@ -123,7 +127,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   tracker_held.reset();
   ReleaseFreedMemory();
   if (options.tracking.planar_motion) {
-    figures.planar_motion = PutOnPlane(&trajectory, &final_poses);
+    figures.planar_motion = PutOnPlane(segments, &trajectory, &final_poses);
     figures.planar_motion_refused = !figures.planar_motion && !trajectory.empty();
     if (figures.planar_motion_refused) {
       result->warnings.push_back(fmt::format(
