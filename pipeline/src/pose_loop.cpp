@@ -52,7 +52,10 @@ LoopResult RunPoseLoop(const BuildInputs& inputs, const LoopOptions& options, Ma
   result.depth_median_m = checks.DepthQuantile(0.5);
   result.depth_95th_percentile_m = checks.DepthQuantile(0.95);
   result.frozen_colour = checks.frozen_colour_frames();
-  result.warnings = checks.Warnings(inputs.camera.depth_factor);
+  // The streams' warnings, after the loop's own (tracking.planar_motion's).
+  for (std::string& warning : checks.Warnings(inputs.camera.depth_factor)) {
+    result.warnings.push_back(std::move(warning));
+  }
   result.masking = masks.statistics();
   return result;
 }

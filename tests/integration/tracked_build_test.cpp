@@ -327,8 +327,23 @@ TEST(BuildTest, PlanarMotionPutsTheTrackedPosesAtTheCamerasHeightAndTilt) {
   ASSERT_TRUE(plane["applied"].get<bool>()) << plane.dump();
   EXPECT_GT(plane["heading_spread"].get<double>(), 0.1);
   EXPECT_GT(plane["tracked_height_spread_m"].get<double>(), 0.0);
+  for (const auto& warning : on["warnings"]) {
+    EXPECT_EQ(warning.get<std::string>().find("planar_motion"), std::string::npos) << warning;
+  }
   const nlohmann::json off = nlohmann::json::parse(testing::ReadText(dir / "false/report.json"));
   EXPECT_FALSE(off["tracking"]["planar_motion"]["enabled"].get<bool>());
+
+  // A hand-held camera bobbing 6 cm round the loop room: put on a plane all the same, and the
+  // user is told it rose and fell more than a robot's.
+  WriteScenario(dir / "loop", "loop", 200);
+  ASSERT_EQ(testing::RunStillmap("build " + dir / "loop" + " -o " + dir / "loop_out" +
+                                     " --detector none --quiet --set tracking.planar_motion=true",
+                                 &output),
+            0)
+      << output;
+  EXPECT_NE(output.find("tracking.planar_motion: the tracked camera rose and fell"),
+            std::string::npos)
+      << output;
 }
 
 // Nothing to track (every frame black, no depth): the run fails with exit 1 and a reason, and
