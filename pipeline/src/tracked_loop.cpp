@@ -46,14 +46,14 @@ std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker
 std::optional<PlanarMotion> PutOnPlane(const SegmentKeeper& segments, Trajectory* trajectory,
                                        std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
   const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
+  std::vector<StampedPose> on_plane = trajectory->poses();
   std::vector<Eigen::Isometry3d> poses;
-  poses.reserve(trajectory->size());
-  for (size_t i = 0; i < trajectory->size(); ++i) {
-    if (in_map[i]) poses.push_back(trajectory->poses()[i].world_from_camera);
+  poses.reserve(on_plane.size());
+  for (size_t i = 0; i < on_plane.size(); ++i) {
+    if (in_map[i]) poses.push_back(on_plane[i].world_from_camera);
   }
   std::optional<PlanarMotion> plane = FitPlanarMotion(poses);
   if (!plane) return plane;
-  std::vector<StampedPose> on_plane = trajectory->poses();
   for (size_t i = 0; i < on_plane.size(); ++i) {
     if (in_map[i]) on_plane[i].world_from_camera = OntoPlane(*plane, on_plane[i].world_from_camera);
   }
@@ -65,8 +65,8 @@ std::optional<PlanarMotion> PutOnPlane(const SegmentKeeper& segments, Trajectory
 }
 
 // Tracked poses farther off their plane than this (the standard deviation of their height [m],
-// the RMS of their tilt [deg]) were more likely carried by hand than by a robot: on the synthetic
-// floor they were 15-19 mm and 0.3-0.6 degrees off, in the hand-held loop room 46 mm.
+// the RMS of their tilt [deg]) were more likely carried by hand than by a robot: above the
+// synthetic floor's, below the hand-held loop room's (docs/figures.md, issue 47).
 constexpr double kHandHeldHeightSpreadM = 0.03;
 constexpr double kHandHeldTiltSpreadDeg = 1.0;
 

@@ -1,9 +1,8 @@
 // A camera on a ground robot moves in a plane: its height above the floor and its tilt (roll and
 // pitch against the floor) are fixed by the mount, only x, y and the heading change (RTAB-Map's
 // Reg/Force3DoF, Cartographer's 2-D mode). Tracking does not know this and lets drift into those
-// three as well: on the synthetic floor the tracked camera's height wanders by 15 mm (standard
-// deviation) and its tilt by 0.3 degrees where the truth holds 3 mm and 0.01 degrees. With
-// tracking.planar_motion the final poses are put back on the plane of motion.
+// three as well (docs/figures.md, issue 47). With tracking.planar_motion the final poses are put
+// back on the plane of motion.
 //
 // The plane is found from the poses alone: the world direction that stays most nearly fixed in the
 // camera's frame is the axis the camera turns about, the vertical (the eigenvector of the largest
