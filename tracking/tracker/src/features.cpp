@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 
+#include "mask_clearance.h"
 #include "stillmap/io/error.h"
 #include "stillmap/io/option_names.h"
 
@@ -32,6 +33,12 @@ void FeatureOptions::Validate() const {
   }
   if (!(max_depth_spread > 0.0))
     throw InputError(fmt::format("{} must be positive", OptionKey(*this, max_depth_spread)));
+  if (!(mask_clearance_px >= 0.0 && mask_clearance_px <= 200.0) ||
+      mask_clearance_min_region_px < 0) {
+    throw InputError(fmt::format("{} must be 0..200 [px] and {} at least 0",
+                                 OptionKey(*this, mask_clearance_px),
+                                 OptionKey(*this, mask_clearance_min_region_px)));
+  }
 }
 
 namespace {
@@ -74,6 +81,10 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   if (!ignore_mask.empty()) detect_mask = ignore_mask == 0;
   std::vector<cv::KeyPoint> candidates;
   orb->detect(gray, candidates, detect_mask);
+  DropBesideMovingRegions(
+      ignore_mask, depth_m,
+      {options.mask_clearance_px, options.mask_clearance_min_region_px, options.scale_factor},
+      &candidates);
 
   const int cells = options.grid_columns * options.grid_rows;
   const size_t per_cell = static_cast<size_t>((options.max_features + cells - 1) / cells);

@@ -21,6 +21,13 @@ struct FeatureOptions {
   // A keypoint gets no depth when its 4x4 depth neighbourhood spreads more than this share of the
   // depth (a depth edge) or has a missing reading.
   double max_depth_spread = 0.03;
+  // Opt-in: a keypoint at the depth of a large moving region (a person near the lens) within its
+  // descriptor's patch of it is dropped (src/mask_clearance.h): the patch's half-size at the
+  // image's scale [px], grown with the keypoint's pyramid level (ORB's patch is 31 px: 15 clears
+  // it; 0, the default: only keypoints inside the mask are dropped), and the least size of a
+  // region that counts [px]. Off by default: docs/figures.md, forty-first session.
+  double mask_clearance_px = 0.0;
+  int mask_clearance_min_region_px = 20000;
 
   // Throws InputError naming the first impossible value.
   void Validate() const;
@@ -36,6 +43,13 @@ struct FeatureOptions {
     visit("fast_threshold", self.fast_threshold, "FAST corner threshold (lower: more corners)");
     visit("max_depth_spread", self.max_depth_spread,
           "keypoints on a depth edge (4x4 spread above this share of depth) get no depth");
+    visit("mask_clearance_px", self.mask_clearance_px,
+          "keypoints at a large moving region's depth whose ORB patch (this half-size at level 0 "
+          "[px], grown per pyramid level) reaches it are dropped (0: off, only those inside the "
+          "mask; 15: ORB's patch, for people walking close ahead of the camera)");
+    visit("mask_clearance_min_region_px", self.mask_clearance_min_region_px,
+          "moving regions smaller than this [px] leave the keypoints beside them "
+          "(mask_clearance_px)");
   }
 };
 
@@ -56,7 +70,8 @@ struct FrameFeatures {
 // Extracts ORB features from `gray` (CV_8UC1): corners are detected over the whole image, then
 // each grid cell keeps its strongest ones (so texture-rich regions cannot take every feature, as
 // ORB-SLAM's per-cell extraction intends), and descriptors are computed for the survivors.
-// Pixels where `ignore_mask` (CV_8UC1, or empty) is non-zero yield no features.
+// Pixels where `ignore_mask` (CV_8UC1, or empty) is non-zero yield no features, nor do pixels at
+// a large moving region's depth whose descriptor patch reaches it (mask_clearance_px).
 FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const Camera& camera,
                               const cv::Mat& ignore_mask, const FeatureOptions& options);
 
