@@ -81,10 +81,7 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   if (!ignore_mask.empty()) detect_mask = ignore_mask == 0;
   std::vector<cv::KeyPoint> candidates;
   orb->detect(gray, candidates, detect_mask);
-  DropBesideMovingRegions(
-      ignore_mask, depth_m,
-      {options.mask_clearance_px, options.mask_clearance_min_region_px, options.scale_factor},
-      &candidates);
+  DropBesideMovingRegions(ignore_mask, depth_m, options, &candidates);
 
   const int cells = options.grid_columns * options.grid_rows;
   const size_t per_cell = static_cast<size_t>((options.max_features + cells - 1) / cells);

@@ -56,16 +56,16 @@ bool RegionAtDepth(const cv::Mat& regions, const cv::Mat& depth_m, const cv::Rec
 }  // namespace
 
 void DropBesideMovingRegions(const cv::Mat& ignore_mask, const cv::Mat& depth_m,
-                             const MaskClearance& clearance, std::vector<cv::KeyPoint>* keypoints) {
-  if (!(clearance.patch_px > 0.0) || keypoints->empty() || ignore_mask.empty()) return;
-  const cv::Mat regions = LargeRegions(ignore_mask, clearance.min_region_px);
+                             const FeatureOptions& options, std::vector<cv::KeyPoint>* keypoints) {
+  if (!(options.mask_clearance_px > 0.0) || keypoints->empty() || ignore_mask.empty()) return;
+  const cv::Mat regions = LargeRegions(ignore_mask, options.mask_clearance_min_region_px);
   if (regions.empty()) return;
   cv::Mat region_sum;  // summed-area table: a patch without any region pixel in four reads
   cv::integral(regions, region_sum, CV_32S);
   const cv::Rect image(0, 0, regions.cols, regions.rows);
   const auto beside = [&](const cv::KeyPoint& keypoint) {
-    const double r =
-        clearance.patch_px * std::pow(static_cast<double>(clearance.scale_factor), keypoint.octave);
+    const double r = options.mask_clearance_px *
+                     std::pow(static_cast<double>(options.scale_factor), keypoint.octave);
     const int x0 = static_cast<int>(std::floor(keypoint.pt.x - r));
     const int y0 = static_cast<int>(std::floor(keypoint.pt.y - r));
     const int x1 = static_cast<int>(std::floor(keypoint.pt.x + r)) + 1;

@@ -10,18 +10,15 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "stillmap/tracking/features.h"
+
 namespace stillmap {
 
-struct MaskClearance {
-  double patch_px = 0.0;  // half-size of the patch at level 0 [px], times scale_factor per level
-  int min_region_px = 0;  // only masked regions at least this large count [px]
-  float scale_factor = 1.2f;
-};
-
-// Drops from `keypoints` those whose patch holds a pixel of a large region of `ignore_mask` (non-
-// zero: moving) whose depth is within kClearanceDepth* of the keypoint's, and those without depth
-// whose patch holds any pixel of one.
+// Drops from `keypoints` those whose patch (options.mask_clearance_px, times scale_factor per
+// pyramid level) holds a pixel of a region of `ignore_mask` (non-zero: moving) of at least
+// mask_clearance_min_region_px whose depth is within kClearanceDepth* of the keypoint's, and those
+// without depth whose patch holds any pixel of one.
 void DropBesideMovingRegions(const cv::Mat& ignore_mask, const cv::Mat& depth_m,
-                             const MaskClearance& clearance, std::vector<cv::KeyPoint>* keypoints);
+                             const FeatureOptions& options, std::vector<cv::KeyPoint>* keypoints);
 
 }  // namespace stillmap
