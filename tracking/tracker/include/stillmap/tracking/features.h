@@ -48,8 +48,8 @@ struct FeatureOptions {
           "[px], grown per pyramid level) reaches it are dropped (0: off, only those inside the "
           "mask; 15: ORB's patch, for people walking close ahead of the camera)");
     visit("mask_clearance_min_region_px", self.mask_clearance_min_region_px,
-          "moving regions smaller than this [px] leave the keypoints beside them "
-          "(mask_clearance_px)");
+          "moving regions smaller than this [px] keep the keypoints beside them (the clearance "
+          "above)");
   }
 };
 
