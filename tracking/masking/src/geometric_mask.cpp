@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mask_growth.h"
+#include "stillmap/io/image_regions.h"
 #include "stillmap/tracking/dynamic_mask.h"
 
 namespace stillmap {
@@ -172,26 +173,6 @@ void GrowFromSeeds(const cv::Mat& state, const float* z, const DynamicMaskOption
   });
 }
 
-// Drops regions smaller than min_region_px (noise at depth edges, single flow outliers).
-void DropSpecks(int min_region_px, cv::Mat* region) {
-  if (min_region_px <= 0) return;
-  cv::Mat labels, stats, centroids;
-  const int count = cv::connectedComponentsWithStats(*region, labels, stats, centroids, 8, CV_32S);
-  std::vector<std::uint8_t> keep(static_cast<size_t>(count), 0);
-  for (int k = 1; k < count; ++k) {
-    keep[static_cast<size_t>(k)] = stats.at<int>(k, cv::CC_STAT_AREA) >= min_region_px;
-  }
-  if (std::find(keep.begin() + 1, keep.end(), 0) == keep.end()) return;
-  // Locals for the loop: a store through the byte pointer could alias the Mat's fields (perf:
-  // reloading them and calling total() per pixel was 2 % of a bonn_crowd_a build).
-  const int* label = labels.ptr<int>();
-  std::uint8_t* out = region->data;
-  const size_t total = region->total();
-  for (size_t i = 0; i < total; ++i) {
-    if (out[i] != 0 && keep[static_cast<size_t>(label[i])] == 0) out[i] = 0;
-  }
-}
-
 }  // namespace
 
 GeometricMasker::GeometricMasker(const Camera& camera, const DynamicMaskOptions& options)
@@ -252,7 +233,7 @@ cv::Mat GeometricMasker::Compute(const cv::Mat& depth_m, const Eigen::Isometry3d
     }
   }
   GrowFromSeeds(state, z, options_, std::move(queue), &region);
-  DropSpecks(options_.min_region_px, &region);
+  DropSmallRegions(options_.min_region_px, &region);  // noise at depth edges, flow outliers
   return region;
 }
 

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <opencv2/imgproc.hpp>
 
+#include "stillmap/io/image_regions.h"
+
 namespace stillmap {
 namespace {
 
@@ -13,27 +15,13 @@ namespace {
 constexpr float kClearanceDepthM = 0.1f;
 constexpr float kClearanceDepthShare = 0.05f;
 
-// 1 where `ignore_mask` holds a region of at least `min_region_px` pixels, else 0; empty when it
+// Nonzero where `ignore_mask` holds a region of at least `min_region_px` pixels; empty when it
 // holds none.
 cv::Mat LargeRegions(const cv::Mat& ignore_mask, int min_region_px) {
   if (cv::countNonZero(ignore_mask) < std::max(min_region_px, 1)) return {};
-  cv::Mat labels, stats, centroids;
-  const int count =
-      cv::connectedComponentsWithStats(ignore_mask != 0, labels, stats, centroids, 8, CV_32S);
-  std::vector<std::uint8_t> large(static_cast<size_t>(count), 0);
-  bool any = false;
-  for (int label = 1; label < count; ++label) {
-    const bool is_large = stats.at<int>(label, cv::CC_STAT_AREA) >= min_region_px;
-    large[static_cast<size_t>(label)] = is_large ? 1 : 0;
-    any = any || is_large;
-  }
-  if (!any) return {};
-  cv::Mat regions(ignore_mask.size(), CV_8UC1);
-  for (int v = 0; v < regions.rows; ++v) {
-    const int* label = labels.ptr<int>(v);
-    std::uint8_t* out = regions.ptr<std::uint8_t>(v);
-    for (int u = 0; u < regions.cols; ++u) out[u] = large[static_cast<size_t>(label[u])];
-  }
+  cv::Mat regions = ignore_mask != 0;
+  DropSmallRegions(min_region_px, &regions);
+  if (cv::countNonZero(regions) == 0) return {};
   return regions;
 }
 
