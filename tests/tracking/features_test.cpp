@@ -3,7 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <iostream>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
@@ -114,6 +117,93 @@ TEST_F(RenderedFramesTest, RelativePoseMatchesTheRenderingPose) {
   const PoseResult refined = RefinePose(result.camera_from_world, points, rgbd);
   ASSERT_TRUE(refined.ok());
   expect_near_truth("PnP + RGB-D refinement", refined, 0.005, 0.1);
+}
+
+// Bright squares on a dark ground, their edges on pixel boundaries: each square's corners are
+// exactly known. FAST fires a little inside or outside a corner, the same at every corner of a
+// square, so the mean of the offsets from left and right corners (top and bottom) is the
+// keypoints' own shift, per pyramid level and axis.
+std::map<std::pair<int, int>, double> ShiftsOnSquares(const FeatureOptions& options) {
+  constexpr int kSide = 72;
+  cv::Mat gray(480, 640, CV_8UC1, cv::Scalar(40));
+  std::vector<cv::Point> corners;  // each square's top-left pixel
+  for (int row = 0; row < 4; ++row) {
+    for (int column = 0; column < 5; ++column) {
+      // Different phases against every level's pixel grid.
+      const cv::Point top_left(24 + 122 * column + (7 * row + 3 * column) % 11,
+                               20 + 118 * row + (5 * column + 2 * row) % 9);
+      cv::rectangle(gray, cv::Rect(top_left, cv::Size(kSide, kSide)), cv::Scalar(220), cv::FILLED);
+      corners.push_back(top_left);
+    }
+  }
+  const FrameFeatures features =
+      ExtractFeatures(gray, cv::Mat(), testing::SmallCamera(640, 480), cv::Mat(), options);
+  struct Sums {
+    double near = 0.0, far = 0.0;  // offsets from the near (left, top) and far edges [px]
+    int near_count = 0, far_count = 0;
+  };
+  std::map<std::pair<int, int>, Sums> sums;  // (level, axis)
+  for (const cv::KeyPoint& keypoint : features.keypoints) {
+    const double position[2] = {keypoint.pt.x, keypoint.pt.y};
+    for (const cv::Point& corner : corners) {
+      // In pixel-centre coordinates the square covers [corner - 0.5, corner + side - 0.5].
+      const double low[2] = {corner.x - 0.5, corner.y - 0.5};
+      bool near_square = true;
+      for (int axis = 0; axis < 2; ++axis) {
+        near_square =
+            near_square && position[axis] > low[axis] - 8 && position[axis] < low[axis] + kSide + 8;
+      }
+      if (!near_square) continue;
+      for (int axis = 0; axis < 2; ++axis) {
+        Sums& sum = sums[{keypoint.octave, axis}];
+        const double to_near = position[axis] - low[axis];
+        const double to_far = position[axis] - (low[axis] + kSide);
+        if (std::abs(to_near) < std::abs(to_far)) {
+          sum.near += to_near;
+          ++sum.near_count;
+        } else {
+          sum.far += to_far;
+          ++sum.far_count;
+        }
+      }
+    }
+  }
+  std::map<std::pair<int, int>, double> shifts;
+  for (const auto& [key, sum] : sums) {
+    if (sum.near_count < 8 || sum.far_count < 8) continue;
+    shifts[key] = 0.5 * (sum.near / sum.near_count + sum.far / sum.far_count);
+    std::cout << "level " << key.first << (key.second == 0 ? " x" : " y") << ": "
+              << sum.near_count + sum.far_count << " keypoints, shift " << shifts[key] << " px\n";
+  }
+  return shifts;
+}
+
+TEST(FeaturePositionsTest, ExactLevelPositionsPutEveryLevelsKeypointsOnTheirCorners) {
+  FeatureOptions options;
+  options.exact_level_positions = true;
+  int coarse = 0;
+  for (const auto& [key, shift] : ShiftsOnSquares(options)) {
+    // FAST's positions are whole pixels of the level (1.2^k px): their mean over squares at
+    // different phases is within a fraction of that.
+    EXPECT_LT(std::abs(shift), 0.15 * std::pow(1.2, key.first) + 0.1) << "level " << key.first;
+    coarse += key.first >= 3;
+  }
+  EXPECT_GE(coarse, 6);  // three coarse levels or more, both axes
+}
+
+// Without the option, the positions are OpenCV's: above and left of the corners at the coarse
+// levels (measured here: 0.1-1.7 px per level and axis). Should a new OpenCV report exact
+// positions, this fails, and the option's conversion would then move them the wrong way.
+TEST(FeaturePositionsTest, OpenCvReportsCoarseLevelsAboveAndLeftOfTheirCorners) {
+  double sum = 0.0;
+  int count = 0;
+  for (const auto& [key, shift] : ShiftsOnSquares(FeatureOptions{})) {
+    if (key.first < 3) continue;
+    sum += shift;
+    ++count;
+  }
+  ASSERT_GE(count, 6);
+  EXPECT_LT(sum / count, -0.3);
 }
 
 }  // namespace

@@ -67,6 +67,45 @@ float DepthAt(const cv::Mat& depth_m, const cv::Point2f& pixel, float max_spread
   return (1 - fy) * ((1 - fx) * d00 + fx * d01) + fy * ((1 - fx) * d10 + fx * d11);
 }
 
+// The size of level `octave`'s image, and its scale, as OpenCV's ORB makes them (in float).
+struct LevelGeometry {
+  float scale, x_ratio, y_ratio;  // scale_factor^octave; full size / level size per axis
+};
+LevelGeometry Level(const cv::Size& size, double scale_factor, int octave) {
+  const float scale = static_cast<float>(std::pow(scale_factor, octave));
+  const float width = static_cast<float>(size.width), height = static_cast<float>(size.height);
+  return {scale, width / static_cast<float>(cvRound(width / scale)),
+          height / static_cast<float>(cvRound(height / scale))};
+}
+
+// OpenCV's ORB reports a keypoint found at pyramid level k as its level coordinates times
+// scale_factor^k. The level's image is the full image resized to round(size / scale_factor^k)
+// pixels with pixel centres aligned, so the full-resolution position is
+// (level + 0.5) * size / level_size - 0.5. On 640x480 at 1.2 the reported positions are up to
+// 2 px above and left of that, by an amount that changes with the level and the position
+// (FeaturePositionsTest).
+// Left alone, a landmark seen at a finer level when far and a coarser one when near spreads out
+// less than it should as the camera comes closer: on a corridor the camera's forward motion was
+// under-estimated by 0.3 % (docs/figures.md, forty-third session).
+//
+// `to_full`: from ORB's reported positions to full-resolution ones; otherwise back (ORB's
+// compute() finds a keypoint's patch in its level from the reported position).
+void ConvertPositions(const cv::Size& size, double scale_factor, bool to_full,
+                      std::vector<cv::KeyPoint>* keypoints) {
+  for (cv::KeyPoint& keypoint : *keypoints) {
+    if (keypoint.octave <= 0) continue;
+    const LevelGeometry level = Level(size, scale_factor, keypoint.octave);
+    cv::Point2f& pt = keypoint.pt;
+    if (to_full) {
+      pt.x = (pt.x / level.scale + 0.5f) * level.x_ratio - 0.5f;
+      pt.y = (pt.y / level.scale + 0.5f) * level.y_ratio - 0.5f;
+    } else {
+      pt.x = ((pt.x + 0.5f) / level.x_ratio - 0.5f) * level.scale;
+      pt.y = ((pt.y + 0.5f) / level.y_ratio - 0.5f) * level.scale;
+    }
+  }
+}
+
 }  // namespace
 
 FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const Camera& camera,
@@ -81,6 +120,8 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   if (!ignore_mask.empty()) detect_mask = ignore_mask == 0;
   std::vector<cv::KeyPoint> candidates;
   orb->detect(gray, candidates, detect_mask);
+  const bool exact = options.exact_level_positions;
+  if (exact) ConvertPositions(gray.size(), options.scale_factor, true, &candidates);
   DropBesideMovingRegions(ignore_mask, depth_m, options, &candidates);
 
   const int cells = options.grid_columns * options.grid_rows;
@@ -117,7 +158,9 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   }
 
   FrameFeatures features;
+  if (exact) ConvertPositions(gray.size(), options.scale_factor, false, &kept);
   orb->compute(gray, kept, features.descriptors);  // may drop keypoints near the border
+  if (exact) ConvertPositions(gray.size(), options.scale_factor, true, &kept);
   features.keypoints = std::move(kept);
   if (features.keypoints.empty()) return features;
 
