@@ -18,21 +18,25 @@ cv::Mat Regions() {
 
 TEST(ImageRegionsTest, RegionsBelowTheSizeAreClearedAndTheOthersKeepTheirValues) {
   cv::Mat mask = Regions();
-  DropSmallRegions(10, &mask);
+  EXPECT_TRUE(DropSmallRegions(10, &mask));
   EXPECT_EQ(cv::countNonZero(mask(cv::Rect(30, 3, 3, 3))), 0);  // the speck
   EXPECT_EQ(cv::countNonZero(mask(cv::Rect(2, 2, 10, 10))), 100);
   EXPECT_EQ(mask.at<std::uint8_t>(5, 5), 255);
   EXPECT_EQ(cv::countNonZero(mask), 100 + 17);  // the block and its diagonal pixel: one region
   // 18 px: the 17-px region goes too.
-  DropSmallRegions(18, &mask);
+  EXPECT_TRUE(DropSmallRegions(18, &mask));
   EXPECT_EQ(cv::countNonZero(mask), 100);
+  // 101 px: nothing is left, and it says so.
+  EXPECT_FALSE(DropSmallRegions(101, &mask));
+  EXPECT_EQ(cv::countNonZero(mask), 0);
+  EXPECT_FALSE(DropSmallRegions(0, &mask));  // an empty mask, not counted by size
 }
 
 TEST(ImageRegionsTest, NothingIsClearedAtSizeZeroOrWhenEveryRegionIsLargeEnough) {
   const cv::Mat original = Regions();
   for (const int size : {0, -3, 9}) {
     cv::Mat mask = original.clone();
-    DropSmallRegions(size, &mask);
+    EXPECT_TRUE(DropSmallRegions(size, &mask)) << size;
     EXPECT_EQ(cv::countNonZero(mask != original), 0) << size;
   }
 }

@@ -20,8 +20,7 @@ constexpr float kClearanceDepthShare = 0.05f;
 cv::Mat LargeRegions(const cv::Mat& ignore_mask, int min_region_px) {
   if (cv::countNonZero(ignore_mask) < std::max(min_region_px, 1)) return {};
   cv::Mat regions = ignore_mask != 0;
-  DropSmallRegions(min_region_px, &regions);
-  if (cv::countNonZero(regions) == 0) return {};
+  if (!DropSmallRegions(min_region_px, &regions)) return {};
   return regions;
 }
 
