@@ -67,15 +67,19 @@ float DepthAt(const cv::Mat& depth_m, const cv::Point2f& pixel, float max_spread
   return (1 - fy) * ((1 - fx) * d00 + fx * d01) + fy * ((1 - fx) * d10 + fx * d11);
 }
 
-// The size of level `octave`'s image, and its scale, as OpenCV's ORB makes them (in float).
+// The scale of each pyramid level's image, and its size, as OpenCV's ORB makes them (in float).
 struct LevelGeometry {
   float scale, x_ratio, y_ratio;  // scale_factor^octave; full size / level size per axis
 };
-LevelGeometry Level(const cv::Size& size, double scale_factor, int octave) {
-  const float scale = static_cast<float>(std::pow(scale_factor, octave));
+std::vector<LevelGeometry> Levels(const cv::Size& size, double scale_factor, int levels) {
+  std::vector<LevelGeometry> out;
   const float width = static_cast<float>(size.width), height = static_cast<float>(size.height);
-  return {scale, width / static_cast<float>(cvRound(width / scale)),
-          height / static_cast<float>(cvRound(height / scale))};
+  for (int octave = 0; octave < levels; ++octave) {
+    const float scale = static_cast<float>(std::pow(scale_factor, octave));
+    out.push_back({scale, width / static_cast<float>(cvRound(width / scale)),
+                   height / static_cast<float>(cvRound(height / scale))});
+  }
+  return out;
 }
 
 // OpenCV's ORB reports a keypoint found at pyramid level k as its level coordinates times
@@ -90,11 +94,11 @@ LevelGeometry Level(const cv::Size& size, double scale_factor, int octave) {
 //
 // `to_full`: from ORB's reported positions to full-resolution ones; otherwise back (ORB's
 // compute() finds a keypoint's patch in its level from the reported position).
-void ConvertPositions(const cv::Size& size, double scale_factor, bool to_full,
+void ConvertPositions(const std::vector<LevelGeometry>& levels, bool to_full,
                       std::vector<cv::KeyPoint>* keypoints) {
   for (cv::KeyPoint& keypoint : *keypoints) {
     if (keypoint.octave <= 0) continue;
-    const LevelGeometry level = Level(size, scale_factor, keypoint.octave);
+    const LevelGeometry& level = levels.at(static_cast<size_t>(keypoint.octave));
     cv::Point2f& pt = keypoint.pt;
     if (to_full) {
       pt.x = (pt.x / level.scale + 0.5f) * level.x_ratio - 0.5f;
@@ -121,7 +125,11 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   std::vector<cv::KeyPoint> candidates;
   orb->detect(gray, candidates, detect_mask);
   const bool exact = options.exact_level_positions;
-  if (exact) ConvertPositions(gray.size(), options.scale_factor, true, &candidates);
+  std::vector<LevelGeometry> levels;
+  if (exact) {
+    levels = Levels(gray.size(), options.scale_factor, options.pyramid_levels);
+    ConvertPositions(levels, true, &candidates);
+  }
   DropBesideMovingRegions(ignore_mask, depth_m, options, &candidates);
 
   const int cells = options.grid_columns * options.grid_rows;
@@ -158,9 +166,9 @@ FrameFeatures ExtractFeatures(const cv::Mat& gray, const cv::Mat& depth_m, const
   }
 
   FrameFeatures features;
-  if (exact) ConvertPositions(gray.size(), options.scale_factor, false, &kept);
+  if (exact) ConvertPositions(levels, false, &kept);
   orb->compute(gray, kept, features.descriptors);  // may drop keypoints near the border
-  if (exact) ConvertPositions(gray.size(), options.scale_factor, true, &kept);
+  if (exact) ConvertPositions(levels, true, &kept);
   features.keypoints = std::move(kept);
   if (features.keypoints.empty()) return features;
 
