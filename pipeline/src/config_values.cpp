@@ -84,6 +84,14 @@ void ParseValue(const ConfigSetting& setting, OutlineMode* value) {
   }
 }
 
+void ParseValue(const ConfigSetting& setting, PlanarMotionMode* value) {
+  try {
+    *value = ParsePlanarMotionMode(setting.text);
+  } catch (const InputError& e) {
+    throw InputError(setting.where + ": " + e.what());
+  }
+}
+
 void ParseValue(const ConfigSetting& setting, std::array<double, 5>* value) {
   std::string text = setting.text;
   for (char& c : text) {
@@ -147,6 +155,10 @@ std::optional<std::string> FormatValue(const std::string& value) {
 }
 
 std::optional<std::string> FormatValue(OutlineMode value) { return OutlineModeName(value); }
+
+std::optional<std::string> FormatValue(PlanarMotionMode value) {
+  return PlanarMotionModeName(value);
+}
 
 std::optional<std::string> FormatValue(const std::array<double, 5>& value) {
   return fmt::format("[{}, {}, {}, {}, {}]", value[0], value[1], value[2], value[3], value[4]);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "stillmap/tracking/dynamic_mask.h"
+#include "stillmap/tracking/planar_motion.h"
 
 namespace stillmap {
 
@@ -29,6 +30,7 @@ void ParseValue(const ConfigSetting& setting, size_t* value);
 void ParseValue(const ConfigSetting& setting, bool* value);
 void ParseValue(const ConfigSetting& setting, std::string* value);
 void ParseValue(const ConfigSetting& setting, OutlineMode* value);
+void ParseValue(const ConfigSetting& setting, PlanarMotionMode* value);
 void ParseValue(const ConfigSetting& setting, std::array<double, 5>* value);   // "k1,k2,p1,p2,k3"
 void ParseValue(const ConfigSetting& setting, std::array<double, 16>* value);  // 4x4, row-major
 void ParseValue(const ConfigSetting& setting,
@@ -49,6 +51,7 @@ std::optional<std::string> FormatValue(size_t value);
 std::optional<std::string> FormatValue(bool value);
 std::optional<std::string> FormatValue(const std::string& value);  // quoted
 std::optional<std::string> FormatValue(OutlineMode value);
+std::optional<std::string> FormatValue(PlanarMotionMode value);
 std::optional<std::string> FormatValue(const std::array<double, 5>& value);
 std::optional<std::string> FormatValue(const std::array<double, 16>& value);
 std::optional<std::string> FormatValue(const std::optional<Eigen::Vector4d>& value);

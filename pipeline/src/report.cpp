@@ -389,6 +389,14 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
                              : std::string("the map's poses"),
         given.without_pose()));
   }
+  if (result.tracking && result.tracking->planar_motion_applied) {
+    const PlanarMotion& plane = *result.tracking->planar_motion;
+    lines.push_back(fmt::format(
+        "poses put on the camera's plane of motion ({}): the tracked ones kept to it within {:.0f} "
+        "mm of height and {:.2f} degrees of tilt",
+        OptionKey(&TrackerOptions::planar_motion), plane.height_spread_m * 1e3,
+        plane.tilt_spread_deg));
+  }
   size_t apart_frames = 0, apart_segments = 0;
   for (const SegmentSummary& segment : result.segments) {
     if (segment.in_map) continue;

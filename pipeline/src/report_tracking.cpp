@@ -47,22 +47,24 @@ json ShareJson(std::vector<double> shares) {
           {"median", shares[shares.size() / 2]}};
 }
 
-// tracking.planar_motion: the plane of motion, and how far the tracked poses were from it.
+// tracking.planar_motion: the plane of motion, how far the tracked poses were from it, and
+// whether the final poses were put on it.
 json PlanarMotionJson(const TrackingFigures& tracking, const TrackerOptions& options) {
-  if (!options.planar_motion) return {{"enabled", false}};
-  if (!tracking.planar_motion) {
-    return {{"enabled", true}, {"applied", false}, {"refused", tracking.planar_motion_refused}};
-  }
+  json out = {{"mode", PlanarMotionModeName(options.planar_motion)},
+              {"applied", tracking.planar_motion_applied}};
+  if (options.planar_motion == PlanarMotionMode::kOff) return out;
+  out["refused"] = tracking.planar_motion_refused;  // the camera turned too little
+  if (!tracking.planar_motion) return out;
   const PlanarMotion& plane = *tracking.planar_motion;
   const auto vector = [](const Eigen::Vector3d& v) { return json{v.x(), v.y(), v.z()}; };
-  return {{"enabled", true},
-          {"applied", true},
-          {"up_in_first_camera", vector(plane.up_in_world)},  // the tracking world
-          {"up_in_camera", vector(plane.up_in_camera)},
-          {"height_m", plane.height_m},
-          {"tracked_height_spread_m", plane.height_spread_m},
-          {"tracked_tilt_spread_deg", plane.tilt_spread_deg},
-          {"heading_spread", plane.heading_spread}};
+  out["kept_to_plane"] = KeptToPlane(plane);  // within a robot's spreads ("auto" applies it)
+  out["up_in_first_camera"] = vector(plane.up_in_world);  // the tracking world
+  out["up_in_camera"] = vector(plane.up_in_camera);
+  out["height_m"] = plane.height_m;
+  out["tracked_height_spread_m"] = plane.height_spread_m;
+  out["tracked_tilt_spread_deg"] = plane.tilt_spread_deg;
+  out["heading_spread"] = plane.heading_spread;
+  return out;
 }
 
 json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options) {

@@ -40,11 +40,12 @@ std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker
           {"keyframe_copies", fuser.stored_bytes()}};
 }
 
-// tracking.planar_motion: the poses of the map's segments fix the plane of motion; their frames
-// and keyframes are put on it (nothing when the camera turned too little to find it). Segments
-// never joined stay as tracked, in frames of their own.
-std::optional<PlanarMotion> PutOnPlane(const SegmentKeeper& segments, Trajectory* trajectory,
-                                       std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
+// tracking.planar_motion: the poses of the map's segments fix the plane of motion (nothing when
+// the camera turned too little to find it); their frames and keyframes are put on it, in "auto"
+// only when they kept to it as a robot's do. Segments never joined stay as tracked, in frames of
+// their own.
+void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory* trajectory,
+                std::map<int, Eigen::Isometry3d>* world_from_keyframe, TrackingFigures* figures) {
   const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
   std::vector<StampedPose> on_plane = trajectory->poses();
   std::vector<Eigen::Isometry3d> poses;
@@ -52,28 +53,27 @@ std::optional<PlanarMotion> PutOnPlane(const SegmentKeeper& segments, Trajectory
   for (size_t i = 0; i < on_plane.size(); ++i) {
     if (in_map[i]) poses.push_back(on_plane[i].world_from_camera);
   }
-  std::optional<PlanarMotion> plane = FitPlanarMotion(poses);
-  if (!plane) return plane;
+  figures->planar_motion = FitPlanarMotion(poses);
+  figures->planar_motion_refused = !figures->planar_motion && !trajectory->empty();
+  if (!figures->planar_motion) return;
+  const PlanarMotion& plane = *figures->planar_motion;
+  if (mode == PlanarMotionMode::kAuto && !KeptToPlane(plane)) return;
   for (size_t i = 0; i < on_plane.size(); ++i) {
-    if (in_map[i]) on_plane[i].world_from_camera = OntoPlane(*plane, on_plane[i].world_from_camera);
+    if (in_map[i]) on_plane[i].world_from_camera = OntoPlane(plane, on_plane[i].world_from_camera);
   }
   *trajectory = Trajectory(std::move(on_plane));
   for (auto& [id, world_from_camera] : *world_from_keyframe) {
-    if (segments.KeyframeInMap(id)) world_from_camera = OntoPlane(*plane, world_from_camera);
+    if (segments.KeyframeInMap(id)) world_from_camera = OntoPlane(plane, world_from_camera);
   }
-  return plane;
+  figures->planar_motion_applied = true;
 }
 
-// Tracked poses farther off their plane than this (the standard deviation of their height [m],
-// the RMS of their tilt [deg]) were more likely carried by hand than by a robot: above the
-// synthetic floor's, below the hand-held loop room's (docs/figures.md, issue 47).
-constexpr double kHandHeldHeightSpreadM = 0.03;
-constexpr double kHandHeldTiltSpreadDeg = 1.0;
-
-// What the user is told about tracking.planar_motion: that it was refused, or that the camera
-// seems hand-held; nothing when it went as it should.
+// What the user is told about tracking.planar_motion=on: that it was refused, or that the camera
+// seems hand-held; nothing when it went as it should, or in "auto", which applies it only where
+// it fits.
 std::optional<std::string> PlanarMotionWarning(const TrackingFigures& figures,
                                                const TrackerOptions& options) {
+  if (options.planar_motion != PlanarMotionMode::kOn) return std::nullopt;
   const std::string key = OptionKey(options, options.planar_motion);
   if (figures.planar_motion_refused) {
     return fmt::format(
@@ -82,12 +82,12 @@ std::optional<std::string> PlanarMotionWarning(const TrackingFigures& figures,
         key, kMinPlanarHeadingSpread);
   }
   const std::optional<PlanarMotion>& plane = figures.planar_motion;
-  if (plane && (plane->height_spread_m > kHandHeldHeightSpreadM ||
-                plane->tilt_spread_deg > kHandHeldTiltSpreadDeg)) {
+  if (plane && !KeptToPlane(*plane)) {
     return fmt::format(
         "{}: the tracked camera rose and fell by {:.0f} mm and tilted by {:.1f} degrees (standard "
-        "deviations), more than a robot's does: if the camera was hand-held, build without it",
-        key, plane->height_spread_m * 1e3, plane->tilt_spread_deg);
+        "deviations), more than a robot's does: if the camera was hand-held, build with {}=auto "
+        "or off",
+        key, plane->height_spread_m * 1e3, plane->tilt_spread_deg, key);
   }
   return std::nullopt;
 }
@@ -155,9 +155,8 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   figures.statistics = tracker.statistics();
   tracker_held.reset();
   ReleaseFreedMemory();
-  if (options.tracking.planar_motion) {
-    figures.planar_motion = PutOnPlane(segments, &trajectory, &final_poses);
-    figures.planar_motion_refused = !figures.planar_motion && !trajectory.empty();
+  if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
+    PutOnPlane(options.tracking.planar_motion, segments, &trajectory, &final_poses, &figures);
     if (std::optional<std::string> warning = PlanarMotionWarning(figures, options.tracking)) {
       result->warnings.push_back(std::move(*warning));
     }

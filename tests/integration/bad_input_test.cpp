@@ -187,6 +187,10 @@ TEST_F(BadInputTest, UnknownOutlineModeIsRefused) {
   ExpectRefused("masking.outline", "--set masking.outline=blob");
 }
 
+TEST_F(BadInputTest, UnknownPlanarMotionModeIsRefused) {
+  ExpectRefused("tracking.planar_motion", "--set tracking.planar_motion=sometimes");
+}
+
 TEST_F(BadInputTest, BadMotionLevelIsRefused) {
   ExpectRefused("detector.levels", "--set detector.levels=chair=sometimes");
 }

@@ -279,9 +279,9 @@ TEST(BuildTest, TrackingWritesNoPoseForFramesItCannotTrack) {
 
 // tracking.planar_motion on a camera that turns at one height with one tilt (the synthetic
 // look_alike room: 1.3 m up, 8.5 degrees down, turning 126 degrees): placed on the truth by the
-// pose fit, every tracked pose of the plane's build is at the true height and tilt, more nearly
-// than the tracked poses without it; the report says what the plane was. The off run is the
-// default's: the report says so and nothing is moved.
+// pose fit, every tracked pose of the default build ("auto": its tracked poses kept to a plane) is
+// at the true height and tilt, more nearly than the tracked poses with it off; the report says
+// what the plane was. Off, the report says so and nothing is moved.
 TEST(BuildTest, PlanarMotionPutsTheTrackedPosesAtTheCamerasHeightAndTilt) {
   testing::TempDir dir;
   WriteScenario(dir / "seq", "look_alike", 200);
@@ -305,16 +305,16 @@ TEST(BuildTest, PlanarMotionPutsTheTrackedPosesAtTheCamerasHeightAndTilt) {
     return largest;
   };
   std::string output;
-  for (const char* planar : {"true", "false"}) {
-    ASSERT_EQ(
-        testing::RunStillmap("build " + dir / "seq" + " -o " + dir / planar +
-                                 " --detector none --quiet --set tracking.planar_motion=" + planar,
-                             &output),
-        0)
+  for (const std::string planar : {"", " --set tracking.planar_motion=off"}) {
+    ASSERT_EQ(testing::RunStillmap("build " + dir / "seq" + " -o " +
+                                       dir / (planar.empty() ? "auto" : "off") +
+                                       " --detector none --quiet" + planar,
+                                   &output),
+              0)
         << output;
   }
-  const auto [height_on, tilt_on] = plane_errors(dir / "true");
-  const auto [height_off, tilt_off] = plane_errors(dir / "false");
+  const auto [height_on, tilt_on] = plane_errors(dir / "auto");
+  const auto [height_off, tilt_off] = plane_errors(dir / "off");
   std::cout << "look_alike, 200 frames: largest height error " << height_off * 1e3 << " -> "
             << height_on * 1e3 << " mm, tilt error " << tilt_off << " -> " << tilt_on
             << " deg with the plane\n";
@@ -322,28 +322,44 @@ TEST(BuildTest, PlanarMotionPutsTheTrackedPosesAtTheCamerasHeightAndTilt) {
   EXPECT_LT(tilt_on, 0.1);
   EXPECT_LT(height_on, height_off);
   EXPECT_LT(tilt_on, tilt_off);
-  const nlohmann::json on = nlohmann::json::parse(testing::ReadText(dir / "true/report.json"));
+  const nlohmann::json on = nlohmann::json::parse(testing::ReadText(dir / "auto/report.json"));
   const nlohmann::json& plane = on["tracking"]["planar_motion"];
+  EXPECT_EQ(plane["mode"], "auto");
   ASSERT_TRUE(plane["applied"].get<bool>()) << plane.dump();
+  EXPECT_TRUE(plane["kept_to_plane"].get<bool>()) << plane.dump();
   EXPECT_GT(plane["heading_spread"].get<double>(), 0.1);
   EXPECT_GT(plane["tracked_height_spread_m"].get<double>(), 0.0);
   for (const auto& warning : on["warnings"]) {
     EXPECT_EQ(warning.get<std::string>().find("planar_motion"), std::string::npos) << warning;
   }
-  const nlohmann::json off = nlohmann::json::parse(testing::ReadText(dir / "false/report.json"));
-  EXPECT_FALSE(off["tracking"]["planar_motion"]["enabled"].get<bool>());
+  const nlohmann::json off = nlohmann::json::parse(testing::ReadText(dir / "off/report.json"));
+  EXPECT_EQ(off["tracking"]["planar_motion"]["mode"], "off");
+  EXPECT_FALSE(off["tracking"]["planar_motion"]["applied"].get<bool>());
 
-  // A hand-held camera bobbing 6 cm round the loop room: put on a plane all the same, and the
-  // user is told it rose and fell more than a robot's.
+  // A hand-held camera bobbing 6 cm round the loop room: "auto" leaves its poses as tracked,
+  // byte for byte as "off" does; "on" puts them on a plane all the same, and the user is told it
+  // rose and fell more than a robot's.
   WriteScenario(dir / "loop", "loop", 200);
-  ASSERT_EQ(testing::RunStillmap("build " + dir / "loop" + " -o " + dir / "loop_out" +
-                                     " --detector none --quiet --set tracking.planar_motion=true",
-                                 &output),
-            0)
-      << output;
+  for (const char* planar : {"auto", "off", "on"}) {
+    ASSERT_EQ(
+        testing::RunStillmap("build " + dir / "loop" + " -o " + dir / "loop_" + planar +
+                                 " --detector none --quiet --set tracking.planar_motion=" + planar,
+                             &output),
+        0)
+        << output;
+  }
   EXPECT_NE(output.find("tracking.planar_motion: the tracked camera rose and fell"),
             std::string::npos)
       << output;
+  const nlohmann::json loop =
+      nlohmann::json::parse(testing::ReadText(dir / "loop_auto/report.json"));
+  EXPECT_FALSE(loop["tracking"]["planar_motion"]["applied"].get<bool>());
+  EXPECT_FALSE(loop["tracking"]["planar_motion"]["kept_to_plane"].get<bool>());
+  EXPECT_GT(loop["tracking"]["planar_motion"]["tracked_height_spread_m"].get<double>(), 0.03);
+  EXPECT_EQ(testing::ReadText(dir / "loop_auto/trajectory.txt"),
+            testing::ReadText(dir / "loop_off/trajectory.txt"));
+  EXPECT_NE(testing::ReadText(dir / "loop_on/trajectory.txt"),
+            testing::ReadText(dir / "loop_off/trajectory.txt"));
 }
 
 // Nothing to track (every frame black, no depth): the run fails with exit 1 and a reason, and

@@ -170,6 +170,7 @@ class FieldTexts : public OptionVisitor<FieldTexts> {
   static std::string Text(bool v) { return v ? "T" : "F"; }
   static std::string Text(const std::string& v) { return "'" + v + "'"; }
   static std::string Text(OutlineMode v) { return std::to_string(static_cast<int>(v)); }
+  static std::string Text(PlanarMotionMode v) { return std::to_string(static_cast<int>(v)); }
   template <typename T, size_t N>
   static std::string Text(const std::array<T, N>& v) {
     std::string text;
@@ -201,6 +202,9 @@ class Perturber : public OptionVisitor<Perturber> {
   void operator()(const char* /*name*/, bool& v, const char* /*help*/) { v = !v; }
   void operator()(const char* /*name*/, OutlineMode& v, const char* /*help*/) {
     v = v == OutlineMode::kEdges ? OutlineMode::kBox : OutlineMode::kEdges;
+  }
+  void operator()(const char* /*name*/, PlanarMotionMode& v, const char* /*help*/) {
+    v = v == PlanarMotionMode::kOn ? PlanarMotionMode::kOff : PlanarMotionMode::kOn;
   }
   void operator()(const char* name, std::string& v, const char* /*help*/) {
     const std::string key = KeyOf(name);

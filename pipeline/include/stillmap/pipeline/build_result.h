@@ -75,10 +75,12 @@ struct TrackingFigures {
   size_t refused_keyframes_moved = 0;
   double refusion_store_mib = 0.0;
   bool bundle_adjustment_thread = false;
-  // tracking.planar_motion: the plane the final poses were put on (nothing when off or refused),
-  // and whether the fit refused (too few turns to find the vertical).
+  // tracking.planar_motion: the plane of the tracked poses (nothing when off or refused), whether
+  // the fit refused (too few turns to find the vertical), and whether the final poses were put on
+  // the plane ("auto" leaves them when the tracked poses did not keep to it).
   std::optional<PlanarMotion> planar_motion;
   bool planar_motion_refused = false;
+  bool planar_motion_applied = false;
 };
 
 // Keyframe selection and the map re-check (tracked runs; with known poses every frame is fused).

@@ -2,7 +2,8 @@
 // pitch against the floor) are fixed by the mount, only x, y and the heading change (RTAB-Map's
 // Reg/Force3DoF, Cartographer's 2-D mode). Tracking does not know this and lets drift into those
 // three as well (docs/figures.md, issue 47). With tracking.planar_motion the final poses are put
-// back on the plane of motion.
+// back on the plane of motion: always ("on"), or ("auto", the default) only when the tracked poses
+// already kept to a plane as a robot's camera does, which a hand-held camera's do not.
 //
 // The plane is found from the poses alone: the world direction that stays most nearly fixed in the
 // camera's frame is the axis the camera turns about, the vertical (the eigenvector of the largest
@@ -14,6 +15,7 @@
 
 #include <Eigen/Geometry>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace stillmap {
@@ -32,6 +34,23 @@ struct PlanarMotion {
 
 // The smallest heading spread the fit accepts: below it the vertical is not determined.
 constexpr double kMinPlanarHeadingSpread = 0.1;
+
+// Tracked poses farther off their plane than this (the standard deviation of their height [m],
+// the RMS of their tilt [deg]) were more likely carried by hand than by a robot: above the
+// synthetic floors' (13-19 mm, 0.3-0.6 degrees), below the hand-held loop room's (47 mm)
+// (docs/figures.md, issue 47).
+constexpr double kRobotMaxHeightSpreadM = 0.03;
+constexpr double kRobotMaxTiltSpreadDeg = 1.0;
+
+// The tracked poses kept to their plane as a robot's camera does (within the two spreads above).
+bool KeptToPlane(const PlanarMotion& plane);
+
+// tracking.planar_motion: never, when the tracked poses kept to their plane, or always.
+enum class PlanarMotionMode { kOff, kAuto, kOn };
+// "off", "auto" or "on" (and true / false, yes / no, 1 / 0 for on and off); throws InputError
+// naming the option otherwise.
+PlanarMotionMode ParsePlanarMotionMode(const std::string& name);
+const char* PlanarMotionModeName(PlanarMotionMode mode);
 
 // The plane of motion of camera-to-world poses; nothing for fewer than three poses or a heading
 // spread below kMinPlanarHeadingSpread.

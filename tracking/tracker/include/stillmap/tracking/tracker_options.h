@@ -8,6 +8,7 @@
 #include "stillmap/tracking/depth_correction.h"
 #include "stillmap/tracking/features.h"
 #include "stillmap/tracking/loop_closure.h"
+#include "stillmap/tracking/planar_motion.h"
 #include "stillmap/tracking/pose_estimation.h"
 #include "stillmap/tracking/pose_refinement.h"
 #include "stillmap/tracking/rgbd_odometry.h"
@@ -272,10 +273,10 @@ struct TrackerOptions {
   RelocalizationOptions relocalization;
   RgbdOdometryOptions rgbd_odometry;
   LoopClosureOptions loops;
-  // The camera rides on a ground robot: its height and tilt are fixed, and the final poses are put
-  // back on their plane of motion (planar_motion.h). Off by default: a hand-held camera turns and
-  // rises freely.
-  bool planar_motion = false;
+  // A camera on a ground robot keeps its height and tilt: the final poses are put back on their
+  // plane of motion (planar_motion.h). "auto": only when the tracked poses kept to a plane as a
+  // robot's do (a hand-held camera's rise and tilt more); "on": always; "off": never.
+  PlanarMotionMode planar_motion = PlanarMotionMode::kAuto;
 
   // Throws InputError naming the first impossible value: each part's, the solvers', and the
   // checks across parts (tracker_options.cpp).
@@ -294,8 +295,9 @@ struct TrackerOptions {
     visit.Nested("rgbd_odometry_", self.rgbd_odometry);
     visit.Nested("", self.loops);
     visit("planar_motion", self.planar_motion,
-          "a ground robot's camera: the final poses are put on their plane of motion (height and "
-          "tilt fixed; x, y and heading as tracked)");
+          "auto, on or off: the final poses put on their plane of motion (height and tilt "
+          "fixed; x, y and heading as tracked), as a ground robot's camera moves; auto: when the "
+          "tracked poses kept within 3 cm of one height and 1 degree of one tilt");
   }
 };
 
