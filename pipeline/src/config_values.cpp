@@ -85,11 +85,17 @@ void ParseValue(const ConfigSetting& setting, OutlineMode* value) {
 }
 
 void ParseValue(const ConfigSetting& setting, PlanarMotionMode* value) {
-  try {
-    *value = ParsePlanarMotionMode(setting.text);
-  } catch (const InputError& e) {
-    throw InputError(setting.where + ": " + e.what());
+  if (setting.text == "auto") {
+    *value = PlanarMotionMode::kAuto;
+    return;
   }
+  bool on = false;  // on / off as any switch reads them (true / false, yes / no, 1 / 0)
+  try {
+    ParseValue(setting, &on);
+  } catch (const InputError&) {
+    BadValue(setting, "auto, on or off");
+  }
+  *value = on ? PlanarMotionMode::kOn : PlanarMotionMode::kOff;
 }
 
 void ParseValue(const ConfigSetting& setting, std::array<double, 5>* value) {

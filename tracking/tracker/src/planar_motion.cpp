@@ -1,15 +1,9 @@
 // The plane a ground robot's camera moves in, and poses put back on it (planar_motion.h).
 #include "stillmap/tracking/planar_motion.h"
 
-#include <fmt/format.h>
-
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-
-#include "stillmap/io/error.h"
-#include "stillmap/io/option_names.h"
-#include "stillmap/tracking/tracker_options.h"
 
 namespace stillmap {
 
@@ -75,16 +69,6 @@ Eigen::Isometry3d OntoPlane(const PlanarMotion& plane, const Eigen::Isometry3d& 
 bool KeptToPlane(const PlanarMotion& plane) {
   return plane.height_spread_m <= kRobotMaxHeightSpreadM &&
          plane.tilt_spread_deg <= kRobotMaxTiltSpreadDeg;
-}
-
-PlanarMotionMode ParsePlanarMotionMode(const std::string& name) {
-  if (name == "auto") return PlanarMotionMode::kAuto;
-  if (name == "on" || name == "true" || name == "yes" || name == "1") return PlanarMotionMode::kOn;
-  if (name == "off" || name == "false" || name == "no" || name == "0") {
-    return PlanarMotionMode::kOff;
-  }
-  throw InputError(fmt::format("{}: '{}' is not one of auto, on, off",
-                               OptionKey(&TrackerOptions::planar_motion), name));
 }
 
 const char* PlanarMotionModeName(PlanarMotionMode mode) {

@@ -15,7 +15,6 @@
 
 #include <Eigen/Geometry>
 #include <optional>
-#include <string>
 #include <vector>
 
 namespace stillmap {
@@ -47,9 +46,7 @@ bool KeptToPlane(const PlanarMotion& plane);
 
 // tracking.planar_motion: never, when the tracked poses kept to their plane, or always.
 enum class PlanarMotionMode { kOff, kAuto, kOn };
-// "off", "auto" or "on" (and true / false, yes / no, 1 / 0 for on and off); throws InputError
-// naming the option otherwise.
-PlanarMotionMode ParsePlanarMotionMode(const std::string& name);
+// "off", "auto" or "on", as the configuration writes it.
 const char* PlanarMotionModeName(PlanarMotionMode mode);
 
 // The plane of motion of camera-to-world poses; nothing for fewer than three poses or a heading
