@@ -24,12 +24,20 @@ namespace {
 // a run is a small box of space and the views that cannot see any of it are skipped for all.
 constexpr int kRunVoxels = 256;
 
-// Whether no point of the box [lo, hi] can land in `view` closer than 0.1 m: the box is behind
-// it or, for an undistorted camera, projects beside its image. Both are decided exactly at the
-// box's corners (depth is affine; x/z and y/z of a box in front of the camera take their extremes
-// at corners), with 2 pixels of slack for rounding. With distortion only "behind" is used.
+// How far a reading may lie from a voxel's depth and still see it there [m]: Judge's margin.
+struct Margin {
+  float metres, sigmas;
+  float At(float z) const { return metres + sigmas * KinectDepthSigma(z); }
+};
+
+// Whether `view` judges no point of the box [lo, hi] (Judge says kNone for all): the box is
+// behind it (closer than 0.1 m), lies beyond its farthest reading by more than the margin, or,
+// for an undistorted camera, projects beside its image. All are decided exactly at the box's
+// corners (depth is affine; x/z and y/z of a box in front of the camera take their extremes at
+// corners; the margin, convex in depth, is largest at the nearest or farthest), with 2 pixels and
+// 1 cm of slack for rounding. With distortion the image's edges are not used.
 bool ViewMissesBox(const KeyframeView& view, const PixelProjection& projection, bool distorted,
-                   const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+                   const Margin& margin, const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
   float min_z = std::numeric_limits<float>::max(), max_z = -min_z;
   Eigen::Vector2f min_n(min_z, min_z), max_n(max_z, max_z);
   for (int corner = 0; corner < 8; ++corner) {
@@ -43,6 +51,9 @@ bool ViewMissesBox(const KeyframeView& view, const PixelProjection& projection, 
     max_n = max_n.cwiseMax(n);
   }
   if (max_z < 0.1f) return true;
+  const float farthest_reading = 65535.0f * view.depth_unit_m;  // the depth's largest step
+  const float widest = std::max(margin.At(std::max(min_z, 0.0f)), margin.At(max_z));
+  if (min_z - widest > farthest_reading + 0.01f) return true;
   if (distorted || min_z < 0.1f) return false;
   const Eigen::Vector2f a = projection(min_n.x(), min_n.y()), b = projection(max_n.x(), max_n.y());
   const float slack = 2.0f;
@@ -55,7 +66,7 @@ bool ViewMissesBox(const KeyframeView& view, const PixelProjection& projection, 
 // How `view` judges the voxel at `position`: it saw through it, saw it there, or neither.
 enum class Verdict { kThrough, kAt, kNone };
 Verdict Judge(const KeyframeView& view, const PixelProjection& projection,
-              const Eigen::Vector3f& position, float margin_m, float margin_sigmas) {
+              const Eigen::Vector3f& position, const Margin& margin) {
   const Eigen::Vector3f q = view.camera_from_world * position;
   if (q.z() < 0.1f) return Verdict::kNone;
   const Eigen::Vector2f pixel = projection(q.x() / q.z(), q.y() / q.z());
@@ -70,9 +81,9 @@ Verdict Judge(const KeyframeView& view, const PixelProjection& projection,
   }
   const float reading = view.Reading(static_cast<int>(half_v), static_cast<int>(half_u));
   if (!(reading > 0.0f)) return Verdict::kNone;
-  const float margin = margin_m + margin_sigmas * KinectDepthSigma(q.z());
-  if (reading > q.z() + margin) return Verdict::kThrough;
-  return reading >= q.z() - margin ? Verdict::kAt : Verdict::kNone;
+  const float within = margin.At(q.z());
+  if (reading > q.z() + within) return Verdict::kThrough;
+  return reading >= q.z() - within ? Verdict::kAt : Verdict::kNone;
 }
 
 // What the views said of one voxel: of the latest session that saw it or saw through it (merged
@@ -102,8 +113,8 @@ void JudgeRuns(const MapCleaningOptions& options, const std::vector<Camera>& cam
   const size_t first = drop->size();
   drop->resize(first + positions.size(), 0);
   std::uint8_t* flags = drop->data() + first;
-  const float margin_m = static_cast<float>(options.view_margin_m);
-  const float margin_sigmas = static_cast<float>(options.view_margin_sigmas);
+  const Margin margin{static_cast<float>(options.view_margin_m),
+                      static_cast<float>(options.view_margin_sigmas)};
   const int runs = (static_cast<int>(positions.size()) + kRunVoxels - 1) / kRunVoxels;
   cv::parallel_for_(cv::Range(0, runs), [&](const cv::Range& range) {
     std::vector<const KeyframeView*> seeing;  // in the views' order: later sessions win
@@ -118,7 +129,7 @@ void JudgeRuns(const MapCleaningOptions& options, const std::vector<Camera>& cam
       seeing.clear();
       for (const KeyframeView& view : views) {
         const auto c = static_cast<size_t>(view.camera);
-        if (!ViewMissesBox(view, projections[c], cameras[c].HasDistortion(), lo, hi)) {
+        if (!ViewMissesBox(view, projections[c], cameras[c].HasDistortion(), margin, lo, hi)) {
           seeing.push_back(&view);
         }
       }
@@ -128,7 +139,7 @@ void JudgeRuns(const MapCleaningOptions& options, const std::vector<Camera>& cam
       for (const KeyframeView* view : seeing) {
         const PixelProjection& projection = projections[static_cast<size_t>(view->camera)];
         for (size_t k = begin; k < end; ++k) {
-          const Verdict verdict = Judge(*view, projection, positions[k], margin_m, margin_sigmas);
+          const Verdict verdict = Judge(*view, projection, positions[k], margin);
           if (verdict != Verdict::kNone) tallies[k - begin].Add(view->session, verdict);
         }
       }
