@@ -111,6 +111,7 @@ void VoxelCloud::Grow(Shard* shard) {
 }
 
 void VoxelCloud::Insert(const ColoredPoints& points) {
+  order_.reset();  // new voxels, or counts that now reach min_points
   // Measured on TUM teddy (1 cm, ~2M voxels): a lookup is a cache miss in a large table. Keys are
   // computed for a batch of points and their index entries prefetched, so the misses overlap;
   // neighbouring pixels mostly fall into the same voxel, so the last record is tried first. A
@@ -208,8 +209,42 @@ void VoxelCloud::MergeShards(const std::vector<std::vector<std::uint32_t>>& ids,
   }
 }
 
+VoxelCloud::KeyOrder VoxelCloud::MakeKeyOrder() const {
+  KeyOrder order;
+  order.ids = SortedIds();
+  size_t count = 0;
+  for (const std::vector<std::uint32_t>& ids : order.ids) count += ids.size();
+  order.shards.reserve(count);
+  MergeShards(order.ids, [&order](size_t shard, size_t) {
+    order.shards.push_back(static_cast<std::uint8_t>(shard));
+  });
+  return order;
+}
+
+VoxelCloud::KeyOrder VoxelCloud::LeaveOutRemoved(KeyOrder order) const {
+  std::vector<size_t> next(kShards, 0), kept(kShards, 0);
+  size_t written = 0;
+  for (const std::uint8_t s : order.shards) {  // written never passes the read position
+    const std::uint32_t id = order.ids[s][next[s]++];
+    if (shards_[s].At(id).count < min_points_) continue;
+    order.ids[s][kept[s]++] = id;
+    order.shards[written++] = s;
+  }
+  order.shards.resize(written);
+  for (size_t s = 0; s < kShards; ++s) order.ids[s].resize(kept[s]);
+  return order;
+}
+
 void VoxelCloud::VisitInKeyOrder(const std::function<void(size_t shard, size_t id)>& visit) const {
-  MergeShards(SortedIds(), visit);
+  if (!order_) {
+    MergeShards(SortedIds(), visit);
+    return;
+  }
+  std::vector<size_t> next(kShards, 0);
+  for (const std::uint8_t s : order_->shards) {
+    const std::uint32_t id = order_->ids[s][next[s]++];
+    if (shards_[s].At(id).count >= min_points_) visit(s, id);  // else removed since
+  }
 }
 
 VoxelPoint VoxelCloud::PointOf(const Record& record) const {
@@ -231,6 +266,7 @@ void VoxelCloud::ForEachPoint(const std::function<void(const VoxelPoint&)>& visi
 }
 
 size_t VoxelCloud::RemoveIf(const std::function<bool(const VoxelPoint&)>& drop) {
+  if (!order_) order_ = MakeKeyOrder();
   size_t removed = 0;
   VisitInKeyOrder([&](size_t shard, size_t id) {
     Record& record = shards_[shard].At(id);
@@ -251,10 +287,10 @@ std::vector<VoxelPoint> VoxelCloud::Points() const {
 
 std::vector<VoxelPoint> VoxelCloud::TakePoints() {
   for (Shard& shard : shards_) shard.index = {};  // visiting in key order reads the records only
-  std::vector<std::vector<std::uint32_t>> ids = SortedIds();
-  std::vector<std::uint8_t> order;  // the shard of each point, in key order
-  order.reserve(size());
-  MergeShards(ids, [&order](size_t shard, size_t) { order.push_back(std::uint8_t(shard)); });
+  KeyOrder kept = order_ ? LeaveOutRemoved(std::move(*order_)) : MakeKeyOrder();
+  order_.reset();
+  std::vector<std::vector<std::uint32_t>> ids = std::move(kept.ids);
+  std::vector<std::uint8_t> order = std::move(kept.shards);  // the shard of each point
   // Each shard's points in key order, its records handed back as soon as they are made: the
   // points (20 bytes) replace the records (36) instead of coming on top of them.
   std::vector<std::vector<MappedArray<VoxelPoint>>> parts(kShards);
@@ -293,6 +329,10 @@ size_t VoxelCloud::MemoryBytes() const {
   size_t bytes = 0;
   for (const Shard& shard : shards_) {
     bytes += shard.index.size() * sizeof(std::uint32_t) + shard.records.MemoryBytes();
+  }
+  if (order_) {
+    bytes += order_->shards.capacity();
+    for (const std::vector<std::uint32_t>& ids : order_->ids) bytes += ids.capacity() * 4;
   }
   return bytes;
 }

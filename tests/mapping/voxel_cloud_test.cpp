@@ -7,6 +7,7 @@
 #include <map>
 #include <random>
 #include <tuple>
+#include <utility>
 
 #include "stillmap/io/error.h"
 
@@ -166,6 +167,45 @@ TEST(VoxelCloudTest, TakenPointsAreThePointsAndLeaveANewCloud) {
   cloud.Insert(again);
   ASSERT_EQ(cloud.Points().size(), 1u);  // min_points kept: two points in one voxel
   EXPECT_EQ(cloud.Points()[0].count, 2u);
+}
+
+// The key order made by a removal serves the visits after it, which skip what later removals took,
+// until points come in: then new voxels, and removed ones seen again, take their places in it.
+TEST(VoxelCloudTest, VisitsAfterRemovalsAndInsertionsFollowTheKeyOrder) {
+  const auto centre = [](int i, int j) {
+    return Eigen::Vector3f(0.01f * static_cast<float>(i) + 0.005f,
+                           0.01f * static_cast<float>(j) + 0.005f, 0.005f);
+  };
+  const auto index = [](const Eigen::Vector3f& p) {  // (i, j) of a voxel's centroid
+    return std::make_pair(static_cast<int>(std::floor(p.x() / 0.01f)),
+                          static_cast<int>(std::floor(p.y() / 0.01f)));
+  };
+  std::vector<Eigen::Vector3f> grid;
+  for (int i = -10; i < 10; ++i) {
+    for (int j = -10; j < 10; ++j) grid.push_back(centre(i, j));
+  }
+  VoxelCloud cloud;
+  cloud.Insert(MakePoints(grid));
+  EXPECT_EQ(cloud.RemoveIf([](const VoxelPoint& p) { return p.position.x() < 0.0f; }), 200u);
+  EXPECT_EQ(cloud.RemoveIf([](const VoxelPoint& p) { return p.position.y() < 0.0f; }), 100u);
+  std::vector<std::pair<int, int>> expected;  // in key order: i, then j
+  for (int i = 0; i < 10; ++i) {
+    for (int j = 0; j < 10; ++j) expected.emplace_back(i, j);
+  }
+  const auto visited = [&cloud, &index] {
+    std::vector<std::pair<int, int>> out;
+    cloud.ForEachPoint([&](const VoxelPoint& p) { out.push_back(index(p.position)); });
+    return out;
+  };
+  EXPECT_EQ(visited(), expected);
+  cloud.Insert(MakePoints({centre(-3, 0), centre(12, 5), centre(4, -2)}));
+  expected.insert(expected.begin(), {-3, 0});
+  expected.insert(expected.begin() + 41, {4, -2});  // after (-3, 0) and i = 0..3
+  expected.emplace_back(12, 5);
+  EXPECT_EQ(visited(), expected);
+  const std::vector<VoxelPoint> taken = cloud.TakePoints();
+  ASSERT_EQ(taken.size(), expected.size());
+  for (size_t k = 0; k < taken.size(); ++k) EXPECT_EQ(index(taken[k].position), expected[k]);
 }
 
 // Past 2^14 points a shard TakePoints makes each shard's points in several parts before merging

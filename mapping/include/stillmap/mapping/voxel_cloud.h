@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -125,7 +126,17 @@ class VoxelCloud {
   // the shards into key order.
   void MergeShards(const std::vector<std::vector<std::uint32_t>>& ids,
                    const std::function<void(size_t shard, size_t id)>& visit) const;
-  // Calls `visit` with the shard and record number of every output voxel, in key order.
+  // The output voxels in key order: each shard's record numbers sorted by key (SortedIds) and the
+  // shard of each voxel in key order, 5 bytes a voxel.
+  struct KeyOrder {
+    std::vector<std::vector<std::uint32_t>> ids;
+    std::vector<std::uint8_t> shards;
+  };
+  KeyOrder MakeKeyOrder() const;
+  // `order` without the voxels removed since it was made.
+  KeyOrder LeaveOutRemoved(KeyOrder order) const;
+  // Calls `visit` with the shard and record number of every output voxel, in key order: by the
+  // kept order when there is one (voxels removed since are skipped), else merged afresh.
   void VisitInKeyOrder(const std::function<void(size_t shard, size_t id)>& visit) const;
   VoxelPoint PointOf(const Record& record) const;
 
@@ -136,6 +147,10 @@ class VoxelCloud {
   size_t size_ = 0;     // keys stored, removed ones included
   size_t removed_ = 0;  // stored keys emptied by RemoveIf (count 0)
   size_t rejected_ = 0;
+  // The key order made by the first RemoveIf since the last Insert, kept for the visits after it
+  // while nothing is inserted: the map cleaning visits the cloud four times, and sorting and
+  // merging 12 M voxels took 2.7 s each time (BM_VoxelVisit).
+  std::optional<KeyOrder> order_;
 };
 
 }  // namespace stillmap
