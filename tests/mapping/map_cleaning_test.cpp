@@ -253,6 +253,27 @@ TEST(MapCleaningTest, ViewsWhoseFarthestReadingIsWithinTheMarginOfAVoxelStillJud
   }
 }
 
+// Views that saw a screen 1 m ahead everywhere but through a hole where the shoe is still saw
+// it there: two of them keep it beside the three seeing through it. With the hole beside the
+// shoe they are no evidence, and it goes.
+TEST(MapCleaningTest, AViewSeeingAVoxelThroughAHoleInWhatHidesTheRestStillJudgesIt) {
+  const ShoeScene scene;
+  const size_t shoe_voxels = ShoeScene::ShoeVoxels(scene.Cloud());
+  ASSERT_GT(shoe_voxels, 50u);
+  for (const cv::Rect hole : {cv::Rect(70, 80, 12, 8), cv::Rect(90, 80, 12, 8)}) {
+    cv::Mat screen(scene.camera.height, scene.camera.width, CV_32FC1, cv::Scalar(1.0f));
+    screen(hole).setTo(2.7f);
+    std::vector<KeyframeView> views(scene.views.begin() + 1, scene.views.end());
+    for (int k = 0; k < 2; ++k) {
+      views.push_back(MakeKeyframeView(screen, cv::Mat(), ShoeScene::At(0, 0, 0)));
+    }
+    VoxelCloud cloud = scene.Cloud();
+    const MapCleaningResult result =
+        CleanCloud(MapCleaningOptions(), nullptr, {scene.camera}, views, &cloud);
+    EXPECT_EQ(result.seen_through_views, hole.x == 70 ? 0u : shoe_voxels) << hole;
+  }
+}
+
 // Over a million voxels the views judge them a batch at a time: behind the cameras, 1.2 million
 // voxels that come first in the cloud's order put the shoe in a later batch, and it goes as
 // alone (the filler stays: no view sees it).
