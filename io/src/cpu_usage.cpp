@@ -24,12 +24,30 @@ double PeakMemoryMib() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
-double ResidentMemoryMib() {
+namespace {
+
+// /proc/self/statm's fields: total program size, resident, resident and shared (file-backed or
+// shared memory) [pages]; false where it cannot be read.
+bool ReadStatm(unsigned long long* size, unsigned long long* resident, unsigned long long* shared) {
   std::ifstream statm("/proc/self/statm");
-  unsigned long long size_pages = 0, resident_pages = 0;
-  if (!(statm >> size_pages >> resident_pages)) return 0.0;
-  return static_cast<double>(resident_pages) * static_cast<double>(sysconf(_SC_PAGESIZE)) /
+  return static_cast<bool>(statm >> *size >> *resident >> *shared);
+}
+
+double PagesToMib(unsigned long long pages) {
+  return static_cast<double>(pages) * static_cast<double>(sysconf(_SC_PAGESIZE)) /
          (1024.0 * 1024.0);
+}
+
+}  // namespace
+
+double ResidentMemoryMib() {
+  unsigned long long size = 0, resident = 0, shared = 0;
+  return ReadStatm(&size, &resident, &shared) ? PagesToMib(resident) : 0.0;
+}
+
+double FileBackedMemoryMib() {
+  unsigned long long size = 0, resident = 0, shared = 0;
+  return ReadStatm(&size, &resident, &shared) ? PagesToMib(shared) : 0.0;
 }
 
 const char* MemoryAllocator() {

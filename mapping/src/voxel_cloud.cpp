@@ -325,11 +325,16 @@ size_t VoxelCloud::OutputSize() const {
   return count;
 }
 
-size_t VoxelCloud::MemoryBytes() const {
+size_t VoxelCloud::TableBytes() const {
   size_t bytes = 0;
   for (const Shard& shard : shards_) {
     bytes += shard.index.size() * sizeof(std::uint32_t) + shard.records.MemoryBytes();
   }
+  return bytes;
+}
+
+size_t VoxelCloud::MemoryBytes() const {
+  size_t bytes = TableBytes();
   if (order_) {
     bytes += order_->shards.capacity();
     for (const std::vector<std::uint32_t>& ids : order_->ids) bytes += ids.capacity() * 4;

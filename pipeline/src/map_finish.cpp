@@ -116,7 +116,7 @@ MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleanin
   figures.voxels = map.cloud.size();
   figures.voxels_written = map.cloud.OutputSize();
   figures.voxels_out_of_range = map.cloud.rejected_count();
-  figures.voxel_table_mib = static_cast<double>(map.cloud.MemoryBytes()) / (1024.0 * 1024.0);
+  figures.voxel_table_mib = static_cast<double>(map.cloud.TableBytes()) / (1024.0 * 1024.0);
   if (map.occupancy) {
     figures.octomap_leaves = map.occupancy->LeafCount();
     figures.octomap_occupied_leaves = map.occupancy->OccupiedLeafCount();

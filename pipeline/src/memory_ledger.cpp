@@ -82,6 +82,7 @@ void MemoryLedger::Sample(const std::string& when,
   std::vector<MemoryOwner> sample = fixed_;
   for (const auto& [name, bytes] : owners)
     sample.push_back({name, static_cast<double>(bytes) / kMib});
+  sample.push_back({kCodeMemoryOwner, FileBackedMemoryMib()});
   for (const MemoryOwner& owner : sample) KeepLargest(owner, &figures_.largest);
   SortLargestFirst(&figures_.largest);
   ++figures_.samples;

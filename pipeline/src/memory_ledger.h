@@ -1,8 +1,9 @@
 // Where a build's memory goes. A watcher thread reads the process's resident memory every 50 ms
 // and keeps the highest reading, its own or a sample's, with the phase the build was in (Phase);
 // at chosen points the build also samples what each owner holds (Sample), and the sample taken at
-// the highest resident memory is the one report.json breaks down (timing.memory). The rest of the
-// resident memory is code, libraries, stacks, the allocator's free lists and what no owner counts.
+// the highest resident memory is the one report.json breaks down (timing.memory), with the pages
+// mapped from files (code and libraries) read at the same moment. The rest of the resident memory
+// is stacks, the allocator's free lists and what no owner counts.
 #pragma once
 
 #include <condition_variable>
@@ -17,6 +18,9 @@ namespace stillmap {
 
 // The fixed owner of the detector's models (freed once the frames are masked).
 inline constexpr const char* kDetectorMemoryOwner = "detector_models";
+// The owner every sample adds: the resident pages mapped from files (the program's code and its
+// libraries; FileBackedMemoryMib).
+inline constexpr const char* kCodeMemoryOwner = "code_and_libraries";
 
 class MemoryLedger {
  public:
@@ -33,7 +37,7 @@ class MemoryLedger {
   // A fixed owner was freed: the samples from here on leave it out.
   void DropFixed(const std::string& name);
   // The resident memory now and what each owner holds now [bytes], taken `when` (e.g. "frame
-  // loop, frame at 312.4 s").
+  // loop, frame at 312.4 s"); the fixed owners and kCodeMemoryOwner are added to them.
   void Sample(const std::string& when, const std::vector<std::pair<std::string, size_t>>& owners);
   // Stops the watcher and returns what it and the samples found.
   MemoryFigures Finish();

@@ -120,8 +120,9 @@ json CpuJson(const BuildResult& result) {
           {"by_thread_s", stages}};
 }
 
-// Where the memory went: the owners at the highest sample, what they leave unexplained there
-// (code, libraries, stacks, the allocator's free lists, uncounted owners), and each one's largest.
+// Where the memory went: the owners at the highest sample (code and libraries among them), what
+// they leave unexplained there (stacks, the allocator's free lists, uncounted owners), and each
+// one's largest.
 json MemoryJson(const MemoryFigures& memory) {
   json at_peak = json::object(), largest = json::object();
   double counted = 0.0;

@@ -134,6 +134,10 @@ TEST(BuildTest, PlaneSequenceFromGroundTruthWritesEveryOutput) {
   EXPECT_LE(memory["highest_mib"].get<double>(),
             report["timing"]["peak_memory_mib"].get<double>() + 1.0);
   EXPECT_GE(memory["highest_mib"].get<double>(), memory["highest_sample_mib"].get<double>());
+  // The program's code and libraries: some, never more than the sample's resident memory.
+  const double code_mib = memory["owners_at_highest_sample_mib"]["code_and_libraries"];
+  EXPECT_GT(code_mib, 1.0);
+  EXPECT_LT(code_mib, memory["highest_sample_mib"].get<double>());
   EXPECT_FALSE(memory["highest_phase"].get<std::string>().empty());
   EXPECT_NE(testing::ReadText(dir / "out/config.yaml").find("voxel_leaf_size: 0.02"),
             std::string::npos);

@@ -14,6 +14,9 @@ double ProcessCpuSeconds();
 double PeakMemoryMib();
 // The resident memory of the process now [MiB] (/proc/self/statm; 0 where it cannot be read).
 double ResidentMemoryMib();
+// Of it, the pages mapped from files (the program's code, its libraries, files it maps) and
+// shared memory [MiB] (statm's third field; 0 where it cannot be read).
+double FileBackedMemoryMib();
 // The process's malloc: "tbbmalloc" when TBB's proxy replaced it (the stillmap binary, see
 // CMakeLists.txt), else "glibc".
 const char* MemoryAllocator();

@@ -83,7 +83,9 @@ class VoxelCloud {
   static double Extent(double leaf_size) { return 1048575.0 * leaf_size; }
   // Voxels that reach min_points (what ForEachPoint and Points visit).
   size_t OutputSize() const;
-  // Bytes held by the table.
+  // Bytes held by the table: its records and their index.
+  size_t TableBytes() const;
+  // Bytes held in all: the table and the key order a removal keeps (5 bytes a voxel).
   size_t MemoryBytes() const;
 
  private:
