@@ -26,29 +26,23 @@ double PeakMemoryMib() {
 
 namespace {
 
-// /proc/self/statm's fields: total program size, resident, resident and shared (file-backed or
-// shared memory) [pages]; false where it cannot be read.
-bool ReadStatm(unsigned long long* size, unsigned long long* resident, unsigned long long* shared) {
+// Field `field` (0-based: size, resident, shared, ...) of /proc/self/statm [MiB]; 0 where it
+// cannot be read.
+double StatmFieldMib(int field) {
   std::ifstream statm("/proc/self/statm");
-  return static_cast<bool>(statm >> *size >> *resident >> *shared);
-}
-
-double PagesToMib(unsigned long long pages) {
+  unsigned long long pages = 0;
+  for (int k = 0; k <= field; ++k) {
+    if (!(statm >> pages)) return 0.0;
+  }
   return static_cast<double>(pages) * static_cast<double>(sysconf(_SC_PAGESIZE)) /
          (1024.0 * 1024.0);
 }
 
 }  // namespace
 
-double ResidentMemoryMib() {
-  unsigned long long size = 0, resident = 0, shared = 0;
-  return ReadStatm(&size, &resident, &shared) ? PagesToMib(resident) : 0.0;
-}
+double ResidentMemoryMib() { return StatmFieldMib(1); }
 
-double FileBackedMemoryMib() {
-  unsigned long long size = 0, resident = 0, shared = 0;
-  return ReadStatm(&size, &resident, &shared) ? PagesToMib(shared) : 0.0;
-}
+double FileBackedMemoryMib() { return StatmFieldMib(2); }
 
 const char* MemoryAllocator() {
   // The proxy library exports this name; nothing else does.

@@ -2,7 +2,7 @@
 // and keeps the highest reading, its own or a sample's, with the phase the build was in (Phase);
 // at chosen points the build also samples what each owner holds (Sample), and the sample taken at
 // the highest resident memory is the one report.json breaks down (timing.memory), with the pages
-// mapped from files (code and libraries) read at the same moment. The rest of the resident memory
+// mapped from files (code and libraries) read just before it. The rest of the resident memory
 // is stacks, the allocator's free lists and what no owner counts.
 #pragma once
 
