@@ -86,6 +86,7 @@ json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options)
             {"refused", t.rgbd_refused},
             {"feature_poses_checked", t.rgbd_checked},
             {"feature_poses_replaced", t.rgbd_replaced},
+            {"dense_poses_unconfirmed", t.rgbd_unconfirmed},
             {"time_ms_total", t.rgbd_odometry_ms}}},
           {"static_depth_share", ShareJson(tracking.static_depth_share)},
           {"keyframes", t.keyframes},

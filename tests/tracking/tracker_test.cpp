@@ -311,6 +311,41 @@ TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
   }
 }
 
+// With check_min_landmarks, a dense pose replaces a feature pose only when at least that many of
+// the map's landmarks fit it. Every pose checked and any difference replacing it, as above: at 20
+// the dense poses of the noise-free room, which 50 or more landmarks fit, are taken; with
+// more landmarks asked than the frames hold, each is refused, and the feature pose and its matches
+// stay as they were: the trajectory is the one without the check, to the last bit.
+TEST_F(TrackerTest, ADensePoseTooFewLandmarksFitLeavesTheFeaturePose) {
+  auto track = [&](int below_inliers, int min_landmarks) {
+    TrackerOptions options = Deterministic();
+    options.rgbd_odometry.check_below_inliers = below_inliers;
+    options.rgbd_odometry.check_max_difference_m = 0.0;
+    options.rgbd_odometry.check_max_difference_deg = 0.0;
+    options.rgbd_odometry.check_min_landmarks = min_landmarks;
+    Tracker tracker(sequence_->camera(), options);
+    for (size_t i = 0; i < 20; ++i) {
+      tracker.Track(i, frames_[i].time, grays_[i], frames_[i].depth_m);
+    }
+    tracker.Finish();
+    return std::make_pair(tracker.TrackedTrajectory(), tracker.statistics());
+  };
+  const TrackerStatistics confirmed_stats = track(100000, 20).second;
+  EXPECT_GE(confirmed_stats.rgbd_replaced, 15u);
+  EXPECT_EQ(confirmed_stats.rgbd_unconfirmed, 0u);
+  const auto [refused, refused_stats] = track(100000, 100000);
+  EXPECT_EQ(refused_stats.rgbd_replaced, 0u);
+  EXPECT_EQ(refused_stats.rgbd_unconfirmed, confirmed_stats.rgbd_replaced);
+  const auto [unchecked, unchecked_stats] = track(0, 100000);
+  EXPECT_EQ(unchecked_stats.rgbd_checked, 0u);
+  ASSERT_EQ(refused.size(), unchecked.size());
+  for (size_t i = 0; i < refused.size(); ++i) {
+    EXPECT_TRUE(refused.poses()[i].world_from_camera.isApprox(
+        unchecked.poses()[i].world_from_camera, 1e-12))
+        << i;
+  }
+}
+
 // A relocalization farther from the last good pose than the options allow is refused: with a
 // bound of 0.01 mm and no speed allowance, the camera's few millimetres of motion during the
 // covered frames are too much.

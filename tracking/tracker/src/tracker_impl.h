@@ -223,11 +223,15 @@ struct Tracker::Impl {
   std::optional<Eigen::Isometry3d> DensePose(const Eigen::Isometry3d& predicted, double time);
   // A weak feature pose (fewer inliers than rgbd_odometry.check_below_inliers) checked against
   // the dense alignment to the last posed frame: where they disagree, the dense pose replaces
-  // it and the frame's matches are those found by projection from that pose that fit it
-  // (tracker_rgbd_odometry.cpp).
+  // it and the frame's matches are those found by projection from that pose that fit it, when
+  // at least check_min_landmarks do (tracker_rgbd_odometry.cpp).
   void CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, const LocalSet& local,
                            const FrameData& frame, double time, PoseEstimate* estimate,
                            Association* association);
+  // *association becomes the local landmarks found by projection from `dense` that fit it;
+  // returns how many, and their RMS reprojection error [px].
+  int MatchAtDensePose(const Eigen::Isometry3d& dense, const LocalSet& local,
+                       const FrameData& frame, Association* association, double* rmse_px);
   // The predicted camera_from_world of the frame at `time`: constant velocity from `last`, else
   // the prior's motion since the last posed frame, else (lost) MotionModelPose
   // (tracker_prior.cpp).
@@ -334,6 +338,8 @@ struct Tracker::Impl {
   // Landmarks shared by each pair of keyframes: (older, newer) id -> count.
   std::map<std::pair<int, int>, int> CovisibilityPairs() const;
   void ClearMatches(Association& association);
+  // Undoes the matches of *association and takes `earlier`'s again (stamped for this frame).
+  void RestoreMatches(const Association& earlier, Association* association);
 
   // ---- Keyframe policy and insertion, final keyframes (tracker_keyframes.cpp)
   bool NeedKeyframe(const FrameData& frame, const Association& association, int inliers) const;

@@ -128,9 +128,10 @@ void RgbdOdometryOptions::Validate() const {
       "{} must lie in [0, 1], {} and {} not be negative", key(min_paired_share), key(min_gradient),
       key(max_gap_s));
   Require(check_below_inliers >= 0 && check_max_difference_m >= 0.0 &&
-              check_max_difference_deg >= 0.0 && check_max_gap_s >= 0.0,
-          "{}, {}, {} and {} must not be negative", key(check_below_inliers),
-          key(check_max_difference_m), key(check_max_difference_deg), key(check_max_gap_s));
+              check_max_difference_deg >= 0.0 && check_max_gap_s >= 0.0 && check_min_landmarks >= 0,
+          "{}, {}, {}, {} and {} must not be negative", key(check_below_inliers),
+          key(check_max_difference_m), key(check_max_difference_deg), key(check_max_gap_s),
+          key(check_min_landmarks));
 }
 
 void RelocalizationOptions::Validate() const {

@@ -71,12 +71,33 @@ void Tracker::Impl::CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, cons
   if (apart_m <= odometry.check_max_difference_m && turn_deg <= odometry.check_max_difference_deg) {
     return;
   }
+  // The map must confirm the dense pose as it confirms a feature pose: an alignment that followed
+  // a person across half the image fits few landmarks, and taken frame after frame it runs away
+  // from the map.
+  const Association feature_association = *association;
+  const size_t feature_duplicates = duplicates.size();
+  double rmse_px = 0.0;
+  const int fitting = MatchAtDensePose(*dense, local, frame, association, &rmse_px);
+  if (fitting < odometry.check_min_landmarks) {
+    ++stats.rgbd_unconfirmed;
+    RestoreMatches(feature_association, association);
+    duplicates.resize(feature_duplicates);
+    return;
+  }
   ++stats.rgbd_replaced;
+  estimate->camera_from_world = *dense;
+  estimate->inliers = fitting;
+  estimate->rmse_px = rmse_px;
+}
+
+int Tracker::Impl::MatchAtDensePose(const Eigen::Isometry3d& dense, const LocalSet& local,
+                                    const FrameData& frame, Association* association,
+                                    double* rmse_px) {
   // The feature matches made the other pose: found again from the dense one, and kept where
   // they fit it.
   ClearMatches(*association);
   ++match_serial;
-  SearchByProjection(*dense, local, options.matching.refine_search_radius_px, frame, association);
+  SearchByProjection(dense, local, options.matching.refine_search_radius_px, frame, association);
   double squared_px = 0.0;
   int kept = 0;
   for (size_t i = 0; i < association->landmark.size(); ++i) {
@@ -86,18 +107,17 @@ void Tracker::Impl::CheckByRgbdOdometry(const Eigen::Isometry3d& predicted, cons
     const double limit = observation.depth_m > 0.0 ? options.refinement.chi2_with_depth
                                                    : options.refinement.chi2_without_depth;
     Eigen::Vector3d residual;
-    if (!EvaluateRgbdResidual(*dense, landmarks.at(id).position, observation, &residual, nullptr) ||
+    if (!EvaluateRgbdResidual(dense, landmarks.at(id).position, observation, &residual, nullptr) ||
         residual.squaredNorm() >= limit) {
       Unmatch(i, association);
       continue;
     }
-    const Eigen::Vector3d q = *dense * landmarks.at(id).position;
+    const Eigen::Vector3d q = dense * landmarks.at(id).position;
     squared_px += (q.head<2>() / q.z() - observation.normalized).squaredNorm();
     ++kept;
   }
-  estimate->camera_from_world = *dense;
-  estimate->inliers = kept;
-  estimate->rmse_px = kept > 0 ? std::sqrt(squared_px / kept) * camera.fx : 0.0;
+  *rmse_px = kept > 0 ? std::sqrt(squared_px / kept) * camera.fx : 0.0;
+  return kept;
 }
 
 }  // namespace stillmap

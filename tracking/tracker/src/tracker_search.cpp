@@ -185,4 +185,12 @@ void Tracker::Impl::ClearMatches(Association& association) {
   for (size_t i = 0; i < association.landmark.size(); ++i) Unmatch(i, &association);
 }
 
+void Tracker::Impl::RestoreMatches(const Association& earlier, Association* association) {
+  ClearMatches(*association);
+  *association = earlier;
+  for (const int id : association->landmark) {
+    if (id >= 0) landmarks.at(id).matched_stamp = match_serial;
+  }
+}
+
 }  // namespace stillmap

@@ -103,6 +103,7 @@ struct TrackerStatistics {
   size_t rgbd_refused = 0;             // its alignments tried and refused (rgbd_odometry.h)
   size_t rgbd_checked = 0;             // weak feature poses checked by dense alignment
   size_t rgbd_replaced = 0;            // ... and replaced by it
+  size_t rgbd_unconfirmed = 0;         // ... or kept: too few landmarks fit the dense pose
   double rgbd_odometry_ms = 0.0;       // their time, on the tracking thread
   size_t relocalizations_refused = 0;  // too far from the last good pose
   size_t jumps_refused = 0;            // tracked poses as far: refused, the frame is not tracked
