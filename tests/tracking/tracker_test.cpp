@@ -74,6 +74,14 @@ class TrackerTest : public ::testing::Test {
     for (const TrackResult& result : results) statuses.push_back(result.status);
     return statuses;
   }
+  // The same frames, each pose the same to the last bits (1e-12).
+  static void ExpectSamePoses(const Trajectory& a, const Trajectory& b) {
+    ASSERT_EQ(a.size(), b.size());
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_TRUE(a.poses()[i].world_from_camera.isApprox(b.poses()[i].world_from_camera, 1e-12))
+          << i;
+    }
+  }
   static const Eigen::Isometry3d& Truth(size_t i) {
     return sequence_->groundtruth()->poses()[i].world_from_camera;
   }
@@ -301,12 +309,7 @@ TEST_F(TrackerTest, WeakFeaturePosesAreCheckedByDenseAlignment) {
   const auto [off_results, off_trajectory, off_stats] =
       track(0, defaults.check_max_difference_m, defaults.check_max_difference_deg);
   EXPECT_EQ(off_stats.rgbd_checked, 0u);
-  ASSERT_EQ(off_trajectory.size(), loose_trajectory.size());
-  for (size_t i = 0; i < off_trajectory.size(); ++i) {
-    EXPECT_TRUE(off_trajectory.poses()[i].world_from_camera.isApprox(
-        loose_trajectory.poses()[i].world_from_camera, 1e-12))
-        << i;
-  }
+  ExpectSamePoses(off_trajectory, loose_trajectory);
 }
 
 // With check_min_landmarks, a dense pose replaces a feature pose only when at least that many of
@@ -336,12 +339,7 @@ TEST_F(TrackerTest, ADensePoseTooFewLandmarksFitLeavesTheFeaturePose) {
   EXPECT_EQ(refused_stats.rgbd_unconfirmed, confirmed_stats.rgbd_replaced);
   const auto [unchecked, unchecked_stats] = track(0, 100000);
   EXPECT_EQ(unchecked_stats.rgbd_checked, 0u);
-  ASSERT_EQ(refused.size(), unchecked.size());
-  for (size_t i = 0; i < refused.size(); ++i) {
-    EXPECT_TRUE(refused.poses()[i].world_from_camera.isApprox(
-        unchecked.poses()[i].world_from_camera, 1e-12))
-        << i;
-  }
+  ExpectSamePoses(refused, unchecked);
 }
 
 // A relocalization farther from the last good pose than the options allow is refused: with a
