@@ -38,6 +38,11 @@ std::string KeyframeSelectionOptions::Describe() const {
         "; a keyframe of a map segment is not fused when other segments' keyframes saw more than "
         "{} of its cells at the final poses",
         revisit.segment_max_seen_share);
+    if (revisit.segment_lap_path_m > 0.0) {
+      rule += fmt::format(
+          ", its own segment's keyframes counting too once its camera has travelled {} m since",
+          revisit.segment_lap_path_m);
+    }
   }
   return rule;
 }

@@ -25,6 +25,9 @@ void RevisitOptions::Validate() const {
   if (!(segment_max_seen_share >= 0.0 && segment_max_seen_share <= 1.0)) {
     throw InputError(fmt::format("{} must be in [0, 1]", OptionKey(*this, segment_max_seen_share)));
   }
+  if (!(segment_lap_path_m >= 0.0)) {
+    throw InputError(fmt::format("{} must be at least 0", OptionKey(*this, segment_lap_path_m)));
+  }
 }
 
 RevisitCells::RevisitCells(const Camera& camera, const RevisitOptions& options, double min_depth,
@@ -189,9 +192,9 @@ std::optional<cv::Mat> RevisitCells::Admit(CellView view) {
 
 std::optional<cv::Mat> RevisitCells::AdmitAcrossSegments(CellView view) {
   if (options_.segment_max_seen_share < 1.0) {
-    const int segment = view.segment;
-    const auto other_segment = [segment](const CellView& other) {
-      return other.segment != segment;
+    const double lap_m = options_.segment_lap_path_m;
+    const auto other_segment = [&view, lap_m](const CellView& other) {
+      return other.segment != view.segment || (lap_m > 0.0 && view.path_m - other.path_m >= lap_m);
     };
     size_t cells = 0;
     const cv::Mat seen = SeenBy(view, Candidates(view, other_segment), &cells);

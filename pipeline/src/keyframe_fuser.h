@@ -66,9 +66,9 @@ class KeyframeFuser {
   // spill_file.h). Keyframes waiting since NoteCorrections or NoteNewSegment are fused either
   // way (when nothing moved, onto the map fused before them). With
   // keyframes.revisit_segment_max_seen_share below 1, every keyframe fused here is judged again at
-  // its final pose (RevisitCells::AdmitAcrossSegments: the cells earlier visits saw, and whether
-  // other map segments saw its view): a keyframe found redundant leaves the map and the session
-  // record. Returns how many moved.
+  // its final pose (RevisitCells::AdmitAcrossSegments: whether other map segments, or its own a
+  // lap back, saw its view): a keyframe found redundant leaves the map and the session record;
+  // the others fuse as they were judged when they came. Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
   // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
@@ -146,6 +146,9 @@ class KeyframeFuser {
   // Refuse's fusion when keyframes wait for it: each keyframe judged again at its final pose
   // (`again`: the map was emptied, every keyframe is fused; else those not in the map yet).
   void FuseAtFinalPoses(bool again);
+  // How far each stored keyframe's segment had travelled at it [m], by keyframe id: along the
+  // segment's keyframes in id order, at their current poses.
+  std::map<int, double> PathsAlongSegments() const;
   // Fuses a stored keyframe kept apart, now joined, at its pose. False when it is redundant
   // (Revisit): then it is neither fused nor to be kept.
   bool FuseStored(Stored* stored);

@@ -209,6 +209,25 @@ TEST(RevisitCellsTest, AKeyframeAnotherSegmentSawIsRedundantWhateverItsId) {
   }
 }
 
+// Within one segment, with segment_lap_path_m, a view counts as another segment's once the
+// camera has travelled that far since it: keyframe 1 saw again what keyframe 0 saw, 12 m of path
+// later (a lap) but not 8 m.
+TEST(RevisitCellsTest, ItsOwnSegmentALapBackCountsAsAnotherSegment) {
+  const Camera camera = TestCamera();
+  for (const double path_m : {12.0, 8.0}) {
+    RevisitOptions options;
+    options.segment_max_seen_share = 0.9;
+    options.segment_lap_path_m = 10.0;
+    RevisitCells cells(camera, options, 0.1, 4.0);
+    ASSERT_TRUE(cells.AdmitAcrossSegments(
+        cells.MakeView(0, RenderWall(camera, At(0.0)), cv::Mat(), At(0.0), 0)));
+    CellView view = cells.MakeView(1, RenderWall(camera, At(0.01)), cv::Mat(), At(0.01), 0);
+    view.path_m = path_m;
+    EXPECT_EQ(cells.AdmitAcrossSegments(std::move(view)).has_value(), path_m < 10.0)
+        << path_m << " m of path";
+  }
+}
+
 // Views whose cameras lie too far for the distance ratio and angle are never asked (the bound
 // RevisitCells uses to skip them): a view 0.45 m behind keyframe 0 (ranges 2.45 against 2 m,
 // 1.225 x) still finds every cell seen, one 0.6 m behind (1.3 x) none.

@@ -254,5 +254,30 @@ TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinal
   }
 }
 
+// At the refusion the segment rule only decides whether a keyframe is fused: one it keeps fuses
+// the cells it was judged with when it came. Keyframe 14, a revisit of frame 2 tracked 20 cm off
+// (where it saw nothing fused before), is put on frame 2's pose by the join: judged again there
+// it would leave out every cell keyframe 2 saw; it fuses the same points with the rule as without.
+TEST_F(KeyframeFuserTest, AKeyframeTheSegmentRuleKeepsFusesTheCellsItCameWith) {
+  std::vector<size_t> points;
+  for (const double share : {1.0, 0.9}) {
+    FuserOptions options = Options();
+    options.selection.revisit.segment_max_seen_share = share;
+    Mapper mapper(camera_, Fusing::Synchronous());
+    KeyframeFuser fuser(camera_, options, masks_, &mapper);
+    Fuse(fuser, 0, 6, false);
+    fuser.NoteNewSegment();
+    const Sequence sequence = Sequence::Open(dir_.path(), camera_);
+    fuser.Fuse({Revisit(fuser, sequence, 14, 2, drift_ * poses_[2])}, DepthCorrection{});
+    std::map<int, Eigen::Isometry3d> final_poses = Corrected();
+    final_poses[14] = poses_[2];
+    fuser.Refuse(final_poses);
+    EXPECT_EQ(fuser.figures().seen_before, 0u);
+    EXPECT_EQ(fuser.fused_poses().size(), 7u);
+    points.push_back(mapper.Finish().statistics.points);
+  }
+  EXPECT_EQ(points[0], points[1]);
+}
+
 }  // namespace
 }  // namespace stillmap

@@ -36,11 +36,14 @@ struct RevisitOptions {
   // A keyframe of a map segment is not fused when keyframes of the build's other segments saw
   // more than this share of its view's read cells (1 = never): whatever their keyframe ids, as
   // the merge judges sessions. Only at the final poses, once segments are joined and settled
-  // (AdmitAcrossSegments); then every keyframe's cells are judged again there too. Within a
-  // segment the tracker's own culling and map reuse keep a revisit's keyframes few; across
-  // segments it holds neither. Off: at 0.9 (the merge's value) the floors' maps lost up to 0.7
-  // points of completeness (docs/figures.md).
+  // (AdmitAcrossSegments). Within a segment the tracker's own culling and map reuse keep a
+  // revisit's keyframes few; across segments it holds neither. Off: at 0.9 (the merge's value)
+  // floor seed 2's ghosts rose from 0.30 to 0.56 % (docs/figures.md).
   double segment_max_seen_share = 1.0;
+  // With segment_max_seen_share below 1, a keyframe's own segment counts as another visit too
+  // where its camera has since travelled at least this far along the segment's path [m]: a lap
+  // of a floor in one segment comes back over its own ground (0 = other segments only).
+  double segment_lap_path_m = 0.0;
 
   // Throws InputError naming the key (keyframes.revisit_*) of the first impossible value.
   void Validate() const;
@@ -64,6 +67,9 @@ struct RevisitOptions {
     visit("segment_max_seen_share", self.segment_max_seen_share,
           "a keyframe is not fused when other map segments' keyframes saw more than this share of "
           "its view, judged at the final poses (1 = never)");
+    visit("segment_lap_path_m", self.segment_lap_path_m,
+          "with segment_max_seen_share: its own segment's keyframes this far back along the "
+          "camera's path [m] count as other segments' (0 = never)");
   }
 };
 
@@ -77,6 +83,7 @@ struct CellView {
   cv::Mat cells;
   double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // of the camera that made it [px]
   int segment = 0;       // the map segment of its keyframe (map_segments.h; 0 in one segment)
+  double path_m = 0.0;   // how far its segment's camera had travelled at its keyframe [m]
   double reach_m = 0.0;  // the farthest its cells' points lie from the camera [m]
 };
 
@@ -111,7 +118,8 @@ class RevisitCells {
   // its view is remembered and the cells seen returned (empty when none).
   std::optional<cv::Mat> Admit(CellView view);
   // Admit, and the keyframe is redundant as well when the views remembered of other map segments
-  // saw more than options' segment_max_seen_share of its read cells (for final poses only).
+  // (or of its own, segment_lap_path_m back along its path) saw more than options'
+  // segment_max_seen_share of its read cells (for final poses only).
   std::optional<cv::Mat> AdmitAcrossSegments(CellView view);
   // Frees the views remembered (no keyframe comes after).
   void Forget() { std::vector<CellView>().swap(remembered_); }
