@@ -68,6 +68,24 @@ class KeyframeFuserTest : public ::testing::Test {
     KeyframeFuser fuser;
   };
 
+  // A fuser with keyframes.revisit_segment_max_seen_share `share`: the six keyframes fused, then
+  // a new map segment begun.
+  struct SegmentFusing {
+    SegmentFusing(KeyframeFuserTest& test, double share)
+        : mapper(test.camera_, Fusing::Synchronous()),
+          fuser(test.camera_, WithShare(share), test.masks_, &mapper) {
+      test.Fuse(fuser, 0, 6, false);
+      fuser.NoteNewSegment();
+    }
+    static FuserOptions WithShare(double share) {
+      FuserOptions options = Options();
+      options.selection.revisit.segment_max_seen_share = share;
+      return options;
+    }
+    Mapper mapper;
+    KeyframeFuser fuser;
+  };
+
   testing::TempDir dir_;
   Camera camera_;
   std::vector<Eigen::Isometry3d> poses_;
@@ -227,12 +245,8 @@ TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinal
   for (const auto& [later, share] : {std::pair{true, 0.9}, {false, 0.9}, {true, 1.0}}) {
     const bool later_segment = later;  // a lambda below takes it
     SCOPED_TRACE(::testing::Message() << "later segment " << later_segment << ", share " << share);
-    FuserOptions options = Options();
-    options.selection.revisit.segment_max_seen_share = share;
-    Mapper mapper(camera_, Fusing::Synchronous());
-    KeyframeFuser fuser(camera_, options, masks_, &mapper);
-    Fuse(fuser, 0, 6, false);
-    fuser.NoteNewSegment();
+    SegmentFusing fusing(*this, share);
+    KeyframeFuser& fuser = fusing.fuser;
     const Sequence sequence = Sequence::Open(dir_.path(), camera_);
     // Frames 1..3 again as keyframes 6..8, tracked 20 cm off (there they would see nothing
     // fused): the refusion judges them where the join put them, on frames 1..3's poses.
@@ -250,7 +264,7 @@ TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinal
     EXPECT_EQ(fuser.figures().seen_before, dropped ? 3u : 0u);
     EXPECT_EQ(fuser.fused_poses().size(), fused);
     EXPECT_EQ(fuser.TakeSessionKeyframes().size(), fused);
-    EXPECT_EQ(mapper.Finish().statistics.frames, fused);
+    EXPECT_EQ(fusing.mapper.Finish().statistics.frames, fused);
   }
 }
 
@@ -261,12 +275,8 @@ TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinal
 TEST_F(KeyframeFuserTest, AKeyframeTheSegmentRuleKeepsFusesTheCellsItCameWith) {
   std::vector<size_t> points;
   for (const double share : {1.0, 0.9}) {
-    FuserOptions options = Options();
-    options.selection.revisit.segment_max_seen_share = share;
-    Mapper mapper(camera_, Fusing::Synchronous());
-    KeyframeFuser fuser(camera_, options, masks_, &mapper);
-    Fuse(fuser, 0, 6, false);
-    fuser.NoteNewSegment();
+    SegmentFusing fusing(*this, share);
+    KeyframeFuser& fuser = fusing.fuser;
     const Sequence sequence = Sequence::Open(dir_.path(), camera_);
     fuser.Fuse({Revisit(fuser, sequence, 14, 2, drift_ * poses_[2])}, DepthCorrection{});
     std::map<int, Eigen::Isometry3d> final_poses = Corrected();
@@ -274,7 +284,7 @@ TEST_F(KeyframeFuserTest, AKeyframeTheSegmentRuleKeepsFusesTheCellsItCameWith) {
     fuser.Refuse(final_poses);
     EXPECT_EQ(fuser.figures().seen_before, 0u);
     EXPECT_EQ(fuser.fused_poses().size(), 7u);
-    points.push_back(mapper.Finish().statistics.points);
+    points.push_back(fusing.mapper.Finish().statistics.points);
   }
   EXPECT_EQ(points[0], points[1]);
 }
