@@ -85,6 +85,7 @@ void Mapper::Reset() {
   insertions_ = 0;
   CountOccupancyBytes();
   statistics_.frames = 0;
+  statistics_.rays_only_frames = 0;
   statistics_.points = 0;
   ++statistics_.refusions;
 }
@@ -176,6 +177,10 @@ void Mapper::Fuse(const MapperFrame& frame) {
     views_.back().session = session_;
     views_.back().camera = static_cast<int>(cameras_.size()) - 1;
     views_bytes_ += views_.back().MemoryBytes();
+  }
+  if (frame.rays_only) {
+    ++statistics_.rays_only_frames;
+    return;
   }
   start = std::chrono::steady_clock::now();
   cloud_.Insert(scratch_);

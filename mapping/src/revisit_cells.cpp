@@ -190,7 +190,7 @@ std::optional<cv::Mat> RevisitCells::Admit(CellView view) {
   return seen;
 }
 
-std::optional<cv::Mat> RevisitCells::AdmitAcrossSegments(CellView view) {
+bool RevisitCells::AdmitAcrossSegments(CellView view) {
   if (options_.segment_max_seen_share < 1.0) {
     const double lap_m = options_.segment_lap_path_m;
     const auto other_segment = [&view, lap_m](const CellView& other) {
@@ -198,9 +198,14 @@ std::optional<cv::Mat> RevisitCells::AdmitAcrossSegments(CellView view) {
     };
     size_t cells = 0;
     const cv::Mat seen = SeenBy(view, Candidates(view, other_segment), &cells);
-    if (SeenShare(view, seen) > options_.segment_max_seen_share) return std::nullopt;
+    if (SeenShare(view, seen) > options_.segment_max_seen_share) return false;
   }
-  return Admit(std::move(view));
+  if (options_.max_seen_share < 1.0 &&
+      SeenShare(view, SeenBefore(view)) > options_.max_seen_share) {
+    return false;
+  }
+  Remember(std::move(view));
+  return true;
 }
 
 void RevisitCells::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {

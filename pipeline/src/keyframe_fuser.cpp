@@ -80,7 +80,8 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
                                       : static_cast<double>(cv::countNonZero(mask)) /
                                             static_cast<double>(mask.total());
     if (selector_.Judge(share, keyframe.landmarks) == KeyframeVerdict::kFused) {
-      MapperFrame input{frame.time, frame.color, frame.depth_m, mask, keyframe.world_from_camera};
+      MapperFrame input{frame.time, frame.color, frame.depth_m, mask, keyframe.world_from_camera,
+                        false};
       // The depth corrected as the tracker's self-calibration has it now (the poses are
       // consistent with it).
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
@@ -225,7 +226,7 @@ SessionKeyframeList KeyframeFuser::TakeSessionKeyframes() {
   SessionKeyframeList out(parked_);
   if (!keep_for_session_) return out;
   for (const Stored& stored : stored_) {
-    if (!stored.apart) AddTo(stored, &out);
+    if (!stored.apart && !stored.rays_only) AddTo(stored, &out);
   }
   stored_.clear();
   return out;
@@ -283,45 +284,53 @@ void KeyframeFuser::FuseAtFinalPoses(bool again) {
   // its final pose, in fusion order, for the keyframes fused here to be judged against. Only
   // whether a keyframe is fused at all is decided here; the cells it leaves out stay those judged
   // when it came (judged again at the final poses, floor seed 2's map lost 0.7 points within 3 cm
-  // and floor_lost's 0.7 of completeness: docs/figures.md).
+  // and floor_lost's 0.7 of completeness: docs/figures.md). A redundant keyframe's rays still go
+  // into the map, not its points: they clear what moved away since (without them the rule
+  // doubled floor seed 2's ghosts).
   revisits_.Forget();
   const std::map<int, double> path_m = PathsAlongSegments();
   std::vector<double> dropped;
-  std::vector<Stored> kept;
-  kept.reserve(stored_.size());
   for (Stored& stored : stored_) {
-    if (stored.apart) {
-      kept.push_back(std::move(stored));
-      continue;
-    }
+    if (stored.apart) continue;
     // Moving pixels are 0 in the kept depth.
     CellView view = revisits_.MakeView(stored.keyframe_id, DepthOf(stored), cv::Mat(),
                                        stored.world_from_camera, stored.segment);
     view.path_m = path_m.at(stored.keyframe_id);
-    if (stored.in_map && !again) {  // fused before, where it still is
-      revisits_.Remember(std::move(view));
-      kept.push_back(std::move(stored));
+    if (stored.in_map && !again) {  // in the map before, where it still is
+      if (!stored.rays_only) revisits_.Remember(std::move(view));
       continue;
     }
-    if (!revisits_.AdmitAcrossSegments(std::move(view))) {
-      // Redundant: neither in the map nor in the session record.
-      cells_left_out_ -= stored.cells_left_out;
-      ++seen_before_;
+    const bool redundant = !revisits_.AdmitAcrossSegments(std::move(view));
+    SetRedundant(&stored, redundant);
+    MapperFrame input = Decode(stored);
+    if (redundant) {
+      input.mask = cv::Mat();  // all of its rays
+      input.rays_only = true;
       dropped.push_back(stored.time);
-      continue;
+    } else if (again) {
+      fused_poses_.push_back({stored.time, stored.world_from_camera});
     }
-    mapper_.Integrate(Decode(stored));
+    mapper_.Integrate(input);
     stored.in_map = true;
-    if (again) fused_poses_.push_back({stored.time, stored.world_from_camera});
-    kept.push_back(std::move(stored));
   }
-  stored_ = std::move(kept);
   revisits_.Forget();
   const auto is_dropped = [&dropped](const StampedPose& pose) {
     return std::find(dropped.begin(), dropped.end(), pose.time) != dropped.end();
   };
   fused_poses_.erase(std::remove_if(fused_poses_.begin(), fused_poses_.end(), is_dropped),
                      fused_poses_.end());
+}
+
+void KeyframeFuser::SetRedundant(Stored* stored, bool redundant) {
+  if (stored->rays_only == redundant) return;
+  if (redundant) {
+    cells_left_out_ -= stored->cells_left_out;
+    ++seen_before_;
+  } else {
+    cells_left_out_ += stored->cells_left_out;
+    --seen_before_;
+  }
+  stored->rays_only = redundant;
 }
 
 std::map<int, double> KeyframeFuser::PathsAlongSegments() const {

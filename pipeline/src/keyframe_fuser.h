@@ -67,8 +67,9 @@ class KeyframeFuser {
   // way (when nothing moved, onto the map fused before them). With
   // keyframes.revisit_segment_max_seen_share below 1, every keyframe fused here is judged again at
   // its final pose (RevisitCells::AdmitAcrossSegments: whether other map segments, or its own a
-  // lap back, saw its view): a keyframe found redundant leaves the map and the session record;
-  // the others fuse as they were judged when they came. Returns how many moved.
+  // lap back, saw its view): a keyframe found redundant leaves the cloud and the session record,
+  // and only its rays go into the map (they clear what moved away); the others fuse as they were
+  // judged when they came. Returns how many moved.
   size_t Refuse(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
   // After poses were corrected (a loop, a global adjustment, a segment's join or settle): once a
   // fused keyframe has moved, Refuse will fuse every keyframe again, so fusing into the map until
@@ -122,6 +123,7 @@ class KeyframeFuser {
     size_t feature_count = 0;
     bool apart = false;         // kept apart: not in the map (Fuse's in_map)
     bool in_map = false;        // fused into the map as it is now
+    bool rays_only = false;     // redundant at the final poses: its rays alone, no session record
     int segment = 0;            // its map segment (Fuse's segment_of)
     size_t cells_left_out = 0;  // of its view, seen on an earlier visit (RevisitCells)
   };
@@ -149,6 +151,8 @@ class KeyframeFuser {
   // How far each stored keyframe's segment had travelled at it [m], by keyframe id: along the
   // segment's keyframes in id order, at their current poses.
   std::map<int, double> PathsAlongSegments() const;
+  // Counts `stored` among the keyframes not fused (earlier visits saw their view) or takes it back.
+  void SetRedundant(Stored* stored, bool redundant);
   // Fuses a stored keyframe kept apart, now joined, at its pose. False when it is redundant
   // (Revisit): then it is neither fused nor to be kept.
   bool FuseStored(Stored* stored);

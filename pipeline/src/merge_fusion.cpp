@@ -55,8 +55,12 @@ MergeFusion FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
     int last_id = 0;
     for (size_t k = 0; k < keyframes.size(); ++k) {
       SessionImages images = session.reader->ReadImages(k);
-      MapperFrame frame{keyframes[k].time, images.color, images.depth_m, cv::Mat(),
-                        joined.first_from_keyframe[order[rank]][k]};
+      MapperFrame frame{keyframes[k].time,
+                        images.color,
+                        images.depth_m,
+                        cv::Mat(),
+                        joined.first_from_keyframe[order[rank]][k],
+                        false};
       // A redundant keyframe's view is not remembered: only fused views leave cells out.
       std::optional<cv::Mat> seen = revisits.Admit(revisits.MakeView(
           id_base + keyframes[k].id, frame.depth_m, cv::Mat(), frame.world_from_camera));

@@ -86,6 +86,8 @@ json KeyframesJson(const BuildResult& result, const BuildConfig& config) {
           {"rejected_redundant", result.selection.redundant},
           // Not fused: fused keyframes of earlier visits saw its view (RevisitCells).
           {"rejected_seen_before", result.selection.seen_before},
+          // Of those, judged at the final poses: only their rays went into the map (free space).
+          {"rays_only", result.map.statistics.rays_only_frames},
           // Culled by the tracker when final: keyframes kept before them saw their view.
           {"culled", result.tracking ? result.tracking->statistics.keyframes_culled : 0},
           {"map_recheck_added_pixels", result.selection.recheck_additions},

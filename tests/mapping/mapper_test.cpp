@@ -78,7 +78,7 @@ TEST(MapperTest, ResetAndRefusingGiveTheMapOfTheCorrectedPosesOnly) {
   const Sequence sequence = Sequence::Open(dir.path(), camera);
   auto frame_at = [&](size_t i, const Eigen::Isometry3d& world_from_camera) {
     const Frame frame = sequence.LoadFrame(i);
-    return MapperFrame{frame.time, frame.color, frame.depth_m, cv::Mat(), world_from_camera};
+    return MapperFrame{frame.time, frame.color, frame.depth_m, cv::Mat(), world_from_camera, false};
   };
   Eigen::Isometry3d drift = Eigen::Isometry3d::Identity();
   drift.translation() = Eigen::Vector3d(0.0, 0.0, 0.2);  // the plane 20 cm off
@@ -145,6 +145,65 @@ TEST(MapperTest, ALaterSessionReplacesWhatMovedAway) {
 
   const FinishedMap one_recording = merged(false);
   EXPECT_GT(one_recording.occupancy->Occupancy({0.0, 0.0, 2.025}), 0.5);
+}
+
+// A person 2 m ahead in one frame, then two frames of the wall 3 m behind them with the left half
+// masked (someone else stood there), then six rays-only frames of the whole wall (keyframes that
+// add nothing new): their rays alone clear the person's left half from the OctoMap and, through
+// the views, from the cleaned cloud, and add no points. Without them the left half stays.
+TEST(MapperTest, RaysOnlyFramesClearWhatTheySeeThroughButAddNoPoints) {
+  const Camera camera = testing::SmallCamera(96, 72);
+  auto frame = [&camera](float depth_m, double x) {
+    MapperFrame input;
+    input.color = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(90, 120, 150));
+    input.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(depth_m));
+    input.world_from_camera.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+    return input;
+  };
+  auto fused = [&](int rays_only_frames) {
+    MapperOptions options;
+    options.in_background = false;
+    Mapper mapper(camera, options);
+    mapper.Integrate(frame(2.02f, 0.0));
+    for (int k = 0; k < 2; ++k) {
+      MapperFrame wall = frame(3.02f, 0.01 * k);
+      wall.mask = cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+      wall.mask.colRange(0, camera.width / 2).setTo(255);
+      mapper.Integrate(wall);
+    }
+    for (int k = 0; k < rays_only_frames; ++k) {
+      MapperFrame wall = frame(3.02f, 0.01 * k);
+      wall.rays_only = true;
+      mapper.Integrate(wall);
+    }
+    FinishedMap map = mapper.Finish();
+    map.CleanCloud(options.cleaning);
+    return map;
+  };
+  // Points left (x < -5 cm) or right (x > 5 cm) of the axis, at the person's or the wall's depth.
+  auto count = [](const FinishedMap& map, bool wall, bool left) {
+    size_t n = 0;
+    for (const VoxelPoint& point : map.cloud.Points()) {
+      const float x = point.position.x();
+      if ((point.position.z() > 2.5f) == wall && (left ? x < -0.05f : x > 0.05f)) ++n;
+    }
+    return n;
+  };
+  const FinishedMap rays = fused(6);
+  ASSERT_TRUE(rays.occupancy);
+  EXPECT_LT(rays.occupancy->Occupancy({-0.3, 0.0, 2.025}), 0.5);
+  EXPECT_GT(rays.occupancy->Occupancy({-0.3, 0.0, 3.025}), 0.5);
+  EXPECT_EQ(count(rays, false, true), 0u);
+  EXPECT_EQ(count(rays, true, true), 0u);  // no points of their own
+  EXPECT_GT(count(rays, true, false), 100u);
+  EXPECT_EQ(rays.statistics.frames, 3u);
+  EXPECT_EQ(rays.statistics.rays_only_frames, 6u);
+  EXPECT_EQ(rays.views.size(), 9u);
+
+  const FinishedMap without = fused(0);
+  EXPECT_GT(without.occupancy->Occupancy({-0.3, 0.0, 2.025}), 0.5);
+  EXPECT_GT(count(without, false, true), 100u);
+  EXPECT_EQ(count(without, true, false), count(rays, true, false));
 }
 
 }  // namespace

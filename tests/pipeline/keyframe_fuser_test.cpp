@@ -239,8 +239,9 @@ TEST_F(KeyframeFuserTest, WithTheSeenShareRuleOffARevisitIsFused) {
 
 // With keyframes.revisit_segment_max_seen_share 0.9, a map segment whose keyframes see only what
 // another segment's keyframes fused is not fused at the refusion, judged at the final poses
-// whatever the keyframe ids; the same keyframes in the first segment, or with the rule off (1,
-// the default), are fused.
+// whatever the keyframe ids (only their rays go into the map); the same keyframes in the first
+// segment, or with the rule off (1, the default), are fused. A later refusion (everything 1 cm on)
+// judges them again and counts them once.
 TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinalPoses) {
   for (const auto& [later, share] : {std::pair{true, 0.9}, {false, 0.9}, {true, 1.0}}) {
     const bool later_segment = later;  // a lambda below takes it
@@ -259,12 +260,17 @@ TEST_F(KeyframeFuserTest, ASegmentSeeingOnlyWhatAnotherFusedIsNotFusedAtTheFinal
     fuser.Fuse(finals, DepthCorrection{}, nullptr,
                [later_segment](int id) { return later_segment && id >= 6 ? 1 : 0; });
     EXPECT_EQ(fuser.Refuse(final_poses), 3u);  // the three the join moved
+    for (auto& [id, pose] : final_poses) pose.translation().x() += 0.01;
+    EXPECT_EQ(fuser.Refuse(final_poses), 9u);
     const bool dropped = later_segment && share < 1.0;
     const size_t fused = dropped ? 6u : 9u;
     EXPECT_EQ(fuser.figures().seen_before, dropped ? 3u : 0u);
     EXPECT_EQ(fuser.fused_poses().size(), fused);
     EXPECT_EQ(fuser.TakeSessionKeyframes().size(), fused);
-    EXPECT_EQ(fusing.mapper.Finish().statistics.frames, fused);
+    const FinishedMap map = fusing.mapper.Finish();
+    EXPECT_EQ(map.statistics.frames, fused);
+    EXPECT_EQ(map.statistics.rays_only_frames, 9u - fused);
+    EXPECT_EQ(map.statistics.refusions, 2u);
   }
 }
 

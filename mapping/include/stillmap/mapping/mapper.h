@@ -58,12 +58,16 @@ struct MapperFrame {
   cv::Mat depth_m;    // CV_32FC1 [m]
   cv::Mat mask;       // CV_8UC1 or empty
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  // Only its rays go into the map (the OctoMap's free space and hits, the cleaning's view), no
+  // points into the cloud: a keyframe that adds nothing new still clears what moved away.
+  bool rays_only = false;
 };
 
 // Totals over all fused frames.
 struct MapperStatistics {
-  size_t frames = 0;  // frames fused
-  size_t points = 0;  // back-projected points fused
+  size_t frames = 0;            // frames fused
+  size_t rays_only_frames = 0;  // frames of which only the rays went in (MapperFrame::rays_only)
+  size_t points = 0;            // back-projected points fused
   double back_projection_ms = 0.0;
   double voxel_ms = 0.0;
   double occupancy_ms = 0.0;       // OctoMap insertion, on whichever thread ran it

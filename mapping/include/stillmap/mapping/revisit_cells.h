@@ -117,10 +117,11 @@ class RevisitCells {
   // `view`'s read cells, the keyframe is redundant: nullopt, and its view is not remembered. Else
   // its view is remembered and the cells seen returned (empty when none).
   std::optional<cv::Mat> Admit(CellView view);
-  // Admit, and the keyframe is redundant as well when the views remembered of other map segments
-  // (or of its own, segment_lap_path_m back along its path) saw more than options'
-  // segment_max_seen_share of its read cells (for final poses only).
-  std::optional<cv::Mat> AdmitAcrossSegments(CellView view);
+  // Admit's verdict alone (whether the keyframe is fused; its view is then remembered), and the
+  // keyframe is redundant as well when the views remembered of other map segments (or of its own,
+  // segment_lap_path_m back along its path) saw more than options' segment_max_seen_share of its
+  // read cells (for final poses only: the cells a keyframe leaves out were judged when it came).
+  bool AdmitAcrossSegments(CellView view);
   // Frees the views remembered (no keyframe comes after).
   void Forget() { std::vector<CellView>().swap(remembered_); }
 
