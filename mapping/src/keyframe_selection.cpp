@@ -35,8 +35,8 @@ std::string KeyframeSelectionOptions::Describe() const {
   }
   if (revisit.segment_max_seen_share < 1.0) {
     rule += fmt::format(
-        "; a keyframe of a map segment is not fused when other segments' keyframes saw more than "
-        "{} of its cells at the final poses",
+        "; a keyframe of a map segment adds only its rays, no points, when other segments' "
+        "keyframes saw more than {} of its cells at the final poses",
         revisit.segment_max_seen_share);
     if (revisit.segment_lap_path_m > 0.0) {
       rule += fmt::format(

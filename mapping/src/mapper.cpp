@@ -172,7 +172,7 @@ void Mapper::Fuse(const MapperFrame& frame) {
     }
   }
 
-  if (options_.cleaning.clear_seen_through_views) {
+  if (options_.cleaning.clear_seen_through_views && !frame.rays_only) {
     views_.push_back(MakeKeyframeView(frame.depth_m, frame.mask, frame.world_from_camera));
     views_.back().session = session_;
     views_.back().camera = static_cast<int>(cameras_.size()) - 1;

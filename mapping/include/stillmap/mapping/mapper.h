@@ -58,8 +58,10 @@ struct MapperFrame {
   cv::Mat depth_m;    // CV_32FC1 [m]
   cv::Mat mask;       // CV_8UC1 or empty
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
-  // Only its rays go into the map (the OctoMap's free space and hits, the cleaning's view), no
-  // points into the cloud: a keyframe that adds nothing new still clears what moved away.
+  // Only its rays go into the map (the OctoMap's free space and hits), no points into the cloud
+  // and no view for the cleaning: a keyframe that adds nothing new still clears what moved away
+  // (the cleaning reads the OctoMap too). Its view would cost 150 KB at 640 x 480, and took no
+  // more ghosts away on the floor (docs/figures.md).
   bool rays_only = false;
 };
 
