@@ -9,6 +9,21 @@
 namespace stillmap {
 namespace {
 
+// A frame of a flat surface depth_m straight ahead, the camera at x along the world's x axis.
+MapperFrame FlatFrame(const Camera& camera, float depth_m, double x) {
+  MapperFrame input;
+  input.color = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(90, 120, 150));
+  input.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(depth_m));
+  input.world_from_camera.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+  return input;
+}
+
+MapperOptions OnTheCallingThread() {
+  MapperOptions options;
+  options.in_background = false;
+  return options;
+}
+
 // A camera circling in front of a tilted plane; every fused point must lie on the plane, which
 // holds only if back-projection, the pose chain and the voxel averaging are all right.
 TEST(MapperTest, FusedCloudOfATiltedPlaneLiesOnThePlane) {
@@ -111,20 +126,12 @@ TEST(MapperTest, ResetAndRefusingGiveTheMapOfTheCorrectedPosesOnly) {
 // in the OctoMap.
 TEST(MapperTest, ALaterSessionReplacesWhatMovedAway) {
   const Camera camera = testing::SmallCamera(96, 72);
-  auto frame = [&camera](float depth_m, double x) {
-    MapperFrame input;
-    input.color = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(90, 120, 150));
-    input.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(depth_m));
-    input.world_from_camera.translation() = Eigen::Vector3d(x, 0.0, 0.0);
-    return input;
-  };
   auto merged = [&](bool sessions) {
-    MapperOptions options;
-    options.in_background = false;
+    const MapperOptions options = OnTheCallingThread();
     Mapper mapper(camera, options);
-    for (int k = 0; k < 8; ++k) mapper.Integrate(frame(2.02f, 0.01 * (k % 6)));
+    for (int k = 0; k < 8; ++k) mapper.Integrate(FlatFrame(camera, 2.02f, 0.01 * (k % 6)));
     if (sessions) mapper.BeginLaterSession(camera);
-    for (int k = 0; k < 6; ++k) mapper.Integrate(frame(3.02f, 0.01 * k));
+    for (int k = 0; k < 6; ++k) mapper.Integrate(FlatFrame(camera, 3.02f, 0.01 * k));
     FinishedMap map = mapper.Finish();
     map.CleanCloud(options.cleaning);
     return map;
@@ -153,26 +160,18 @@ TEST(MapperTest, ALaterSessionReplacesWhatMovedAway) {
 // cleaned cloud, and add no points and no views. Without them the left half stays.
 TEST(MapperTest, RaysOnlyFramesClearWhatTheySeeThroughButAddNoPoints) {
   const Camera camera = testing::SmallCamera(96, 72);
-  auto frame = [&camera](float depth_m, double x) {
-    MapperFrame input;
-    input.color = cv::Mat(camera.height, camera.width, CV_8UC3, cv::Scalar(90, 120, 150));
-    input.depth_m = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(depth_m));
-    input.world_from_camera.translation() = Eigen::Vector3d(x, 0.0, 0.0);
-    return input;
-  };
   auto fused = [&](int rays_only_frames) {
-    MapperOptions options;
-    options.in_background = false;
+    const MapperOptions options = OnTheCallingThread();
     Mapper mapper(camera, options);
-    mapper.Integrate(frame(2.02f, 0.0));
+    mapper.Integrate(FlatFrame(camera, 2.02f, 0.0));
     for (int k = 0; k < 2; ++k) {
-      MapperFrame wall = frame(3.02f, 0.01 * k);
+      MapperFrame wall = FlatFrame(camera, 3.02f, 0.01 * k);
       wall.mask = cv::Mat(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
       wall.mask.colRange(0, camera.width / 2).setTo(255);
       mapper.Integrate(wall);
     }
     for (int k = 0; k < rays_only_frames; ++k) {
-      MapperFrame wall = frame(3.02f, 0.01 * k);
+      MapperFrame wall = FlatFrame(camera, 3.02f, 0.01 * k);
       wall.rays_only = true;
       mapper.Integrate(wall);
     }
