@@ -169,7 +169,7 @@ void DepthBackProjector::BackProject(const cv::Mat& depth_m, const cv::Mat& colo
                                      const Eigen::Isometry3f& world_from_camera,
                                      ColoredPoints* out) const {
   CV_Assert(depth_m.type() == CV_32FC1 && depth_m.cols == width_ && depth_m.rows == height_);
-  CV_Assert(color.type() == CV_8UC3 && color.size() == depth_m.size());
+  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth_m.size()));
   CV_Assert(mask.empty() || (mask.type() == CV_8UC1 && mask.size() == depth_m.size()));
   const cv::Mat* depth = &depth_m;
   if (options_.smoothing_radius > 0) {
@@ -183,7 +183,7 @@ void DepthBackProjector::BackProject(const cv::Mat& depth_m, const cv::Mat& colo
   const int stride = options_.pixel_stride;
   for (int v = 0; v < height_; v += stride) {
     const float* depth_row = depth->ptr<float>(v);
-    const cv::Vec3b* color_row = color.ptr<cv::Vec3b>(v);
+    const cv::Vec3b* color_row = color.empty() ? nullptr : color.ptr<cv::Vec3b>(v);
     const std::uint8_t* mask_row = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(v);
     const float* ray_x = &ray_x_[static_cast<size_t>(v) * width_];
     const float* ray_y = &ray_y_[static_cast<size_t>(v) * width_];
@@ -193,6 +193,7 @@ void DepthBackProjector::BackProject(const cv::Mat& depth_m, const cv::Mat& colo
       if (mask_row != nullptr && mask_row[u] != 0) continue;
       const Eigen::Vector3f point_in_camera(z * ray_x[u], z * ray_y[u], z);
       out->positions.push_back(rotation * point_in_camera + translation);
+      if (color_row == nullptr) continue;
       const cv::Vec3b& bgr = color_row[u];
       out->colors.push_back({bgr[2], bgr[1], bgr[0]});
     }

@@ -114,6 +114,9 @@ void Mapper::WaitForOccupancy() {
 
 void Mapper::Integrate(const MapperFrame& frame) {
   if (finished_) throw std::logic_error("Mapper::Integrate called after Finish");
+  if (frame.color.empty() && !frame.rays_only) {
+    throw std::logic_error("Mapper::Integrate: a frame with points needs its colour image");
+  }
   if (!options_.in_background) {
     Fuse(frame);
     return;

@@ -178,6 +178,15 @@ MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
   return input;
 }
 
+MapperFrame KeyframeFuser::DecodeRays(const Stored& stored) const {
+  MapperFrame input;
+  input.time = stored.time;
+  input.depth_m = DepthOf(stored);
+  input.world_from_camera = stored.world_from_camera;
+  input.rays_only = true;
+  return input;
+}
+
 cv::Mat KeyframeFuser::DepthOf(const Stored& stored) const {
   cv::Mat depth_m;
   cv::imdecode(parked_->Read(stored.depth_png), cv::IMREAD_UNCHANGED)
@@ -302,15 +311,12 @@ void KeyframeFuser::FuseAtFinalPoses(bool again) {
     }
     const bool redundant = !revisits_.AdmitAcrossSegments(std::move(view));
     SetRedundant(&stored, redundant);
-    MapperFrame input = Decode(stored);
     if (redundant) {
-      input.mask = cv::Mat();  // all of its rays
-      input.rays_only = true;
       dropped.push_back(stored.time);
     } else if (again) {
       fused_poses_.push_back({stored.time, stored.world_from_camera});
     }
-    mapper_.Integrate(input);
+    mapper_.Integrate(redundant ? DecodeRays(stored) : Decode(stored));
     stored.in_map = true;
   }
   revisits_.Forget();

@@ -140,6 +140,8 @@ class KeyframeFuser {
   static bool Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera);
   // A stored keyframe as the mapper takes it.
   MapperFrame Decode(const Stored& stored) const;
+  // Its rays alone (MapperFrame::rays_only): depth and pose, every pixel; no colour decoded.
+  MapperFrame DecodeRays(const Stored& stored) const;
   // Its depth [m] alone (moving pixels 0).
   cv::Mat DepthOf(const Stored& stored) const;
   // Fuses a judged keyframe into the map (the cells earlier visits saw left out), kept compact

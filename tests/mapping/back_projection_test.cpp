@@ -66,6 +66,25 @@ TEST(BackProjectionTest, RangeMaskAndPoseAreApplied) {
   for (const Eigen::Vector3f& p : points.positions) EXPECT_FLOAT_EQ(p.z(), 5.0f);
 }
 
+TEST(BackProjectionTest, WithoutColourTheSamePositionsComeAlone) {
+  const Camera camera = testing::SmallCamera();
+  const DepthBackProjector projector(camera, {});
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
+  depth(cv::Rect(10, 5, 30, 20)).setTo(1.25f);
+  depth.at<float>(15, 20) = 0.0f;
+  cv::Mat mask(camera.height, camera.width, CV_8UC1, cv::Scalar(0));
+  mask(cv::Rect(10, 5, 4, 4)).setTo(255);
+  const cv::Mat color(camera.height, camera.width, CV_8UC3, cv::Scalar(9, 8, 7));
+  Eigen::Isometry3f world_from_camera(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitY()));
+  world_from_camera.translation() = Eigen::Vector3f(0.5f, -1, 2);
+  ColoredPoints coloured, alone;
+  projector.BackProject(depth, color, mask, world_from_camera, &coloured);
+  projector.BackProject(depth, cv::Mat(), mask, world_from_camera, &alone);
+  ASSERT_EQ(coloured.size(), static_cast<size_t>(30 * 20 - 16 - 1));
+  EXPECT_EQ(alone.positions, coloured.positions);
+  EXPECT_TRUE(alone.colors.empty());
+}
+
 // A plane seen by a camera: 1/z = a + b u + c v.
 cv::Mat PlaneDepth(int width, int height, double noise_sigma, std::uint64_t seed) {
   cv::Mat depth(height, width, CV_32FC1);

@@ -56,8 +56,9 @@ class DepthBackProjector {
   DepthBackProjector(const Camera& camera, const BackProjectionOptions& options);
 
   // Appends to `out` the points of `depth_m` (CV_32FC1, metres, 0 = none) within the depth range,
-  // colored from `color` (CV_8UC3 BGR, same size), skipping pixels where `mask` (CV_8UC1, or
-  // empty for none) is non-zero, transformed by `world_from_camera`.
+  // colored from `color` (CV_8UC3 BGR, same size; or empty for positions only, `out->colors`
+  // then untouched), skipping pixels where `mask` (CV_8UC1, or empty for none) is non-zero,
+  // transformed by `world_from_camera`.
   void BackProject(const cv::Mat& depth_m, const cv::Mat& color, const cv::Mat& mask,
                    const Eigen::Isometry3f& world_from_camera, ColoredPoints* out) const;
 

@@ -54,7 +54,7 @@ struct MapperOptions {
 // excluded, or empty) and the camera's final pose.
 struct MapperFrame {
   double time = 0.0;  // [s]
-  cv::Mat color;      // CV_8UC3 BGR
+  cv::Mat color;      // CV_8UC3 BGR; may be empty in a rays-only frame
   cv::Mat depth_m;    // CV_32FC1 [m]
   cv::Mat mask;       // CV_8UC1 or empty
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
