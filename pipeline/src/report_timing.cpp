@@ -39,6 +39,7 @@ json TrackingTimingJson(const TrackingFigures& tracking) {
                          ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
                          : 0.0},
             {"total", t.bundle_adjustment_ms}}},
+          {"rgbd_odometry_total", t.rgbd_odometry_ms},
           {"place_recognition_and_loops_total", t.loop_ms},
           {"loop_pose_graph_total", t.loop_solve_ms},
           {"global_bundle_adjustment",

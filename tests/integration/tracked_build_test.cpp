@@ -89,7 +89,8 @@ TEST(BuildTest, TrackingASyntheticRoomWritesTrajectoryKeyframesAndErrors) {
   EXPECT_EQ(report["tracking"]["lost"], 0);
   EXPECT_EQ(report["tracking"]["keyframes"], keyframes.size());
   EXPECT_EQ(report["frames"]["fused"], keyframes.size());
-  for (const char* stage : {"extract", "match", "pose", "local_bundle_adjustment"}) {
+  for (const char* stage :
+       {"extract", "match", "pose", "local_bundle_adjustment", "rgbd_odometry_total"}) {
     EXPECT_TRUE(report["timing"]["stages_ms"]["tracking_ms"].contains(stage)) << stage;
   }
   // The allocator the binary was linked with is the one that ran (CMakeLists.txt).
