@@ -148,6 +148,10 @@ void Mapper::AddBackgroundCpu(double ms) {
 }
 
 void Mapper::Fuse(const MapperFrame& frame) {
+  if (frame.rays_only && !occupancy_) {  // its rays have nowhere to go
+    ++statistics_.rays_only_frames;
+    return;
+  }
   auto start = std::chrono::steady_clock::now();
   scratch_.Clear();
   projector_.BackProject(frame.depth_m, frame.color, frame.mask,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
+#include <utility>
 
 #include "stillmap/io/timing.h"
 
@@ -166,11 +167,11 @@ SessionKeyframeList KeyframeFuser::TakeApart(const std::function<bool(int keyfra
   return out;
 }
 
-MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
+MapperFrame KeyframeFuser::Decode(const Stored& stored, cv::Mat depth_m) const {
   MapperFrame input;
   input.time = stored.time;
   input.color = cv::imdecode(parked_->Read(stored.color_jpeg), cv::IMREAD_COLOR);
-  input.depth_m = DepthOf(stored);
+  input.depth_m = depth_m.empty() ? DepthOf(stored) : std::move(depth_m);
   if (stored.seen_png.size > 0) {
     input.mask = cv::imdecode(parked_->Read(stored.seen_png), cv::IMREAD_UNCHANGED);
   }
@@ -178,10 +179,10 @@ MapperFrame KeyframeFuser::Decode(const Stored& stored) const {
   return input;
 }
 
-MapperFrame KeyframeFuser::DecodeRays(const Stored& stored) const {
+MapperFrame KeyframeFuser::RaysOf(const Stored& stored, cv::Mat depth_m) {
   MapperFrame input;
   input.time = stored.time;
-  input.depth_m = DepthOf(stored);
+  input.depth_m = std::move(depth_m);
   input.world_from_camera = stored.world_from_camera;
   input.rays_only = true;
   return input;
@@ -301,8 +302,9 @@ void KeyframeFuser::FuseAtFinalPoses(bool again) {
   std::vector<double> dropped;
   for (Stored& stored : stored_) {
     if (stored.apart) continue;
-    // Moving pixels are 0 in the kept depth.
-    CellView view = revisits_.MakeView(stored.keyframe_id, DepthOf(stored), cv::Mat(),
+    // Moving pixels are 0 in the kept depth, read once for the view and the mapper.
+    cv::Mat depth_m = DepthOf(stored);
+    CellView view = revisits_.MakeView(stored.keyframe_id, depth_m, cv::Mat(),
                                        stored.world_from_camera, stored.segment);
     view.path_m = path_m.at(stored.keyframe_id);
     if (stored.in_map && !again) {  // in the map before, where it still is
@@ -316,7 +318,8 @@ void KeyframeFuser::FuseAtFinalPoses(bool again) {
     } else if (again) {
       fused_poses_.push_back({stored.time, stored.world_from_camera});
     }
-    mapper_.Integrate(redundant ? DecodeRays(stored) : Decode(stored));
+    mapper_.Integrate(redundant ? RaysOf(stored, std::move(depth_m))
+                                : Decode(stored, std::move(depth_m)));
     stored.in_map = true;
   }
   revisits_.Forget();

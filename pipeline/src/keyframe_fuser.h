@@ -138,10 +138,10 @@ class KeyframeFuser {
   bool FusingLive() const { return !refusion_due_ && !deferring_; }
   // Whether `stored` was fused elsewhere than at `world_from_camera` (1 mm, 0.05 degrees).
   static bool Moved(const Stored& stored, const Eigen::Isometry3d& world_from_camera);
-  // A stored keyframe as the mapper takes it.
-  MapperFrame Decode(const Stored& stored) const;
-  // Its rays alone (MapperFrame::rays_only): depth and pose, every pixel; no colour decoded.
-  MapperFrame DecodeRays(const Stored& stored) const;
+  // A stored keyframe as the mapper takes it; `depth_m`, when given, is its DepthOf already read.
+  MapperFrame Decode(const Stored& stored, cv::Mat depth_m = {}) const;
+  // Its rays alone (MapperFrame::rays_only): its depth (DepthOf) and pose, every pixel.
+  static MapperFrame RaysOf(const Stored& stored, cv::Mat depth_m);
   // Its depth [m] alone (moving pixels 0).
   cv::Mat DepthOf(const Stored& stored) const;
   // Fuses a judged keyframe into the map (the cells earlier visits saw left out), kept compact
