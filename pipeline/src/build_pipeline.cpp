@@ -135,6 +135,7 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
                    config.selection,
                    depth.min_depth,
                    depth.max_depth};
+  options.refinement = config.final_poses;
   options.segments.place = config.tracking.loops.place;
   options.segments.place_candidates = config.merge.place_candidates;
   options.segments.place_min_votes = config.merge.place_min_votes;
@@ -151,6 +152,7 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
   }
   options.flow = config.masking_enabled && config.masking.TracksFlow();
   options.read_ahead = request.threads() > 1;
+  options.parallel = request.threads() > 1;
   options.show_progress = request.show_progress;
   return options;
 }

@@ -4,6 +4,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <sstream>
 #include <utility>
@@ -197,6 +198,24 @@ void MergeOptions::Validate() const {
   }
 }
 
+void DenseRefinementOptions::Validate() const {
+  if (next_keyframes < 0 || next_keyframes > 16 || revisit_pairs < 0 || revisit_pairs > 16) {
+    throw InputError(fmt::format("{} and {} must be 0..16", OptionKey(*this, next_keyframes),
+                                 OptionKey(*this, revisit_pairs)));
+  }
+  if (cell_px < 1 || cell_px > 64)
+    throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, cell_px)));
+  if (!(alignment_sigma_m > 0.0 && alignment_sigma_m < 1.0))
+    throw InputError(fmt::format("{} must be in (0, 1)", OptionKey(*this, alignment_sigma_m)));
+  for (const double* value :
+       {&max_next_gap_s, &revisit_min_gap_s, &revisit_max_distance_m, &revisit_max_angle_deg,
+        &max_change_m, &max_change_deg, &revisit_max_change_m, &revisit_max_change_deg,
+        &cycle_max_m, &cycle_max_deg}) {
+    if (!(*value >= 0.0 && std::isfinite(*value)))
+      throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, *value)));
+  }
+}
+
 void RegisterConfigKeys() {
   static const bool kRegistered = [] {
     const BuildConfig config;
@@ -259,6 +278,7 @@ void BuildConfig::Validate() const {
   tracking.Validate();
   masking.Validate();
   merge.Validate();
+  final_poses.Validate();
   selection.Validate();
   grid.Validate();
   mesh.Validate();

@@ -188,6 +188,22 @@ MapperFrame KeyframeFuser::RaysOf(const Stored& stored, cv::Mat depth_m) {
   return input;
 }
 
+std::vector<KeyframeFuser::KeptKeyframe> KeyframeFuser::KeptKeyframes() const {
+  std::vector<KeptKeyframe> kept;
+  kept.reserve(stored_.size());
+  for (const Stored& stored : stored_) {
+    kept.push_back(
+        {stored.keyframe_id, stored.time, stored.segment, stored.apart, stored.world_from_camera});
+  }
+  return kept;
+}
+
+void KeyframeFuser::ImagesOf(size_t index, cv::Mat* gray, cv::Mat* depth_m) const {
+  const Stored& stored = stored_.at(index);
+  *gray = cv::imdecode(parked_->Read(stored.color_jpeg), cv::IMREAD_GRAYSCALE);
+  *depth_m = DepthOf(stored);
+}
+
 cv::Mat KeyframeFuser::DepthOf(const Stored& stored) const {
   cv::Mat depth_m;
   cv::imdecode(parked_->Read(stored.depth_png), cv::IMREAD_UNCHANGED)

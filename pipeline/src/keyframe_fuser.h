@@ -91,6 +91,19 @@ class KeyframeFuser {
   // handed over once at the end: empty when the build keeps no session record.
   SessionKeyframeList TakeSessionKeyframes();
 
+  // A kept keyframe as the final pose refinement reads it (dense_refinement.h).
+  struct KeptKeyframe {
+    int keyframe_id = 0;
+    double time = 0.0;
+    int segment = 0;
+    bool apart = false;  // kept apart: not in the map
+    Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();  // as kept
+  };
+  // Every keyframe kept compact, in the order they came.
+  std::vector<KeptKeyframe> KeptKeyframes() const;
+  // The `index`th kept keyframe's gray image and depth [m] (moving pixels 0), decoded.
+  void ImagesOf(size_t index, cv::Mat* gray, cv::Mat* depth_m) const;
+
   // The keyframes fused, with the poses they were fused at.
   const std::vector<StampedPose>& fused_poses() const { return fused_poses_; }
   SelectionFigures figures() const;

@@ -12,6 +12,7 @@
 #include "stillmap/io/session_keyframes.h"
 #include "stillmap/io/trajectory.h"
 #include "stillmap/mapping/mapper.h"
+#include "stillmap/pipeline/dense_refinement_options.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/tracking/mask_stage.h"
 
@@ -28,9 +29,10 @@ struct PosedFrames {
 // What the frame loops read of the request.
 struct LoopOptions {
   PoseSource poses = PoseSource::kTracking;
-  TrackerOptions tracking;     // tracked runs
-  FuserOptions fuser;          // tracked runs
-  MapSegmentOptions segments;  // tracked runs: joining segments after a loss (merge.*)
+  TrackerOptions tracking;            // tracked runs
+  FuserOptions fuser;                 // tracked runs
+  MapSegmentOptions segments;         // tracked runs: joining segments after a loss (merge.*)
+  DenseRefinementOptions refinement;  // tracked runs: the final poses refined (final_poses.*)
   // With ground-truth poses every n-th frame is a depth-check reference
   // (masking.groundtruth_reference_interval).
   int groundtruth_reference_interval = 5;
@@ -41,6 +43,7 @@ struct LoopOptions {
   bool given_session = false;  // given poses as they are, with map.session_record
   bool flow = false;           // the flow check's corners are tracked ahead with the decoding
   bool read_ahead = true;      // frames decoded on another thread (run.threads > 1)
+  bool parallel = true;        // the final poses' refinement on two threads (run.threads > 1)
   bool show_progress = false;
 };
 

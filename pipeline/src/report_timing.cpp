@@ -28,24 +28,26 @@ json TimingJson(const std::vector<double>& values) {
 
 json TrackingTimingJson(const TrackingFigures& tracking) {
   const TrackerStatistics& t = tracking.statistics;
-  return {{"extract", TimingJson(tracking.extract_ms)},
-          {"match", TimingJson(tracking.match_ms)},
-          {"pose", TimingJson(tracking.pose_ms)},
-          {"keyframe", TimingJson(tracking.keyframe_ms)},
-          {"track_total", TimingJson(tracking.total_ms)},
-          {"local_bundle_adjustment",
-           {{"runs", t.bundle_adjustments},
-            {"mean", t.bundle_adjustments > 0
-                         ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
-                         : 0.0},
-            {"total", t.bundle_adjustment_ms}}},
-          {"rgbd_odometry_total", t.rgbd_odometry_ms},
-          {"place_recognition_and_loops_total", t.loop_ms},
-          {"loop_pose_graph_total", t.loop_solve_ms},
-          {"global_bundle_adjustment",
-           {{"runs", t.global_bundle_adjustments}, {"total", t.global_bundle_adjustment_ms}}},
-          {"refuse_map_total", tracking.refuse_ms},
-          {"fuse_keyframes_total", tracking.fuse_ms}};
+  return {
+      {"extract", TimingJson(tracking.extract_ms)},
+      {"match", TimingJson(tracking.match_ms)},
+      {"pose", TimingJson(tracking.pose_ms)},
+      {"keyframe", TimingJson(tracking.keyframe_ms)},
+      {"track_total", TimingJson(tracking.total_ms)},
+      {"local_bundle_adjustment",
+       {{"runs", t.bundle_adjustments},
+        {"mean", t.bundle_adjustments > 0
+                     ? t.bundle_adjustment_ms / static_cast<double>(t.bundle_adjustments)
+                     : 0.0},
+        {"total", t.bundle_adjustment_ms}}},
+      {"rgbd_odometry_total", t.rgbd_odometry_ms},
+      {"place_recognition_and_loops_total", t.loop_ms},
+      {"loop_pose_graph_total", t.loop_solve_ms},
+      {"global_bundle_adjustment",
+       {{"runs", t.global_bundle_adjustments}, {"total", t.global_bundle_adjustment_ms}}},
+      {"refuse_map_total", tracking.refuse_ms},
+      {"dense_refinement_total", tracking.dense_refinement ? tracking.dense_refinement->ms : 0.0},
+      {"fuse_keyframes_total", tracking.fuse_ms}};
 }
 
 json TimingsJson(const BuildResult& result) {

@@ -119,6 +119,12 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
   const TrackerStatistics& t = tracking.statistics;
   json out = TrackerJson(tracking, options);
   if (tracking.prior) out["carried_by_given_poses"] = t.carried;
+  if (const std::optional<DenseRefinementFigures>& dense = tracking.dense_refinement) {
+    out["dense_refinement"] = {
+        {"keyframes", dense->keyframes},         {"next_pairs", dense->next_pairs},
+        {"next_taken", dense->next_taken},       {"revisit_pairs", dense->revisit_pairs},
+        {"revisit_taken", dense->revisit_taken}, {"largest_move_m", dense->largest_move_m}};
+  }
   return out;
 }
 

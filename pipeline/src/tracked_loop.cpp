@@ -1,8 +1,10 @@
 #include <fmt/format.h>
 
+#include <numeric>
 #include <optional>
 #include <string>
 
+#include "dense_refinement.h"
 #include "keyframe_fuser.h"
 #include "pose_loops.h"
 #include "stillmap/io/cpu_usage.h"
@@ -66,6 +68,45 @@ void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory
     if (segments.KeyframeInMap(id)) world_from_camera = OntoPlane(plane, world_from_camera);
   }
   figures->planar_motion_applied = true;
+}
+
+// final_poses.dense_enabled: the map's keyframes refined by dense alignment of pairs of them, and
+// the frames moved with them.
+void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, bool parallel,
+                   const SegmentKeeper& segments, const KeyframeFuser& fuser,
+                   Trajectory* trajectory, std::map<int, Eigen::Isometry3d>* world_from_keyframe,
+                   TrackingFigures* figures) {
+  std::vector<RefinedKeyframe> keyframes;
+  std::vector<size_t> kept_index;  // of each keyframe, among the fuser's
+  std::map<int, double> times;
+  const std::vector<KeyframeFuser::KeptKeyframe> kept = fuser.KeptKeyframes();
+  std::vector<size_t> order(kept.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&kept](size_t a, size_t b) { return kept[a].time < kept[b].time; });
+  for (const size_t k : order) {
+    if (kept[k].apart || !segments.KeyframeInMap(kept[k].keyframe_id)) continue;
+    const auto it = world_from_keyframe->find(kept[k].keyframe_id);
+    keyframes.push_back(
+        {kept[k].keyframe_id, kept[k].time,
+         it != world_from_keyframe->end() ? it->second : kept[k].world_from_camera});
+    kept_index.push_back(k);
+    times[kept[k].keyframe_id] = kept[k].time;
+  }
+  std::map<int, Eigen::Isometry3d> before;
+  for (const RefinedKeyframe& keyframe : keyframes)
+    before[keyframe.id] = keyframe.world_from_camera;
+  figures->dense_refinement = RefineKeyframePoses(
+      camera,
+      [&fuser, &kept_index](size_t index, cv::Mat* gray, cv::Mat* depth_m) {
+        fuser.ImagesOf(kept_index[index], gray, depth_m);
+      },
+      options, &keyframes, parallel);
+  for (const RefinedKeyframe& keyframe : keyframes) {
+    (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
+  }
+  CarryCorrections(before, *world_from_keyframe, times, segments.FramesInMap(*trajectory),
+                   trajectory);
 }
 
 // What the user is told about tracking.planar_motion=on: that it was refused, or that the camera
@@ -155,6 +196,11 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   figures.statistics = tracker.statistics();
   tracker_held.reset();
   ReleaseFreedMemory();
+  if (options.refinement.enabled) {
+    stages.memory.Phase("frame loop's end: the keyframes' poses refined densely");
+    RefineDensely(inputs.camera, options.refinement, options.parallel, segments, fuser, &trajectory,
+                  &final_poses, &figures);
+  }
   if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
     PutOnPlane(options.tracking.planar_motion, segments, &trajectory, &final_poses, &figures);
     if (std::optional<std::string> warning = PlanarMotionWarning(figures, options.tracking)) {

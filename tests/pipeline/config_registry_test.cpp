@@ -271,7 +271,7 @@ TEST(ConfigRegistryTest, ValidationMessagesNameKeysThatExist) {
   for (const ConfigKeyInfo& key : ListConfigKeys()) keys.insert(key.name);
   const std::regex key_pattern(
       "\\b(run|poses|map|camera|sequence|mapping|octomap|tracking|masking|keyframes|"
-      "grid|mesh|render|detector|eval|merge)\\.[a-z0-9_]+");
+      "grid|mesh|render|detector|eval|merge|final_poses)\\.[a-z0-9_]+");
   size_t refused = 0;
   for (const std::string& key : keys) {
     for (const std::string value : {"-1000000000", "0", "1000000000"}) {

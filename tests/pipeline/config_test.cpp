@@ -86,6 +86,27 @@ TEST(ConfigTest, DetectorOptionsAreCheckedUnderTheirOwnKeys) {
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("high_static_share"), std::string::npos);
 }
 
+// The final poses' dense refinement: its keys reach their fields, bad values are named.
+TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
+  BuildConfig config;
+  ApplySetArgument(&config, "final_poses.dense_enabled=true");
+  ApplySetArgument(&config, "final_poses.dense_cycle_max_m=0.005");
+  EXPECT_TRUE(config.final_poses.enabled);
+  EXPECT_DOUBLE_EQ(config.final_poses.cycle_max_m, 0.005);
+  EXPECT_NO_THROW(config.Validate());
+  ApplySetArgument(&config, "final_poses.dense_cell_px=0");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_cell_px"),
+            std::string::npos);
+  config = BuildConfig();
+  ApplySetArgument(&config, "final_poses.dense_revisit_pairs=-1");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_revisit_pairs"),
+            std::string::npos);
+  config = BuildConfig();
+  ApplySetArgument(&config, "final_poses.dense_max_change_deg=-0.5");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_max_change_deg"),
+            std::string::npos);
+}
+
 TEST(ConfigTest, FileErrorsNameTheLine) {
   testing::TempDir dir;
   testing::WriteText(dir / "c.yaml", "mapping:\n  voxel_leaf_size: 0.02\n  voxel_size: 3\n");

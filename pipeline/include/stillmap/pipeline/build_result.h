@@ -13,6 +13,7 @@
 #include "stillmap/mapping/map_quality.h"
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/pipeline/dense_refinement_options.h"
 #include "stillmap/tracking/map_segments.h"
 #include "stillmap/tracking/mask_stage.h"
 #include "stillmap/tracking/planar_motion.h"
@@ -59,6 +60,7 @@ struct FrameCounts {
 
 // Per-frame tracking figures (tracked runs).
 struct TrackingFigures {
+  std::optional<DenseRefinementFigures> dense_refinement;  // final_poses.dense_enabled
   TrackerStatistics statistics;
   std::map<std::string, size_t> status_counts;  // TrackStatusName -> frames
   std::vector<double> lost_times;               // frames without a pose [s]

@@ -14,6 +14,7 @@
 #include "stillmap/mapping/map_mesh.h"
 #include "stillmap/mapping/mapper.h"
 #include "stillmap/mapping/occupancy_grid.h"
+#include "stillmap/pipeline/dense_refinement_options.h"
 #include "stillmap/pipeline/merge_options.h"
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
@@ -92,7 +93,8 @@ struct BuildConfig {
   std::string detector_levels;  // overrides of the motion-level table: "chair=low,book=high"
   AteOptions ate;
   RpeOptions rpe;
-  MergeOptions merge;  // stillmap merge
+  MergeOptions merge;                  // stillmap merge
+  DenseRefinementOptions final_poses;  // tracked builds: the keyframes' poses refined densely
   // Write session.bin, what `stillmap merge` joins sessions from (tracked builds only).
   bool session_record = true;
 
@@ -135,6 +137,7 @@ struct BuildConfig {
     visit.Section("eval", self.ate);
     visit.Section("eval", self.rpe, "rpe_");
     visit.Section("merge", self.merge);
+    visit.Section("final_poses", self.final_poses);
   }
 };
 

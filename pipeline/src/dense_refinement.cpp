@@ -1,0 +1,280 @@
+#include "dense_refinement.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <future>
+#include <list>
+#include <memory>
+#include <optional>
+#include <utility>
+
+#include "stillmap/tracking/pose_graph.h"
+
+namespace stillmap {
+namespace {
+
+struct Pair {
+  size_t a = 0, b = 0;  // node indices, a before b
+  bool revisit = false;
+};
+
+// The last keyframes' images decoded, least recently used dropped first.
+class ImageCache {
+ public:
+  ImageCache(const KeyframeImages& images, size_t capacity)
+      : images_(images), capacity_(capacity) {}
+
+  std::shared_ptr<const RgbdImages> Get(size_t index) {
+    for (auto it = entries_.begin(); it != entries_.end(); ++it) {
+      if (it->first != index) continue;
+      entries_.splice(entries_.begin(), entries_, it);
+      return it->second;
+    }
+    auto images = std::make_shared<RgbdImages>();
+    images_(index, &images->gray, &images->depth_m);
+    cv::compare(images->depth_m, 0.0, images->ignore_mask, cv::CMP_LE);
+    entries_.emplace_front(index, images);
+    if (entries_.size() > capacity_) entries_.pop_back();
+    return images;
+  }
+
+ private:
+  const KeyframeImages& images_;
+  size_t capacity_;
+  std::list<std::pair<size_t, std::shared_ptr<const RgbdImages>>> entries_;
+};
+
+double AxisAngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  const double cosine = a.linear().col(2).dot(b.linear().col(2));
+  return std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+// The keyframes of another time nearest to node b, whose views overlap its view.
+std::vector<size_t> RevisitPartners(const std::vector<RefinedKeyframe>& nodes, size_t b,
+                                    const DenseRefinementOptions& options) {
+  std::vector<std::pair<double, size_t>> near;
+  for (size_t a = 0; a < b; ++a) {
+    if (nodes[b].time - nodes[a].time < options.revisit_min_gap_s) break;
+    const double distance =
+        (nodes[a].world_from_camera.translation() - nodes[b].world_from_camera.translation())
+            .norm();
+    if (distance > options.revisit_max_distance_m) continue;
+    if (AxisAngleDeg(nodes[a].world_from_camera, nodes[b].world_from_camera) >
+        options.revisit_max_angle_deg)
+      continue;
+    near.emplace_back(distance, a);
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<size_t> partners;
+  for (size_t k = 0;
+       k < near.size() && partners.size() < static_cast<size_t>(options.revisit_pairs); ++k) {
+    partners.push_back(near[k].second);
+  }
+  return partners;
+}
+
+std::vector<Pair> Pairs(const std::vector<RefinedKeyframe>& nodes,
+                        const DenseRefinementOptions& options) {
+  std::vector<Pair> pairs;
+  for (size_t b = 0; b < nodes.size(); ++b) {
+    for (size_t a = b > static_cast<size_t>(options.next_keyframes) ? b - options.next_keyframes
+                                                                    : 0;
+         a < b; ++a) {
+      if (nodes[b].time - nodes[a].time <= options.max_next_gap_s) pairs.push_back({a, b, false});
+    }
+    for (size_t a : RevisitPartners(nodes, b, options)) pairs.push_back({a, b, true});
+  }
+  return pairs;
+}
+
+// An alignment of pair b to a: the measured pose of b in a's frame.
+struct Measured {
+  Pair pair;
+  Eigen::Isometry3d initial;  // as the poses have it
+  Eigen::Isometry3d aligned;
+};
+
+// How far `aligned` moves a pair from `initial`: [m] and [deg].
+std::pair<double, double> Change(const Eigen::Isometry3d& initial,
+                                 const Eigen::Isometry3d& aligned) {
+  const Eigen::Isometry3d change = initial.inverse() * aligned;
+  return {change.translation().norm(), RotationAngleDeg(change)};
+}
+
+bool Within(const std::pair<double, double>& change, double max_m, double max_deg) {
+  return change.first <= max_m && change.second <= max_deg;
+}
+
+// The alignments' relative poses between keyframes to the next ones, by pair, both ways.
+class NextAlignments {
+ public:
+  explicit NextAlignments(const std::vector<Measured>& measured) {
+    for (const Measured& m : measured) {
+      if (m.pair.revisit) continue;
+      poses_[{m.pair.a, m.pair.b}] = m.aligned;
+      poses_[{m.pair.b, m.pair.a}] = m.aligned.inverse();
+      neighbours_[m.pair.a].push_back(m.pair.b);
+      neighbours_[m.pair.b].push_back(m.pair.a);
+    }
+  }
+  // Whether the alignment of (a, b) is in a triangle of alignments (a, c, b), and whether one
+  // such triangle closes within max_m and max_deg.
+  std::pair<bool, bool> Triangle(size_t a, size_t b, double max_m, double max_deg) const {
+    const Eigen::Isometry3d& direct = poses_.at({a, b});
+    bool any = false;
+    for (size_t c : neighbours_.at(a)) {
+      if (c == b) continue;
+      const auto to_b = poses_.find({c, b});
+      if (to_b == poses_.end()) continue;
+      any = true;
+      if (Within(Change(direct, poses_.at({a, c}) * to_b->second), max_m, max_deg)) {
+        return {true, true};
+      }
+    }
+    return {any, false};
+  }
+
+ private:
+  std::map<std::pair<size_t, size_t>, Eigen::Isometry3d> poses_;
+  std::map<size_t, std::vector<size_t>> neighbours_;
+};
+
+// Whether an alignment is taken. To a keyframe of another time: within revisit_max_change_*
+// of the poses. To the next ones: where it forms a triangle with other such alignments, when
+// one closes within cycle_max_* and it is within revisit_max_change_* (so that it can correct a
+// feature pose gone wrong); where it forms none, within max_change_*.
+bool Taken(const Measured& m, const NextAlignments& next, const DenseRefinementOptions& options) {
+  const std::pair<double, double> change = Change(m.initial, m.aligned);
+  const bool near = Within(change, options.revisit_max_change_m, options.revisit_max_change_deg);
+  if (m.pair.revisit) return near;
+  const auto [in_triangle, closes] =
+      next.Triangle(m.pair.a, m.pair.b, options.cycle_max_m, options.cycle_max_deg);
+  if (in_triangle) return closes && near;
+  return Within(change, options.max_change_m, options.max_change_deg);
+}
+
+// The alignments of `pairs[first, last)` that are taken as alignments (RgbdAlignment::ok).
+std::vector<std::optional<Measured>> AlignRange(const CellCamera& cells,
+                                                const KeyframeImages& images,
+                                                const std::vector<RefinedKeyframe>& nodes,
+                                                const std::vector<Pair>& pairs, size_t first,
+                                                size_t last, const RgbdOdometryOptions& alignment) {
+  ImageCache cache(images, 24);
+  std::vector<std::optional<Measured>> measured(last - first);
+  for (size_t i = first; i < last; ++i) {
+    const Pair& pair = pairs[i];
+    const Eigen::Isometry3d initial =
+        nodes[pair.a].world_from_camera.inverse() * nodes[pair.b].world_from_camera;
+    const std::shared_ptr<const RgbdImages> reference = cache.Get(pair.a);
+    const std::shared_ptr<const RgbdImages> current = cache.Get(pair.b);
+    const RgbdAlignment aligned = AlignRgbd(cells, *reference, *current, initial, alignment);
+    if (aligned.ok()) measured[i - first] = Measured{pair, initial, aligned.reference_from_current};
+  }
+  return measured;
+}
+
+// Every pair aligned, in the pairs' order whether or not on two threads (`parallel`).
+std::vector<Measured> AlignPairs(const Camera& camera, const KeyframeImages& images,
+                                 const std::vector<RefinedKeyframe>& nodes,
+                                 const std::vector<Pair>& pairs,
+                                 const DenseRefinementOptions& options, bool parallel) {
+  RgbdOdometryOptions alignment;
+  alignment.cell_px = options.cell_px;
+  const CellCamera cells(camera, options.cell_px);
+  const size_t half = parallel ? pairs.size() / 2 : pairs.size();
+  std::future<std::vector<std::optional<Measured>>> second = std::async(
+      parallel ? std::launch::async : std::launch::deferred,
+      [&] { return AlignRange(cells, images, nodes, pairs, half, pairs.size(), alignment); });
+  std::vector<std::optional<Measured>> all =
+      AlignRange(cells, images, nodes, pairs, 0, half, alignment);
+  for (std::optional<Measured>& m : second.get()) all.push_back(std::move(m));
+  std::vector<Measured> measured;
+  for (std::optional<Measured>& m : all) {
+    if (m) measured.push_back(*m);
+  }
+  return measured;
+}
+
+}  // namespace
+
+DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeImages& images,
+                                           const DenseRefinementOptions& options,
+                                           std::vector<RefinedKeyframe>* keyframes, bool parallel) {
+  const auto start = std::chrono::steady_clock::now();
+  DenseRefinementFigures figures;
+  const std::vector<RefinedKeyframe>& nodes = *keyframes;
+  figures.keyframes = nodes.size();
+  if (nodes.size() < 2) return figures;
+  const PoseGraphOptions graph_options;
+  const double weight = std::pow(graph_options.translation_sigma_m / options.alignment_sigma_m, 2);
+  PoseGraphProblem problem;
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    problem.world_from_node.push_back(nodes[k].world_from_camera);
+    problem.fixed.push_back(k == 0);
+    if (k > 0) {
+      problem.edges.push_back(EdgeBetween(static_cast<int>(k - 1), static_cast<int>(k),
+                                          nodes[k - 1].world_from_camera,
+                                          nodes[k].world_from_camera));
+    }
+  }
+  const std::vector<Pair> pairs = Pairs(nodes, options);
+  for (const Pair& pair : pairs) (pair.revisit ? figures.revisit_pairs : figures.next_pairs) += 1;
+  const std::vector<Measured> measured =
+      AlignPairs(camera, images, nodes, pairs, options, parallel);
+  const NextAlignments next(measured);
+  for (const Measured& m : measured) {
+    if (!Taken(m, next, options)) continue;
+    (m.pair.revisit ? figures.revisit_taken : figures.next_taken) += 1;
+    problem.edges.push_back(
+        {static_cast<int>(m.pair.a), static_cast<int>(m.pair.b), m.aligned, weight});
+  }
+  if (figures.next_taken + figures.revisit_taken > 0) {
+    const PoseGraphResult solved = SolvePoseGraph(problem, graph_options);
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const Eigen::Isometry3d& refined = solved.world_from_node[k];
+      figures.largest_move_m =
+          std::max(figures.largest_move_m,
+                   (refined.translation() - nodes[k].world_from_camera.translation()).norm());
+      (*keyframes)[k].world_from_camera = refined;
+    }
+  }
+  figures.ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return figures;
+}
+
+void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
+                      const std::map<int, Eigen::Isometry3d>& after,
+                      const std::map<int, double>& times, const std::vector<bool>& in_map,
+                      Trajectory* trajectory) {
+  std::vector<std::pair<double, Eigen::Isometry3d>> corrections;
+  corrections.reserve(before.size());
+  for (const auto& [id, pose] : before) {
+    corrections.emplace_back(times.at(id), after.at(id) * pose.inverse());
+  }
+  if (corrections.empty()) return;
+  std::sort(corrections.begin(), corrections.end(),
+            [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::vector<StampedPose> poses = trajectory->poses();
+  for (size_t i = 0; i < poses.size(); ++i) {
+    if (!in_map[i]) continue;
+    const double t = poses[i].time;
+    const auto next = std::upper_bound(corrections.begin(), corrections.end(), t,
+                                       [](double time, const auto& c) { return time < c.first; });
+    Eigen::Isometry3d correction;
+    if (next == corrections.begin()) {
+      correction = next->second;
+    } else if (next == corrections.end()) {
+      correction = std::prev(next)->second;
+    } else {
+      const auto previous = std::prev(next);
+      const double share = (t - previous->first) / (next->first - previous->first);
+      correction = InterpolatePose(previous->second, next->second, share);
+    }
+    poses[i].world_from_camera = correction * poses[i].world_from_camera;
+  }
+  *trajectory = Trajectory(std::move(poses));
+}
+
+}  // namespace stillmap

@@ -1,0 +1,47 @@
+// The keyframes' final poses refined by dense RGB-D alignment of pairs of them: each keyframe
+// to the next ones along the camera's path, and to keyframes of another time whose views overlap
+// (the camera came back). Feature poses drift by a fraction of the distance travelled (ORB's
+// positions on coarse pyramid levels, docs/figures.md); the depth readings do not. A pose graph
+// keeps the poses' shape as they are (loops, joins) and lets the dense alignments, where they
+// are taken, set the relative poses. Opt-in (refinement.dense_enabled).
+#pragma once
+
+#include <functional>
+#include <map>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stillmap/io/camera.h"
+#include "stillmap/io/trajectory.h"
+#include "stillmap/pipeline/dense_refinement_options.h"
+#include "stillmap/tracking/rgbd_odometry.h"
+
+namespace stillmap {
+
+// A keyframe to refine, with its pose now.
+struct RefinedKeyframe {
+  int id = 0;
+  double time = 0.0;
+  Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+};
+
+// Gives the `index`th keyframe's gray image (CV_8U) and depth [m] (CV_32F, 0 where unknown or
+// moving), full size.
+using KeyframeImages = std::function<void(size_t index, cv::Mat* gray, cv::Mat* depth_m)>;
+
+// Refines `keyframes` (in time order; the first holds where it is) in place; `images` is called
+// from two threads at once when `parallel`. The same result either way.
+DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeImages& images,
+                                           const DenseRefinementOptions& options,
+                                           std::vector<RefinedKeyframe>* keyframes,
+                                           bool parallel = false);
+
+// Moves the frames of `trajectory` that `in_map` marks with the keyframes' corrections (after
+// against before, by keyframe id; `times` by keyframe id), interpolated between the keyframes
+// on either side in time.
+void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
+                      const std::map<int, Eigen::Isometry3d>& after,
+                      const std::map<int, double>& times, const std::vector<bool>& in_map,
+                      Trajectory* trajectory);
+
+}  // namespace stillmap
