@@ -217,6 +217,12 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
                                           nodes[k - 1].world_from_camera,
                                           nodes[k].world_from_camera));
     }
+    if (k > 1 && options.prior_sigma_m > 0.0) {  // held to its pose: an edge to the fixed node
+      PoseGraphEdge prior = EdgeBetween(0, static_cast<int>(k), nodes[0].world_from_camera,
+                                        nodes[k].world_from_camera);
+      prior.weight = std::pow(graph_options.translation_sigma_m / options.prior_sigma_m, 2);
+      problem.edges.push_back(prior);
+    }
   }
   const std::vector<Pair> pairs = Pairs(nodes, options);
   for (const Pair& pair : pairs) (pair.revisit ? figures.revisit_pairs : figures.next_pairs) += 1;

@@ -161,5 +161,28 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesMoveWithTheirCorrections) {
   EXPECT_NEAR(moved[4].world_from_camera.translation().y(), 0.2, 1e-12);
 }
 
+// Each keyframe held to its pose: held as sure as the alignments, a drifted path moves only part
+// of the way back to the truth; held loosely, it comes back as without the hold.
+TEST_F(DenseRefinementTest, KeyframesHeldToTheirPosesMoveLess) {
+  const std::vector<RefinedKeyframe> truth = Truth();
+  DenseRefinementOptions options;
+  options.enabled = true;
+  options.max_change_m = 0.05;
+  options.max_change_deg = 1.0;
+  const std::vector<RefinedKeyframe> drifted = Drifted(truth);
+  const double before = LargestError(drifted, truth);
+  std::vector<RefinedKeyframe> free = drifted;
+  RefineKeyframePoses(sequence_->camera(), Images(), options, &free);
+  options.prior_sigma_m = options.alignment_sigma_m / 4.0;
+  std::vector<RefinedKeyframe> held = drifted;
+  RefineKeyframePoses(sequence_->camera(), Images(), options, &held);
+  EXPECT_GT(LargestError(held, truth), 2.0 * LargestError(free, truth));
+  EXPECT_LT(LargestError(held, drifted), LargestError(free, drifted) / 2.0);
+  options.prior_sigma_m = 1.0;
+  std::vector<RefinedKeyframe> loose = drifted;
+  RefineKeyframePoses(sequence_->camera(), Images(), options, &loose);
+  EXPECT_LT(LargestError(loose, truth), before / 5.0);
+}
+
 }  // namespace
 }  // namespace stillmap

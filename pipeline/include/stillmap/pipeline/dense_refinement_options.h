@@ -28,6 +28,10 @@ struct DenseRefinementOptions {
   double cycle_max_deg = 0.05;
   // An alignment's noise against the poses' shape (the pose graph's 0.01 m) [m].
   double alignment_sigma_m = 0.002;
+  // Each keyframe is also held to where the poses put it in the map, as sure as this [m]
+  // (0: not held): the loops and joins the poses closed stay closed where the alignments'
+  // chain is broken.
+  double prior_sigma_m = 0.0;
   int cell_px = 4;  // the images are averaged over cells this wide [px]
 
   void Validate() const;  // throws InputError naming the key
@@ -60,6 +64,8 @@ struct DenseRefinementOptions {
     visit("dense_cycle_max_deg", self.cycle_max_deg, "... and this [deg]");
     visit("dense_alignment_sigma_m", self.alignment_sigma_m,
           "an alignment's noise in the pose graph (the poses' shape: 0.01 m) [m]");
+    visit("dense_prior_sigma_m", self.prior_sigma_m,
+          "each keyframe is held to its pose as sure as this (0: not held) [m]");
     visit("dense_cell_px", self.cell_px, "images are averaged over cells this wide [px]");
   }
 };
