@@ -29,9 +29,10 @@ struct DenseRefinementOptions {
   // An alignment's noise against the poses' shape (the pose graph's 0.01 m) [m].
   double alignment_sigma_m = 0.002;
   // Each keyframe is also held to where the poses put it in the map, as sure as this [m]
-  // (0: not held): the loops and joins the poses closed stay closed where the alignments'
-  // chain is broken.
-  double prior_sigma_m = 0.0;
+  // (0: not held): the loops and joins the poses closed stay closed where the alignments' chain
+  // is broken. Held at 5 cm every floor gained (seeds 1, 2, floor_lost); not held, floor seed 2
+  // lost a segment's place (docs/figures.md).
+  double prior_sigma_m = 0.05;
   int cell_px = 4;  // the images are averaged over cells this wide [px]
 
   void Validate() const;  // throws InputError naming the key
