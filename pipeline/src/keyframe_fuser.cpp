@@ -192,8 +192,7 @@ std::vector<KeyframeFuser::KeptKeyframe> KeyframeFuser::KeptKeyframes() const {
   std::vector<KeptKeyframe> kept;
   kept.reserve(stored_.size());
   for (const Stored& stored : stored_) {
-    kept.push_back(
-        {stored.keyframe_id, stored.time, stored.segment, stored.apart, stored.world_from_camera});
+    kept.push_back({stored.keyframe_id, stored.time, stored.apart, stored.world_from_camera});
   }
   return kept;
 }

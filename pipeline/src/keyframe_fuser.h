@@ -95,7 +95,6 @@ class KeyframeFuser {
   struct KeptKeyframe {
     int keyframe_id = 0;
     double time = 0.0;
-    int segment = 0;
     bool apart = false;  // kept apart: not in the map
     Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();  // as kept
   };

@@ -79,6 +79,7 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
   std::vector<RefinedKeyframe> keyframes;
   std::vector<size_t> kept_index;  // of each keyframe, among the fuser's
   std::map<int, double> times;
+  std::map<int, Eigen::Isometry3d> before;
   const std::vector<KeyframeFuser::KeptKeyframe> kept = fuser.KeptKeyframes();
   std::vector<size_t> order(kept.size());
   std::iota(order.begin(), order.end(), 0);
@@ -92,10 +93,8 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
          it != world_from_keyframe->end() ? it->second : kept[k].world_from_camera});
     kept_index.push_back(k);
     times[kept[k].keyframe_id] = kept[k].time;
+    before[kept[k].keyframe_id] = keyframes.back().world_from_camera;
   }
-  std::map<int, Eigen::Isometry3d> before;
-  for (const RefinedKeyframe& keyframe : keyframes)
-    before[keyframe.id] = keyframe.world_from_camera;
   figures->dense_refinement = RefineKeyframePoses(
       camera,
       [&fuser, &kept_index](size_t index, cv::Mat* gray, cv::Mat* depth_m) {
