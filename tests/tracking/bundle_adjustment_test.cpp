@@ -274,5 +274,55 @@ TEST(BundleAdjustmentTest, RecoversTheTruthAndFlagsOutliers) {
   for (size_t o = 0; o < wrong.size(); ++o) EXPECT_EQ(result.outlier[o], wrong[o]) << o;
 }
 
+// A keyframe seen by fewer landmarks than min_keyframe_observations keeps its pose: here its 5
+// observations are of points that moved (a person), as if the camera stood 0.5 m to the side of
+// where it is. The other keyframes still go back to the truth, the moved points' observations
+// flagged. Without the rule the 5 points take the keyframe away.
+TEST(BundleAdjustmentTest, AKeyframeSeenByTooFewLandmarksKeepsItsPose) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  BundleAdjustmentProblem problem;
+  std::vector<Eigen::Isometry3d> true_poses;
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Isometry3d camera_from_world = Eigen::Isometry3d::Identity();
+    camera_from_world.translation() = Eigen::Vector3d(-0.1 * k, 0.0, 0.0);
+    true_poses.push_back(camera_from_world);
+    Eigen::Isometry3d start = camera_from_world;
+    if (k > 0) start.translation() += 0.01 * Eigen::Vector3d(uniform(rng), uniform(rng), 0.0);
+    problem.keyframes.push_back({start, k == 0});
+  }
+  const Eigen::Isometry3d weak_start = problem.keyframes[3].camera_from_world;
+  problem.keyframes.push_back({weak_start, false});  // keyframe 4: where keyframe 3 was
+  Eigen::Isometry3d seen_from = true_poses[3];
+  seen_from.translation().x() += 0.5;  // what the moved points say
+  for (int i = 0; i < 100; ++i) {
+    const Eigen::Vector3d point(uniform(rng), 0.7 * uniform(rng), 3.0 + uniform(rng));
+    problem.landmarks.push_back(point);
+    for (int k = 0; k < 5; ++k) {
+      if (k == 4 && i >= 5) continue;
+      const Eigen::Vector3d q = (k == 4 ? seen_from : true_poses[static_cast<size_t>(k)]) * point;
+      BundleAdjustmentObservation observation;
+      observation.keyframe = k;
+      observation.landmark = i;
+      observation.observation.normalized = q.head<2>() / q.z();
+      observation.observation.depth_m = q.z();
+      problem.observations.push_back(observation);
+    }
+  }
+  BundleAdjustmentOptions options = ManyIterations();
+  ASSERT_GT(options.min_keyframe_observations, 5);
+  const BundleAdjustmentResult held = SolveBundleAdjustment(problem, options);
+  EXPECT_TRUE(held.camera_from_world[4].isApprox(weak_start));
+  for (size_t k = 0; k < true_poses.size(); ++k) {
+    EXPECT_LT(TranslationError(held.camera_from_world[k], true_poses[k]), 1e-6) << k;
+  }
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    EXPECT_EQ(held.outlier[o], problem.observations[o].keyframe == 4) << o;
+  }
+  options.min_keyframe_observations = 0;
+  const BundleAdjustmentResult moved = SolveBundleAdjustment(problem, options);
+  EXPECT_GT(TranslationError(moved.camera_from_world[4], weak_start), 0.1);
+}
+
 }  // namespace
 }  // namespace stillmap

@@ -215,16 +215,34 @@ void ReadResult(const BundleAdjustmentProblem& problem, Parameters& parameters,
   }
 }
 
-// The poses' manifold, the fixed ones held; returns how many are free.
-int SetUpPoses(const BundleAdjustmentProblem& problem, Parameters* parameters,
+// The keyframes to hold: the fixed ones, and those with fewer than min_keyframe_observations
+// observations not (yet) found outliers. A held keyframe is back at its pose.
+std::vector<bool> HeldKeyframes(const BundleAdjustmentProblem& problem,
+                                const BundleAdjustmentOptions& options,
+                                const std::vector<bool>& outlier, Parameters* parameters) {
+  std::vector<int> seen(problem.keyframes.size(), 0);
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    if (!outlier[o]) ++seen[static_cast<size_t>(problem.observations[o].keyframe)];
+  }
+  std::vector<bool> held(problem.keyframes.size(), false);
+  for (size_t k = 0; k < problem.keyframes.size(); ++k) {
+    held[k] = problem.keyframes[k].fixed || seen[k] < options.min_keyframe_observations;
+    if (held[k])
+      PoseToParameters(problem.keyframes[k].camera_from_world, &parameters->poses[7 * k]);
+  }
+  return held;
+}
+
+// The poses' manifold, the held ones constant; returns how many are free.
+int SetUpPoses(const std::vector<bool>& held, Parameters* parameters,
                ceres::Problem* ceres_problem) {
   static PoseManifold manifold;
   int free_poses = 0;
-  for (size_t k = 0; k < problem.keyframes.size(); ++k) {
+  for (size_t k = 0; k < held.size(); ++k) {
     double* pose = &parameters->poses[7 * k];
     if (!ceres_problem->HasParameterBlock(pose)) continue;
     ceres_problem->SetManifold(pose, &manifold);
-    if (problem.keyframes[k].fixed) {
+    if (held[k]) {
       ceres_problem->SetParameterBlockConstant(pose);
     } else {
       ++free_poses;
@@ -254,7 +272,8 @@ BundleAdjustmentResult SolveBundleAdjustment(const BundleAdjustmentProblem& prob
           new ceres::NormalPrior(weight, Eigen::Matrix<double, 5, 1>::Zero()), nullptr,
           parameters.correction);
     }
-    const int free_poses = SetUpPoses(problem, &parameters, &ceres_problem);
+    const std::vector<bool> held = HeldKeyframes(problem, options, result.outlier, &parameters);
+    const int free_poses = SetUpPoses(held, &parameters, &ceres_problem);
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type =
         free_poses <= options.dense_schur_max_poses ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;

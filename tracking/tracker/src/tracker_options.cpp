@@ -214,6 +214,8 @@ void TrackerOptions::Validate() const {
               bundle_adjustment.iterations_second <= 1000,
           "{} and {} must be 1..1000", key(bundle_adjustment.iterations_first),
           key(bundle_adjustment.iterations_second));
+  Require(bundle_adjustment.min_keyframe_observations >= 0, "{} must not be negative",
+          key(bundle_adjustment.min_keyframe_observations));
   Require(bundle_adjustment.chi2_without_depth > 0.0 && bundle_adjustment.chi2_with_depth > 0.0,
           "{} and {} must be positive", key(bundle_adjustment.chi2_without_depth),
           key(bundle_adjustment.chi2_with_depth));

@@ -26,6 +26,11 @@ struct BundleAdjustmentOptions {
   // other, so there the system is mostly empty: above this many free poses it is solved sparse
   // (SuiteSparse, as the pose graph). The same equations: the solutions agree to rounding.
   int dense_schur_max_poses = 100;
+  // A keyframe with fewer observations than this (inliers, in the second round) keeps its pose:
+  // so few points do not place it, and window after window they move it anywhere (floor seed 1: a
+  // new map segment's second keyframe, seen by 3-7 landmarks, went 2 m off in five windows,
+  // docs/figures.md). As many as a tracked pose needs (tracking.refinement_min_inliers).
+  int min_keyframe_observations = 12;
 
   // Every field under its configuration key (io/option_fields.h).
   template <typename Self, typename Visitor>
@@ -40,6 +45,8 @@ struct BundleAdjustmentOptions {
           "outlier threshold, whitened, 3 dof (chi-square 95 %: 7.815)");
     visit("dense_schur_max_poses", self.dense_schur_max_poses,
           "free poses up to which the reduced camera system is solved dense; sparse above");
+    visit("min_keyframe_observations", self.min_keyframe_observations,
+          "a keyframe with fewer observations (inliers) keeps its pose in the adjustment");
   }
 };
 
