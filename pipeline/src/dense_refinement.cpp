@@ -208,6 +208,9 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
   if (nodes.size() < 2) return figures;
   const PoseGraphOptions graph_options;
   const double weight = std::pow(graph_options.translation_sigma_m / options.alignment_sigma_m, 2);
+  const bool held = options.prior_sigma_m > 0.0;  // each keyframe held to its pose
+  const double prior_weight =
+      held ? std::pow(graph_options.translation_sigma_m / options.prior_sigma_m, 2) : 0.0;
   PoseGraphProblem problem;
   for (size_t k = 0; k < nodes.size(); ++k) {
     problem.world_from_node.push_back(nodes[k].world_from_camera);
@@ -217,11 +220,9 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
                                           nodes[k - 1].world_from_camera,
                                           nodes[k].world_from_camera));
     }
-    if (k > 1 && options.prior_sigma_m > 0.0) {  // held to its pose: an edge to the fixed node
-      PoseGraphEdge prior = EdgeBetween(0, static_cast<int>(k), nodes[0].world_from_camera,
-                                        nodes[k].world_from_camera);
-      prior.weight = std::pow(graph_options.translation_sigma_m / options.prior_sigma_m, 2);
-      problem.edges.push_back(prior);
+    if (k > 1 && held) {  // an edge to the fixed node (node 1's is its shape edge already)
+      problem.edges.push_back(EdgeBetween(0, static_cast<int>(k), nodes[0].world_from_camera,
+                                          nodes[k].world_from_camera, prior_weight));
     }
   }
   const std::vector<Pair> pairs = Pairs(nodes, options);

@@ -83,6 +83,17 @@ Scene MakeScene(double motion, const DepthCorrection& error, unsigned seed) {
   return scene;
 }
 
+// The exact observation of a point at `in_camera` by keyframe `keyframe`, with its depth.
+BundleAdjustmentObservation ExactObservation(int keyframe, int landmark,
+                                             const Eigen::Vector3d& in_camera) {
+  BundleAdjustmentObservation observation;
+  observation.keyframe = keyframe;
+  observation.landmark = landmark;
+  observation.observation.normalized = in_camera.head<2>() / in_camera.z();
+  observation.observation.depth_m = in_camera.z();
+  return observation;
+}
+
 BundleAdjustmentOptions ManyIterations() {
   BundleAdjustmentOptions options;
   options.iterations_first = 30;
@@ -242,12 +253,9 @@ TEST(BundleAdjustmentTest, RecoversTheTruthAndFlagsOutliers) {
   std::vector<bool> wrong;
   for (size_t k = 0; k < true_poses.size(); ++k) {
     for (size_t i = 0; i < true_points.size(); ++i) {
-      const Eigen::Vector3d q = true_poses[k] * true_points[i];
-      BundleAdjustmentObservation observation;
-      observation.keyframe = static_cast<int>(k);
-      observation.landmark = static_cast<int>(i);
-      observation.observation.normalized = q.head<2>() / q.z();
-      observation.observation.depth_m = (i % 3 == 0) ? 0.0 : q.z();  // some without depth
+      BundleAdjustmentObservation observation = ExactObservation(
+          static_cast<int>(k), static_cast<int>(i), true_poses[k] * true_points[i]);
+      if (i % 3 == 0) observation.observation.depth_m = 0.0;  // some without depth
       // One wrong observation (a mismatch) in some landmarks, in one of the free keyframes.
       const bool is_wrong = i % 25 == 7 && k == 1 + (i / 25) % 3;
       if (is_wrong) observation.observation.normalized.x() += 0.04;  // 21 px off
@@ -300,13 +308,8 @@ TEST(BundleAdjustmentTest, AKeyframeSeenByTooFewLandmarksKeepsItsPose) {
     problem.landmarks.push_back(point);
     for (int k = 0; k < 5; ++k) {
       if (k == 4 && i >= 5) continue;
-      const Eigen::Vector3d q = (k == 4 ? seen_from : true_poses[static_cast<size_t>(k)]) * point;
-      BundleAdjustmentObservation observation;
-      observation.keyframe = k;
-      observation.landmark = i;
-      observation.observation.normalized = q.head<2>() / q.z();
-      observation.observation.depth_m = q.z();
-      problem.observations.push_back(observation);
+      const Eigen::Isometry3d& pose = k == 4 ? seen_from : true_poses[static_cast<size_t>(k)];
+      problem.observations.push_back(ExactObservation(k, i, pose * point));
     }
   }
   BundleAdjustmentOptions options = ManyIterations();
