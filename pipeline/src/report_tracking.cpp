@@ -106,6 +106,7 @@ json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options)
             {"place_index_mib", t.place_index_mib}}},
           {"landmarks_created", t.landmarks_created},
           {"landmarks_culled", t.landmarks_culled},
+          {"landmarks_found_moving", t.landmarks_found_moving},
           {"bundle_adjustments", t.bundle_adjustments},
           {"bundle_adjustment_observations_rejected", t.observations_rejected},
           {"depth_self_calibration", DepthCalibrationJson(t, options)},

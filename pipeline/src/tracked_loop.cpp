@@ -168,7 +168,12 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
       fuser.NoteCorrections(poses);
     }
     if (tracked.keyframe_id >= 0) {
-      stages.masks.AddReference(frame, mask, tracked.world_from_camera, tracked.keyframe_id);
+      // What the new keyframe finds moving in earlier ones was a person left unmasked there:
+      // the landmarks they made on it go.
+      for (const FoundMoving& found :
+           stages.masks.AddReference(frame, mask, tracked.world_from_camera, tracked.keyframe_id)) {
+        tracker.ForgetLandmarksFoundMoving(found.keyframe_id, found.moving);
+      }
       fuser.Hold(tracked.keyframe_id, std::move(frame), mask, tracked.world_from_camera);
     }
     fuse_final();

@@ -305,6 +305,35 @@ TEST(DynamicMaskerTest, DepthOutlineKeepsPartedLimbsButNotConfirmedStaticReading
   EXPECT_EQ(cv::countNonZero(centre(arm)), 0);
 }
 
+// A keyframe that saw a person in front of the wall, then a later one (0.7 s on, as far as the
+// references are spaced) that sees the bare wall there: the person has moved on, and the earlier
+// keyframe's pixels of them are returned as found moving (the tracker forgets its landmarks
+// there), and nothing else; a later keyframe too soon after the first checks nothing.
+TEST(DynamicMaskerTest, AnEarlierKeyframesPersonWhoMovedOnIsFoundMoving) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  DynamicMaskOptions options = KeepEveryRegion();
+  options.flow_check = false;
+  const cv::Rect person(60, 30, 30, 60);
+  MaskReference saw_person = WallReference(camera);
+  saw_person.keyframe_id = 4;
+  saw_person.depth_m(person).setTo(1.5f);
+  MaskReference too_soon = WallReference(camera);
+  too_soon.time = options.reference_spacing_s / 2.0;
+  MaskReference later = WallReference(camera);
+  later.time = options.reference_spacing_s;
+  later.keyframe_id = 9;
+
+  DynamicMasker masker(camera, options);
+  EXPECT_TRUE(masker.AddReference(saw_person).empty());
+  EXPECT_TRUE(masker.AddReference(too_soon).empty());
+  const std::vector<FoundMoving> found = masker.AddReference(later);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(found[0].keyframe_id, 4);
+  ASSERT_EQ(found[0].moving.size(), saw_person.depth_m.size());
+  EXPECT_EQ(cv::countNonZero(found[0].moving(person)), person.area());
+  EXPECT_EQ(cv::countNonZero(found[0].moving), person.area());
+}
+
 // A reference posed 0.5 m ahead of where it was (a loop correction later moved its keyframe)
 // sees the wall 0.5 m farther than the current frame does: the whole wall looks nearer, so moving.
 // Once the reference takes its keyframe's corrected pose, nothing moves.

@@ -353,11 +353,12 @@ DynamicMasker::DynamicMasker(const Camera& camera, const DynamicMaskOptions& opt
   options.Validate();
 }
 
-void DynamicMasker::AddReference(MaskReference reference) {
+std::vector<FoundMoving> DynamicMasker::AddReference(MaskReference reference) {
   // The older references are checked against the new one: people they saw who have moved on
   // since are found now, and left out of the comparisons to come (an unmasked person in a
   // reference otherwise vouches for the person being static where they stood).
   reference.nearest_depth_m = NearestStaticDepth(reference);  // once, for every check below
+  std::vector<FoundMoving> found_moving;
   if (options_.depth_check) {
     const std::vector<const MaskReference*> newest = {&reference};
     for (MaskReference& older : references_) {
@@ -366,6 +367,7 @@ void DynamicMasker::AddReference(MaskReference reference) {
       if (cv::countNonZero(found) == 0) continue;
       older.mask = older.mask.empty() ? found : (older.mask | found);
       older.nearest_depth_m = NearestStaticDepth(older);
+      found_moving.push_back({older.keyframe_id, found});
     }
   }
   references_.push_front(std::move(reference));
@@ -373,6 +375,7 @@ void DynamicMasker::AddReference(MaskReference reference) {
   while (references_.size() > 1 && references_.front().time - references_.back().time > horizon) {
     references_.pop_back();
   }
+  return found_moving;
 }
 
 void DynamicMasker::Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe) {

@@ -106,10 +106,11 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   return result.mask;
 }
 
-void MaskStage::AddReference(const Frame& frame, const cv::Mat& mask,
-                             const Eigen::Isometry3d& world_from_camera, int keyframe_id) {
-  if (!enabled_) return;
-  masker_->AddReference(
+std::vector<FoundMoving> MaskStage::AddReference(const Frame& frame, const cv::Mat& mask,
+                                                 const Eigen::Isometry3d& world_from_camera,
+                                                 int keyframe_id) {
+  if (!enabled_) return {};
+  return masker_->AddReference(
       {frame.time, frame.depth_m, mask, world_from_camera, cv::Mat(), keyframe_id});
 }
 

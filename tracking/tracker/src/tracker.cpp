@@ -419,6 +419,11 @@ std::map<int, Eigen::Isometry3d> Tracker::KeyframePoses() const {
   return out;
 }
 
+size_t Tracker::ForgetLandmarksFoundMoving(int keyframe_id, const cv::Mat& moving) {
+  const std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->ForgetLandmarksFoundMoving(keyframe_id, moving);
+}
+
 size_t Tracker::pose_corrections() const {
   const std::lock_guard<std::mutex> lock(impl_->mutex);
   return impl_->stats.loops_accepted + impl_->stats.global_bundle_adjustments +

@@ -276,6 +276,7 @@ struct Tracker::Impl {
   // were visible, or seen by a single keyframe two keyframes after their creation.
   void CullRecentLandmarks(int current_keyframe);
   void EraseLandmark(int id);
+  size_t ForgetLandmarksFoundMoving(int keyframe_id, const cv::Mat& moving);
   // A new local map whose first keyframe is this frame at camera_from_world.
   void StartMap(const Eigen::Isometry3d& camera_from_world, FrameData& frame, size_t frame_index,
                 double time, std::unique_lock<std::mutex>& lock);

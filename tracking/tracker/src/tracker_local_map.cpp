@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <unordered_set>
 
@@ -182,6 +183,35 @@ void Tracker::Impl::EraseLandmark(int id) {
   }
   landmarks.erase(it);
   ++stats.landmarks_culled;
+}
+
+size_t Tracker::Impl::ForgetLandmarksFoundMoving(int keyframe_id, const cv::Mat& moving) {
+  const auto it = keyframes.find(keyframe_id);
+  if (!options.local_map.forget_landmarks_found_moving || it == keyframes.end() ||
+      moving.type() != CV_8UC1) {
+    return 0;
+  }
+  const Keyframe& keyframe = it->second;
+  std::vector<int> found;
+  for (size_t i = 0; i < keyframe.landmark_of_feature.size(); ++i) {
+    const int id = keyframe.landmark_of_feature[i];
+    if (id < 0) continue;
+    const cv::Point2f& pixel = keyframe.features.keypoints[i].pt;
+    const auto u = static_cast<int>(std::lround(pixel.x)),
+               v = static_cast<int>(std::lround(pixel.y));
+    if (u < 0 || v < 0 || u >= moving.cols || v >= moving.rows) continue;
+    // Only near points: far away the depth check's evidence is weak (a far wall's readings were
+    // found "moving" on teddy's desk), and a person that pulls the camera along is near.
+    const auto landmark = landmarks.find(id);
+    if (moving.at<std::uint8_t>(v, u) == 0 || landmark == landmarks.end()) continue;
+    const double depth_m = (keyframe.camera_from_world * landmark->second.position).z();
+    if (depth_m < options.local_map.close_depth) found.push_back(id);
+  }
+  std::sort(found.begin(), found.end());
+  found.erase(std::unique(found.begin(), found.end()), found.end());
+  for (int id : found) EraseLandmark(id);
+  stats.landmarks_found_moving += found.size();
+  return found.size();
 }
 
 void Tracker::Impl::StartMap(const Eigen::Isometry3d& camera_from_world, FrameData& frame,

@@ -237,6 +237,13 @@ class GeometricMasker {
   std::vector<Eigen::Vector2f> rays_;  // undistorted normalized ray per pixel
 };
 
+// Pixels of an earlier keyframe that a later one found moving (DynamicMasker::AddReference): a
+// person who has moved on since, left unmasked when the keyframe was made.
+struct FoundMoving {
+  int keyframe_id = -1;
+  cv::Mat moving;  // CV_8UC1, 255 = found moving (the keyframe's image size)
+};
+
 class DynamicMasker {
  public:
   DynamicMasker(const Camera& camera, const DynamicMaskOptions& options);
@@ -253,7 +260,8 @@ class DynamicMasker {
                             const FlowStep* flow = nullptr);
 
   // A keyframe becomes a depth-check reference (kept: the newest and older ones spread in time).
-  void AddReference(MaskReference reference);
+  // Returns what it found moving in the older references (their masks grow by it).
+  std::vector<FoundMoving> AddReference(MaskReference reference);
   // Frees the references (after the last frame).
   void ForgetReferences() { std::deque<MaskReference>().swap(references_); }
 

@@ -69,9 +69,11 @@ class MaskStage {
   cv::Mat Compute(const Frame& frame, const cv::Mat& gray, const FlowStep* flow,
                   const std::optional<Eigen::Isometry3d>& world_from_camera);
 
-  // A keyframe with its mask and pose becomes a depth-check reference.
-  void AddReference(const Frame& frame, const cv::Mat& mask,
-                    const Eigen::Isometry3d& world_from_camera, int keyframe_id);
+  // A keyframe with its mask and pose becomes a depth-check reference. Returns the pixels of
+  // earlier keyframes it found moving (DynamicMasker::AddReference).
+  std::vector<FoundMoving> AddReference(const Frame& frame, const cv::Mat& mask,
+                                        const Eigen::Isometry3d& world_from_camera,
+                                        int keyframe_id);
   // The references take their keyframes' corrected poses (after a loop correction).
   void Repose(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
 

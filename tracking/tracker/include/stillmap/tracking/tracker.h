@@ -113,6 +113,7 @@ struct TrackerStatistics {
   size_t landmarks_merged = 0;  // second copies found again and merged
   size_t landmarks_created = 0;
   size_t landmarks_culled = 0;
+  size_t landmarks_found_moving = 0;  // of them, forgotten where a later keyframe found motion
   // Place recognition and loop closure.
   size_t loop_candidates = 0;      // keyframes the place index proposed and verification tried
   size_t loops_verified = 0;       // candidates that passed the geometric verification
@@ -210,6 +211,11 @@ class Tracker {
   // the current local map, its keyframes made since and the camera move with it. Counts as a
   // pose correction.
   void MoveKeyframes(const std::map<int, Eigen::Isometry3d>& world_from_keyframe);
+
+  // The pixels of keyframe `keyframe_id` that a later keyframe found moving (the masking's
+  // FoundMoving; CV_8UC1, 255 = moving, the keyframe's image size): the landmarks it observed
+  // there are forgotten (tracking.forget_landmarks_found_moving). Returns how many.
+  size_t ForgetLandmarksFoundMoving(int keyframe_id, const cv::Mat& moving);
 
  private:
   struct Impl;

@@ -116,6 +116,13 @@ struct LocalMapOptions {
   int cull_min_visible = 4;
   int cull_single_view_age = 2;
   int cull_recent_age = 3;
+  // A landmark a keyframe observed nearer than close_depth where a later keyframe's depth check
+  // found it moving (a person who has moved on since, not masked when the keyframe was made) is
+  // forgotten: matched again, it would pull the camera along with the person
+  // (Tracker::ForgetLandmarksFoundMoving). Off by default: bonn_crowd_a without the models
+  // gained (18.04 -> 16.86 mm), but the synthetic floors' joins moved, and floor seed 2 lost a
+  // segment's tracking (docs/figures.md, fifty-sixth session).
+  bool forget_landmarks_found_moving = false;
 
   int local_map_keyframes = 25;
   // Map reuse (issue 27): besides the local_map_keyframes most recent keyframes, up to as many
@@ -178,6 +185,9 @@ struct LocalMapOptions {
     visit("cull_single_view_age", self.cull_single_view_age,
           "keyframes after which a landmark seen by one keyframe only goes");
     visit("cull_recent_age", self.cull_recent_age, "keyframes a landmark stays subject to culling");
+    visit("forget_landmarks_found_moving", self.forget_landmarks_found_moving,
+          "forget the landmarks a keyframe observed nearer than close_depth where a later "
+          "keyframe found it moving (a person not masked then)");
     visit("local_map_keyframes", self.local_map_keyframes,
           "keyframes whose landmarks are searched for per frame");
     visit("redundant_keyframe_share", self.redundant_keyframe_share,
