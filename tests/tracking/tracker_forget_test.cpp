@@ -1,59 +1,20 @@
 // Tracker::ForgetLandmarksFoundMoving against exact truth: rendered frames of a noise-free
-// synthetic room, with the first keyframe's left half taken as "found moving".
+// synthetic room, the first keyframe's left half taken as "found moving".
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <iostream>
 #include <opencv2/imgproc.hpp>
 
-#include "rendered_sequence.h"
 #include "stillmap/io/sequence.h"
 #include "stillmap/tracking/tracker.h"
-#include "test_util.h"
+#include "tracker_fixture.h"
 
 namespace stillmap {
 namespace {
 
-// 10 noise-free frames of the static room, rendered once; the options of tracker_test.cpp's
-// Deterministic() (inline bundle adjustment, the depth's own noise, no self-calibration).
-class ForgetLandmarksTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    dir_ = new testing::TempDir;
-    sequence_ = new Sequence(testing::RenderNoiseFreeSequence(*dir_ / "seq", "static", 10));
-    for (size_t i = 0; i < sequence_->frames().size(); ++i) {
-      frames_.push_back(sequence_->LoadFrame(i));
-      cv::Mat gray;
-      cv::cvtColor(frames_.back().color, gray, cv::COLOR_BGR2GRAY);
-      grays_.push_back(gray);
-    }
-  }
-  static void TearDownTestSuite() {
-    frames_.clear();
-    grays_.clear();
-    delete sequence_;
-    delete dir_;
-  }
-  static TrackerOptions Deterministic() {
-    TrackerOptions options;
-    options.local_map.background_bundle_adjustment = false;
-    options.matching.sigma_inverse_depth = 0.0001;
-    options.matching.depth_self_calibration = false;
-    return options;
-  }
-  static const Eigen::Isometry3d& Truth(size_t i) {
-    return sequence_->groundtruth()->poses()[i].world_from_camera;
-  }
-
-  static testing::TempDir* dir_;
-  static Sequence* sequence_;
-  static std::vector<Frame> frames_;
-  static std::vector<cv::Mat> grays_;
-};
-testing::TempDir* ForgetLandmarksTest::dir_ = nullptr;
-Sequence* ForgetLandmarksTest::sequence_ = nullptr;
-std::vector<Frame> ForgetLandmarksTest::frames_;
-std::vector<cv::Mat> ForgetLandmarksTest::grays_;
+// The static room's 40 noise-free frames (tracker_fixture.h).
+class ForgetLandmarksTest : public TrackerTest {};
 
 // The landmarks the first keyframe made in its left half, which a later keyframe "found moving",
 // are forgotten: those nearer than close_depth (ORB-SLAM2's near points; far away the depth
@@ -76,9 +37,11 @@ TEST_F(ForgetLandmarksTest, LandmarksOnPixelsFoundMovingAreForgotten) {
                                                  cv::Mat(), FeatureOptions{});
   auto left_keypoints_nearer = [&](double depth_m) {
     size_t count = 0;
+    const int half = left.cols / 2;
     for (size_t i = 0; i < features.size(); ++i) {
       const double z = features.depth_m[i];
-      count += z > 0.0 && z < depth_m && features.keypoints[i].pt.x < left.cols / 2 - 0.5f ? 1 : 0;
+      const bool in_left = features.keypoints[i].pt.x < static_cast<float>(half) - 0.5f;
+      count += z > 0.0 && z < depth_m && in_left ? 1 : 0;
     }
     return count;
   };
