@@ -200,10 +200,10 @@ size_t Tracker::Impl::ForgetLandmarksFoundMoving(int keyframe_id, const cv::Mat&
     const auto u = static_cast<int>(std::lround(pixel.x)),
                v = static_cast<int>(std::lround(pixel.y));
     if (u < 0 || v < 0 || u >= moving.cols || v >= moving.rows) continue;
-    // Only near points: far away the depth check's evidence is weak (a far wall's readings were
-    // found "moving" on teddy's desk), and a person that pulls the camera along is near.
     const auto landmark = landmarks.find(id);
     if (moving.at<std::uint8_t>(v, u) == 0 || landmark == landmarks.end()) continue;
+    // Only near points: far away the depth check's evidence is weak (a far wall's readings were
+    // found "moving" on teddy's desk), and a person that pulls the camera along is near.
     const double depth_m = (keyframe.camera_from_world * landmark->second.position).z();
     if (depth_m < options.local_map.close_depth) found.push_back(id);
   }
