@@ -305,6 +305,53 @@ TEST(DynamicMaskerTest, DepthOutlineKeepsPartedLimbsButNotConfirmedStaticReading
   EXPECT_EQ(cv::countNonZero(centre(arm)), 0);
 }
 
+// A person no detector boxes: the depth check finds the torso (the reference saw the wall
+// there), not the arm beside it, where the reference saw the person too (masked then), with a
+// strip of wall between them. With unclaimed regions outlined, the torso's region is outlined as
+// a detected person's box is, widened to the sides: the arm is taken; a shelf in that box at the
+// same depth, which the reference saw unmasked and so confirms static, is not. A region smaller
+// than the least size keeps the depth check's mask alone.
+TEST(DynamicMaskerTest, UnclaimedMovingRegionsAreOutlinedLikeDetections) {
+  const Camera camera = testing::SmallCamera(160, 120);
+  const cv::Rect torso(55, 20, 12, 80), arm(69, 30, 3, 40), shelf(49, 70, 4, 20);
+  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  depth(shelf).setTo(1.55f);
+  MaskReference reference{0.0, depth.clone(), cv::Mat(depth.size(), CV_8UC1, cv::Scalar(0)),
+                          Eigen::Isometry3d::Identity(), cv::Mat()};
+  reference.mask(arm).setTo(255);
+  depth(torso).setTo(1.5f);
+  depth(arm).setTo(1.55f);
+  const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
+  auto mask_with = [&](int min_px, DynamicMaskResult* result) {
+    DynamicMaskOptions options = KeepEveryRegion();
+    options.margin_px = 0;
+    options.flow_check = false;
+    options.unclaimed_outline_min_px = min_px;
+    options.unclaimed_outline_widen = 0.5;  // the box: columns 49..72
+    DynamicMasker masker(camera, options);
+    masker.AddReference(reference);
+    *result = masker.Compute(gray, depth, Eigen::Isometry3d::Identity(), nullptr);
+    return result->mask;
+  };
+  DynamicMaskResult off, on, small;
+  const cv::Mat without = mask_with(0, &off), with = mask_with(500, &on);
+  const cv::Mat too_small = mask_with(torso.area() + 1, &small);
+  EXPECT_EQ(cv::countNonZero(without(torso)), torso.area());
+  EXPECT_EQ(cv::countNonZero(without(arm)), 0);
+  EXPECT_EQ(off.geometric_only_regions, 1);
+  EXPECT_EQ(off.geometric_outlined, 0);
+  EXPECT_EQ(cv::countNonZero(with(torso)), torso.area());
+  EXPECT_EQ(cv::countNonZero(with(arm)), arm.area());
+  EXPECT_EQ(cv::countNonZero(with(shelf)), 0);
+  // Nothing beyond the person's span (the masker's closing fills the strip between them).
+  const cv::Rect span = torso | arm;
+  EXPECT_EQ(cv::countNonZero(with), cv::countNonZero(with(span)));
+  EXPECT_EQ(on.geometric_only_regions, 1);
+  EXPECT_EQ(on.geometric_outlined, 1);
+  EXPECT_EQ(cv::countNonZero(too_small), torso.area());
+  EXPECT_EQ(small.geometric_outlined, 0);
+}
+
 // A keyframe that saw a person in front of the wall, then a later one (0.7 s on, as far as the
 // references are spaced) that sees the bare wall there: the person has moved on, and the earlier
 // keyframe's pixels of them are returned as found moving (the tracker forgets its landmarks

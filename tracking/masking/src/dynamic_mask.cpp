@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mask_growth.h"
+#include "object_outline.h"
 #include "stillmap/io/timing.h"
 
 namespace stillmap {
@@ -15,98 +16,8 @@ namespace stillmap {
 namespace {
 
 using mask_growth::Clip;
-using mask_growth::Continuous;
-using mask_growth::Grow;
-
-// The middle of a detection's box, which people fill: the middle third across, the middle half
-// down.
-cv::Rect Middle(const cv::Rect& box) {
-  return {box.x + box.width / 3, box.y + box.height / 4, std::max(1, box.width / 3),
-          std::max(1, box.height / 2)};
-}
-
-// The object in `box` cut to its outline. kDepth: the depth-continuous foreground grown from the
-// box's centre (people fill the middle of their boxes), not into `excluded` readings; kEdges: the
-// region around the centre bounded by Canny edges (paper 000, section II.C); kBox: the whole box.
-// Box-sized CV_8UC1.
-cv::Mat Outline(const cv::Mat& gray, const cv::Mat& depth_m, const cv::Mat& excluded,
-                const cv::Mat& confirmed_static, const cv::Rect& box, OutlineMode mode,
-                double continuity, bool whole_box) {
-  cv::Mat region(box.size(), CV_8UC1, cv::Scalar(0));
-  if (mode == OutlineMode::kBox || box.area() == 0) {
-    region.setTo(255);
-    return region;
-  }
-  const cv::Rect centre = Middle(cv::Rect(cv::Point(), box.size()));
-  const cv::Mat depth = depth_m(box);
-  std::vector<int> queue;
-  if (mode == OutlineMode::kEdges) {
-    cv::Mat edges;
-    cv::Canny(gray(box), edges, 50, 150);
-    cv::dilate(edges, edges, cv::Mat());  // close one-pixel gaps
-    for (int v = centre.y; v < centre.y + centre.height; ++v) {
-      for (int u = centre.x; u < centre.x + centre.width; ++u) {
-        if (edges.at<std::uint8_t>(v, u) != 0) continue;
-        region.at<std::uint8_t>(v, u) = 255;
-        queue.push_back(v * box.width + u);
-      }
-    }
-    const std::uint8_t* edge = edges.data;
-    Grow(&region, std::move(queue), [edge](int next, int) { return edge[next] == 0; });
-    return region;
-  }
-  // kDepth: the nearer third of the centre's readings is the object (background lies behind it).
-  std::vector<float> centre_depths;
-  for (int v = centre.y; v < centre.y + centre.height; ++v) {
-    for (int u = centre.x; u < centre.x + centre.width; ++u) {
-      const float z = depth.at<float>(v, u);
-      if (z > 0.0f) centre_depths.push_back(z);
-    }
-  }
-  if (centre_depths.size() < 10) {  // nothing to cut by: keep the box
-    region.setTo(255);
-    return region;
-  }
-  const auto nth = centre_depths.begin() + static_cast<long>(centre_depths.size() / 3);
-  std::nth_element(centre_depths.begin(), nth, centre_depths.end());
-  const float foreground = *nth;
-  const float band = 0.1f + 0.05f * foreground;
-  // With whole_box, readings in that band anywhere in the box seed too, unless the depth check
-  // confirms them static: limbs that background pixels part from the torso (arms, a far leg)
-  // are not reached from the centre. Without a verdict map (no reference yet) only the centre.
-  const bool whole = whole_box && !confirmed_static.empty();
-  const cv::Rect seeded = whole ? cv::Rect(0, 0, box.width, box.height) : centre;
-  const cv::Mat confirmed = whole ? cv::Mat(confirmed_static(box)) : cv::Mat();
-  for (int v = seeded.y; v < seeded.y + seeded.height; ++v) {
-    // Row pointers: stores through a byte pointer would reload the Mats' fields per pixel.
-    const float* depth_row = depth.ptr<float>(v);
-    const std::uint8_t* confirmed_row = whole ? confirmed.ptr<std::uint8_t>(v) : nullptr;
-    std::uint8_t* region_row = region.ptr<std::uint8_t>(v);
-    const bool centre_row = v >= centre.y && v < centre.y + centre.height;
-    for (int u = seeded.x; u < seeded.x + seeded.width; ++u) {
-      const float z = depth_row[u];
-      if (whole && confirmed_row[u] != 0 &&
-          !(centre_row && u >= centre.x && u < centre.x + centre.width)) {
-        continue;
-      }
-      if (z > 0.0f && std::abs(z - foreground) < band) {
-        region_row[u] = 255;
-        queue.push_back(v * box.width + u);
-      }
-    }
-  }
-  const cv::Mat depth_copy = depth.clone();  // continuous rows for linear indexing
-  const float* z = depth_copy.ptr<float>();
-  const cv::Mat excluded_copy = excluded.empty() ? cv::Mat(box.size(), CV_8UC1, cv::Scalar(0))
-                                                 : cv::Mat(excluded(box).clone());
-  const std::uint8_t* out = excluded_copy.data;
-  const float farthest = foreground + 1.0f;  // an object is not deeper than this
-  Grow(&region, std::move(queue), [z, out, continuity, farthest](int next, int from) {
-    return z[next] > 0.0f && z[next] < farthest && out[next] == 0 &&
-           Continuous(z[from], z[next], continuity);
-  });
-  return region;
-}
+using object_outline::Middle;
+using object_outline::Outline;
 
 // Detections carried to a frame the detector skipped: each moved by the median flow of the
 // tracked points inside it (at least 3), its mask clipped to the image.
@@ -252,25 +163,6 @@ void MaskDetections(std::vector<Detection>* detections, const cv::Mat& gray, con
       ++result->medium_static;
     }
   }
-}
-
-// Moving regions of the geometry that no detection's outline touches.
-int GeometricOnlyRegions(const cv::Mat& geometric, const cv::Mat& claimed) {
-  if (cv::countNonZero(geometric) == 0) return 0;
-  const cv::Size size = geometric.size();
-  int regions = 0;
-  cv::Mat labels;
-  const int count = cv::connectedComponents(geometric, labels, 8, CV_32S);
-  std::vector<std::uint8_t> inside(static_cast<size_t>(count), 0);
-  for (int v = 0; v < size.height; ++v) {
-    const int* label = labels.ptr<int>(v);
-    const std::uint8_t* claim = claimed.ptr<std::uint8_t>(v);
-    for (int u = 0; u < size.width; ++u) {
-      if (label[u] > 0 && claim[u] != 0) inside[static_cast<size_t>(label[u])] = 1;
-    }
-  }
-  for (int k = 1; k < count; ++k) regions += inside[static_cast<size_t>(k)] ? 0 : 1;
-  return regions;
 }
 
 // DynamicMasker::WantsSecondOpinion's rule over a frame's carried detections and the moving
@@ -476,8 +368,11 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
     MaskDetections(&carried_, gray, depth_m, geometric, consistent, options_, &mask, &claimed,
                    &result);
   }
+  const object_outline::UnclaimedRegions unclaimed = object_outline::OutlineUnclaimedRegions(
+      gray, depth_m, geometric, claimed, consistent, options_, &mask);
   result.geometric_pixels = cv::countNonZero(geometric);
-  result.geometric_only_regions = GeometricOnlyRegions(geometric, claimed);
+  result.geometric_only_regions = unclaimed.count;
+  result.geometric_outlined = unclaimed.outlined;
   // Looked for only where a second opinion can be asked (a share above 0): the check walks the
   // whole image.
   wants_second_opinion_ = options_.semantics && options_.second_opinion_share > 0.0 &&

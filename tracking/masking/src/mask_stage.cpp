@@ -93,6 +93,7 @@ cv::Mat MaskStage::Compute(const Frame& frame, const cv::Mat& gray, const FlowSt
   s.medium_static += static_cast<size_t>(result.medium_static);
   s.high_static += static_cast<size_t>(result.high_static);
   s.geometric_only += static_cast<size_t>(result.geometric_only_regions);
+  s.geometric_outlined += static_cast<size_t>(result.geometric_outlined);
   s.frames_with_mask += result.share > 0.0 ? 1 : 0;
   if (truth_.available()) {
     const cv::Mat truth = truth_.Get(frame.time);

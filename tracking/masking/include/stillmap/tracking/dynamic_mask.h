@@ -89,6 +89,13 @@ struct DynamicMaskOptions {
   // parted from the torso by background); unconfirmed seeds everywhere in the box would take
   // in desks and the floor at the feet.
   bool outline_whole_box = true;
+  // A moving region the geometry finds, that no detection's outline touches, of at least this
+  // many pixels is outlined as a detected person is (0: off), in its box widened by
+  // unclaimed_outline_widen of its width on each side: a person no detector boxes (close to the
+  // lens, cut by the image's edge) whose arms and chest the depth check misses while they walk
+  // ahead at the camera's pace. Readings the depth check confirms static stay out.
+  int unclaimed_outline_min_px = 0;
+  double unclaimed_outline_widen = 0.25;
   double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
   // A high-level object that geometry has never seen move, and whose outline the depth check
   // confirms static for at least this share of it, is left unmasked: a still object the detector
@@ -156,6 +163,12 @@ struct DynamicMaskOptions {
     visit("outline_whole_box", self.outline_whole_box,
           "depth outline seeded anywhere in the box, not only its centre, where not confirmed "
           "static");
+    visit("unclaimed_outline_min_px", self.unclaimed_outline_min_px,
+          "moving regions outside every detection of at least this size [px] are outlined as a "
+          "detected person is (0: off)");
+    visit("unclaimed_outline_widen", self.unclaimed_outline_widen,
+          "their box widened by this share of its width on each side (arms parted from the "
+          "torso)");
     visit("medium_min_moving_share", self.medium_min_moving_share,
           "medium-level objects are masked when geometry marks this share of them");
     visit("high_static_share", self.high_static_share,
@@ -212,6 +225,7 @@ struct DynamicMaskResult {
   int medium_static = 0;
   int high_static = 0;             // high-level, never seen moving, confirmed static: not masked
   int geometric_only_regions = 0;  // moving regions outside every detection
+  int geometric_outlined = 0;      // of them, outlined as a detected person is
   bool detections_fresh = false;   // the detector ran on this frame (else carried or none)
   double ms = 0.0;
 };

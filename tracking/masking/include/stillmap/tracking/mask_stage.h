@@ -28,6 +28,7 @@ struct MaskingStatistics {
   double share_sum = 0.0;       // sum of the frames' masked shares
   size_t depth_seeds = 0, flow_seeds = 0, high_regions = 0, high_confirmed = 0;
   size_t medium_moving = 0, medium_static = 0, high_static = 0, geometric_only = 0;
+  size_t geometric_outlined = 0;  // of geometric_only, outlined as a detected person is
   std::map<std::string, size_t> detections_by_level;  // motion level name -> detections
   std::vector<double> detector_ms, mask_ms;           // per detector run, per frame
   bool detector_in_background = false;                // the detector ran on its own thread
