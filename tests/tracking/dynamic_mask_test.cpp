@@ -270,6 +270,26 @@ TEST(DynamicMaskerTest, PersonNeverSeenMovingIsLeftOutWhenConfirmedStatic) {
   EXPECT_EQ(cv::countNonZero(kept.mask(object)), object.area());
 }
 
+// A person at 1.5 m (torso) and 1.55 m (arm) in front of a wall at 3 m, a shelf in the wall's
+// place at `shelf_depth`; the reference saw the wall and the shelf, and had `masked_then` masked.
+struct PersonBesideShelf {
+  cv::Mat depth;
+  MaskReference reference;
+};
+PersonBesideShelf MakePersonBesideShelf(const Camera& camera, const cv::Rect& torso,
+                                        const cv::Rect& arm, const cv::Rect& shelf,
+                                        float shelf_depth, const cv::Rect& masked_then) {
+  PersonBesideShelf scene;
+  scene.depth = cv::Mat(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
+  scene.depth(shelf).setTo(shelf_depth);
+  scene.reference = {0.0, scene.depth.clone(), cv::Mat(scene.depth.size(), CV_8UC1, cv::Scalar(0)),
+                     Eigen::Isometry3d::Identity(), cv::Mat()};
+  scene.reference.mask(masked_then).setTo(255);
+  scene.depth(torso).setTo(1.5f);
+  scene.depth(arm).setTo(1.55f);
+  return scene;
+}
+
 // The depth outline of a person whose arm background parts from the torso: seeded in the centre
 // only, the arm is lost; seeded over the whole box, it is kept, while an object at the same depth
 // in the box that the depth check confirms static is not taken. The reference saw the person at
@@ -277,13 +297,11 @@ TEST(DynamicMaskerTest, PersonNeverSeenMovingIsLeftOutWhenConfirmedStatic) {
 TEST(DynamicMaskerTest, DepthOutlineKeepsPartedLimbsButNotConfirmedStaticReadings) {
   const Camera camera = testing::SmallCamera(160, 120);
   const cv::Rect torso(55, 20, 12, 80), arm(70, 30, 4, 40), shelf(42, 70, 8, 20);
-  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
-  depth(shelf).setTo(1.6f);
-  MaskReference reference{0.0, depth.clone(), cv::Mat(depth.size(), CV_8UC1, cv::Scalar(0)),
-                          Eigen::Isometry3d::Identity(), cv::Mat()};
-  reference.mask(cv::Rect(52, 16, 26, 88)).setTo(255);  // the person, masked then
-  depth(torso).setTo(1.5f);
-  depth(arm).setTo(1.55f);
+  // The person, masked then.
+  const PersonBesideShelf scene =
+      MakePersonBesideShelf(camera, torso, arm, shelf, 1.6f, {52, 16, 26, 88});
+  const cv::Mat& depth = scene.depth;
+  const MaskReference& reference = scene.reference;
   const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
   Detection person;
   person.box = cv::Rect2f(40, 10, 40, 100);
@@ -314,13 +332,9 @@ TEST(DynamicMaskerTest, DepthOutlineKeepsPartedLimbsButNotConfirmedStaticReading
 TEST(DynamicMaskerTest, UnclaimedMovingRegionsAreOutlinedLikeDetections) {
   const Camera camera = testing::SmallCamera(160, 120);
   const cv::Rect torso(55, 20, 12, 80), arm(69, 30, 3, 40), shelf(49, 70, 4, 20);
-  cv::Mat depth(camera.height, camera.width, CV_32FC1, cv::Scalar(3.0f));
-  depth(shelf).setTo(1.55f);
-  MaskReference reference{0.0, depth.clone(), cv::Mat(depth.size(), CV_8UC1, cv::Scalar(0)),
-                          Eigen::Isometry3d::Identity(), cv::Mat()};
-  reference.mask(arm).setTo(255);
-  depth(torso).setTo(1.5f);
-  depth(arm).setTo(1.55f);
+  const PersonBesideShelf scene = MakePersonBesideShelf(camera, torso, arm, shelf, 1.55f, arm);
+  const cv::Mat& depth = scene.depth;
+  const MaskReference& reference = scene.reference;
   const cv::Mat gray(depth.size(), CV_8UC1, cv::Scalar(128));
   auto mask_with = [&](int min_px, DynamicMaskResult* result) {
     DynamicMaskOptions options = KeepEveryRegion();
