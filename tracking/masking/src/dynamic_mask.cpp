@@ -368,11 +368,13 @@ DynamicMaskResult DynamicMasker::Compute(const cv::Mat& gray, const cv::Mat& dep
     MaskDetections(&carried_, gray, depth_m, geometric, consistent, options_, &mask, &claimed,
                    &result);
   }
-  const object_outline::UnclaimedRegions unclaimed = object_outline::OutlineUnclaimedRegions(
-      gray, depth_m, geometric, claimed, consistent, options_, &mask);
   result.geometric_pixels = cv::countNonZero(geometric);
-  result.geometric_only_regions = unclaimed.count;
-  result.geometric_outlined = unclaimed.outlined;
+  if (result.geometric_pixels > 0) {  // the regions' labelling only where there are regions
+    const object_outline::UnclaimedRegions unclaimed = object_outline::OutlineUnclaimedRegions(
+        gray, depth_m, geometric, claimed, consistent, options_, &mask);
+    result.geometric_only_regions = unclaimed.count;
+    result.geometric_outlined = unclaimed.outlined;
+  }
   // Looked for only where a second opinion can be asked (a share above 0): the check walks the
   // whole image.
   wants_second_opinion_ = options_.semantics && options_.second_opinion_share > 0.0 &&

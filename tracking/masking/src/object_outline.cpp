@@ -103,7 +103,6 @@ UnclaimedRegions OutlineUnclaimedRegions(const cv::Mat& gray, const cv::Mat& dep
                                          const cv::Mat& consistent,
                                          const DynamicMaskOptions& options, cv::Mat* mask) {
   UnclaimedRegions regions;
-  if (cv::countNonZero(geometric) == 0) return regions;
   cv::Mat labels, stats, centroids;
   const int count =
       cv::connectedComponentsWithStats(geometric, labels, stats, centroids, 8, CV_32S);
