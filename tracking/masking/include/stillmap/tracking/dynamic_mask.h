@@ -94,7 +94,7 @@ struct DynamicMaskOptions {
   // unclaimed_outline_widen of its width on each side: a person no detector boxes (close to the
   // lens, cut by the image's edge) whose arms and chest the depth check misses while they walk
   // ahead at the camera's pace. Readings the depth check confirms static stay out.
-  int unclaimed_outline_min_px = 0;
+  int unclaimed_outline_min_px = 20000;
   double unclaimed_outline_widen = 0.25;
   double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
   // A high-level object that geometry has never seen move, and whose outline the depth check
