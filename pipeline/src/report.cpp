@@ -130,6 +130,7 @@ json MaskingJson(const MaskingFigures& masking) {
   out["medium_level_static"] = s.medium_static;
   out["geometric_regions_outside_detections"] = s.geometric_only;
   out["geometric_regions_outlined"] = s.geometric_outlined;
+  out["unclaimed_outline_min_px"] = options.unclaimed_outline_min_px;  // as resolved
   out["depth_check_seed_pixels"] = s.depth_seeds;
   out["flow_check_seed_points"] = s.flow_seeds;
   return out;

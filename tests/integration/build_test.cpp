@@ -243,6 +243,9 @@ TEST(BuildTest, GridOfAWalkingSequenceAgreesWithTheStaticScene) {
   const bool semantics = masked.at("masking").at("semantics").get<bool>();
   EXPECT_EQ(masked.at("masking").at("flow_klt_window_px").get<int>(), semantics ? 15 : 21);
   EXPECT_EQ(masked.at("masking").at("flow_points").get<int>(), semantics ? 300 : 400);
+  // Unclaimed moving regions are outlined with a detector only (20000 px), where they are the
+  // people it missed; without one they are every person.
+  EXPECT_EQ(masked.at("masking").at("unclaimed_outline_min_px").get<int>(), semantics ? 20000 : 0);
   EXPECT_LT(masked.at("grid").at("floor").at("tilt_to_cameras_up_deg").get<double>(), 15.0);
   EXPECT_GE(quality.at("agreement").get<double>(), 0.95);
   EXPECT_GT(quality.at("observed_cells").get<size_t>(), 2000u);

@@ -366,6 +366,16 @@ TEST(DynamicMaskerTest, UnclaimedMovingRegionsAreOutlinedLikeDetections) {
   EXPECT_EQ(small.geometric_outlined, 0);
 }
 
+// Left at -1, the least unclaimed region is 20000 px with a detector and off without one; a size
+// given (or 0, off) is kept either way.
+TEST(DynamicMaskerTest, UnclaimedOutlineSizeIsResolvedByTheDetector) {
+  EXPECT_EQ(DynamicMaskOptions().unclaimed_outline_min_px, -1);
+  EXPECT_EQ(ResolvedUnclaimedOutlineMinPx(-1, true), 20000);
+  EXPECT_EQ(ResolvedUnclaimedOutlineMinPx(-1, false), 0);
+  EXPECT_EQ(ResolvedUnclaimedOutlineMinPx(5000, false), 5000);
+  EXPECT_EQ(ResolvedUnclaimedOutlineMinPx(0, true), 0);
+}
+
 // A keyframe that saw a person in front of the wall, then a later one (0.7 s on, as far as the
 // references are spaced) that sees the bare wall there: the person has moved on, and the earlier
 // keyframe's pixels of them are returned as found moving (the tracker forgets its landmarks

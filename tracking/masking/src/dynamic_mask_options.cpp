@@ -60,7 +60,8 @@ void DynamicMaskOptions::Validate() const {
   check(seed_noise_factor >= 0.0 && seed_noise_factor <= 100.0, "seed_noise_factor must be 0..100");
   // Steps are counted in one byte per pixel (GeometricMasker::Compute): 255 at most.
   check(max_unknown_steps >= 0 && max_unknown_steps <= 255, "max_unknown_steps must be 0..255");
-  check(unclaimed_outline_min_px >= 0, "unclaimed_outline_min_px must be >= 0 (0: off)");
+  check(unclaimed_outline_min_px >= -1,
+        "unclaimed_outline_min_px must be >= -1 (0: off; -1: by the detector)");
   check(unclaimed_outline_widen >= 0.0 && unclaimed_outline_widen <= 2.0,
         "unclaimed_outline_widen must be 0..2");
   check(medium_min_moving_share > 0.0 && medium_min_moving_share <= 1.0,

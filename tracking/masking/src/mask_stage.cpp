@@ -52,6 +52,8 @@ MaskStage::MaskStage(const Camera& camera, const DynamicMaskOptions& options, bo
   }
   options_.flow.klt_window = ResolvedKltWindow(options_.flow.klt_window, detections_ != nullptr);
   options_.flow_points = ResolvedFlowPoints(options_.flow_points, detections_ != nullptr);
+  options_.unclaimed_outline_min_px =
+      ResolvedUnclaimedOutlineMinPx(options_.unclaimed_outline_min_px, detections_ != nullptr);
   // Only a detector with a second opinion needs the masker to say where to ask it.
   DynamicMaskOptions masker_options = options_;
   if (!detections_ || !detections_->detector().has_second_opinion()) {

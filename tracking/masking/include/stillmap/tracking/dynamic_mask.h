@@ -52,6 +52,18 @@ inline int ResolvedFlowPoints(int flow_points, bool with_detector) {
   return with_detector ? kFlowPointsWithDetector : kFlowPointsGeometryOnly;
 }
 
+// The least unclaimed region outlined when none is set: with a detector, a person it missed
+// (close to the lens, cut by the image's edge); without one every person is unclaimed, and their
+// widened box costs the masks' precision (docs/figures.md, fifty-eighth session).
+constexpr int kUnclaimedOutlineMinPxWithDetector = 20000;
+
+// The least size that `unclaimed_outline_min_px` (DynamicMaskOptions) stands for: itself when
+// set (0: off), else by whether a detector runs.
+inline int ResolvedUnclaimedOutlineMinPx(int min_px, bool with_detector) {
+  if (min_px >= 0) return min_px;
+  return with_detector ? kUnclaimedOutlineMinPxWithDetector : 0;
+}
+
 struct DynamicMaskOptions {
   bool semantics = true;
   bool depth_check = true;  // paper 002's multi-view depth check
@@ -90,11 +102,12 @@ struct DynamicMaskOptions {
   // in desks and the floor at the feet.
   bool outline_whole_box = true;
   // A moving region the geometry finds, that no detection's outline touches, of at least this
-  // many pixels is outlined as a detected person is (0: off), in its box widened by
+  // many pixels is outlined as a detected person is (0: off; -1: by the detector,
+  // ResolvedUnclaimedOutlineMinPx, which MaskStage resolves), in its box widened by
   // unclaimed_outline_widen of its width on each side: a person no detector boxes (close to the
   // lens, cut by the image's edge) whose arms and chest the depth check misses while they walk
   // ahead at the camera's pace. Readings the depth check confirms static stay out.
-  int unclaimed_outline_min_px = 20000;
+  int unclaimed_outline_min_px = -1;
   double unclaimed_outline_widen = 0.25;
   double medium_min_moving_share = 0.1;  // medium-level: share of the outline geometry marks
   // A high-level object that geometry has never seen move, and whose outline the depth check
@@ -165,7 +178,7 @@ struct DynamicMaskOptions {
           "static");
     visit("unclaimed_outline_min_px", self.unclaimed_outline_min_px,
           "moving regions outside every detection of at least this size [px] are outlined as a "
-          "detected person is (0: off)");
+          "detected person is (0: off; -1: 20000 with a detector, off without)");
     visit("unclaimed_outline_widen", self.unclaimed_outline_widen,
           "their box widened by this share of its width on each side (arms parted from the "
           "torso)");
