@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
+#include <utility>
 #include <vector>
 
 #include "rendered_sequence.h"
@@ -58,6 +59,20 @@ class TrackerTest : public ::testing::Test {
                                        covered ? no_depth : frames_[i].depth_m));
     }
     return results;
+  }
+  // Frames 0..count-1, each tracked.
+  static void TrackFirstFrames(Tracker* tracker, size_t count) {
+    for (size_t i = 0; i < count; ++i) {
+      ASSERT_TRUE(tracker->Track(i, frames_[i].time, grays_[i], frames_[i].depth_m).tracked());
+    }
+  }
+  // Frame i mirrored: plenty of corners with depth, none that the map recognizes (ORB
+  // descriptors are not mirror-invariant). Gray image, then depth.
+  static std::pair<cv::Mat, cv::Mat> MirroredView(size_t i) {
+    std::pair<cv::Mat, cv::Mat> view;
+    cv::flip(grays_[i], view.first, 1);
+    cv::flip(frames_[i].depth_m, view.second, 1);
+    return view;
   }
   static std::vector<TrackStatus> Statuses(const std::vector<TrackResult>& results) {
     std::vector<TrackStatus> statuses;

@@ -312,14 +312,8 @@ TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {
   TrackerOptions options = Deterministic();
   options.relocalization.new_map_after_lost = 1;
   Tracker tracker(sequence_->camera(), options);
-  for (size_t i = 0; i < 5; ++i) {
-    ASSERT_TRUE(tracker.Track(i, frames_[i].time, grays_[i], frames_[i].depth_m).tracked());
-  }
-  // A mirrored view: plenty of corners with depth, none that the map recognizes (ORB descriptors
-  // are not mirror-invariant).
-  cv::Mat mirrored_gray, mirrored_depth;
-  cv::flip(grays_[5], mirrored_gray, 1);
-  cv::flip(frames_[5].depth_m, mirrored_depth, 1);
+  TrackFirstFrames(&tracker, 5);
+  const auto [mirrored_gray, mirrored_depth] = MirroredView(5);
   const TrackResult result = tracker.Track(5, frames_[5].time, mirrored_gray, mirrored_depth);
   EXPECT_EQ(result.status, TrackStatus::kNewMap);
   EXPECT_GE(result.keyframe_id, 0);
@@ -332,6 +326,41 @@ TEST_F(TrackerTest, AnUnrecognizableViewStartsANewMapAtTheLastGoodPose) {
                 .norm(),
             1e-9);
   EXPECT_EQ(tracker.statistics().new_maps, 1u);
+}
+
+// A view with few corners outside the moving mask (a blank wall beside a person) does not begin
+// the new segment: the first view after it that has tracking.new_map_min_points does.
+TEST_F(TrackerTest, ANewMapWaitsForAViewWithEnoughPoints) {
+  TrackerOptions options = Deterministic();
+  options.relocalization.new_map_after_lost = 1;
+  options.relocalization.new_map_min_points = 300;
+  Tracker tracker(sequence_->camera(), options);
+  TrackFirstFrames(&tracker, 5);
+  const auto [mirrored_gray, mirrored_depth] = MirroredView(5);
+  cv::Mat mostly_masked(mirrored_gray.size(), CV_8U, cv::Scalar(255));
+  mostly_masked(cv::Rect(0, 0, mirrored_gray.cols / 8, mirrored_gray.rows)).setTo(0);
+  const TrackResult masked =
+      tracker.Track(5, frames_[5].time, mirrored_gray, mirrored_depth, mostly_masked);
+  ASSERT_LT(masked.features, 300);
+  EXPECT_EQ(masked.status, TrackStatus::kLost);
+  const TrackResult full = tracker.Track(6, frames_[6].time, mirrored_gray, mirrored_depth);
+  ASSERT_GE(full.features, 300);
+  EXPECT_EQ(full.status, TrackStatus::kNewMap);
+  EXPECT_EQ(tracker.statistics().new_maps, 1u);
+}
+
+// Past tracking.new_map_after_lost lost frames the camera is not looked for in the map: the
+// view after three covered frames, which relocalizes within a longer wait, begins a new map.
+TEST_F(TrackerTest, PastTheWaitTheMapIsNotSearched) {
+  auto status_after_cover = [&](int wait) {
+    TrackerOptions options = Deterministic();
+    options.relocalization.max_predicted_frames = 0;
+    options.relocalization.new_map_after_lost = wait;
+    Tracker tracker(sequence_->camera(), options);
+    return Statuses(TrackWithCoveredLens(&tracker, 16))[13];
+  };
+  EXPECT_EQ(status_after_cover(4), TrackStatus::kRelocalized);
+  EXPECT_EQ(status_after_cover(3), TrackStatus::kNewMap);
 }
 
 // The bundle adjustment on its own thread (the default): the same frames, tracked while the

@@ -181,6 +181,9 @@ Tracker::Impl::PoseEstimate Tracker::Impl::FindPose(const Eigen::Isometry3d& pre
                                                     const LocalSet& local, const FrameData& frame,
                                                     double time, Association* association) {
   PoseEstimate estimate;
+  // Past the wait the camera is not looked for in the map: a pose found now may lie metres off
+  // (the unseen motion), and the next view with enough points begins a new segment instead.
+  if (consecutive_lost >= options.relocalization.new_map_after_lost) return estimate;
   if (association->count() >= options.matching.min_matches) {
     estimate = EstimatePose(predicted, true, local, frame, association);
   }
@@ -256,7 +259,7 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
   weakest_inliers_since_keyframe = 0;
   have_last = false;
   if (consecutive_lost >= options.relocalization.new_map_after_lost &&
-      with_depth >= options.relocalization.min_initial_points) {
+      with_depth >= options.relocalization.new_map_min_points) {
     StartMap(last_good_camera_from_world, frame, frame_index, time, lock);
     ++stats.new_maps;
     --stats.lost;

@@ -140,7 +140,8 @@ void RelocalizationOptions::Validate() const {
           "{} must be at least 6 and at most {}", key(min_tracked), key(min_relocalized));
   Require(relocalization_keyframes >= 1, "{} must be at least 1", key(relocalization_keyframes));
   Require(new_map_after_lost >= 1, "{} must be at least 1", key(new_map_after_lost));
-  Require(min_initial_points >= 20, "{} must be at least 20", key(min_initial_points));
+  Require(min_initial_points >= 20 && new_map_min_points >= 20, "{} and {} must be at least 20",
+          key(min_initial_points), key(new_map_min_points));
   Require(
       min_static_depth_share >= 0.0 && min_static_depth_share <= 1.0 && max_predicted_frames >= 0,
       "{} must lie in [0, 1] and {} "

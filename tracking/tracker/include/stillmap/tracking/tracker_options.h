@@ -242,6 +242,12 @@ struct RelocalizationOptions {
   double motion_model_horizon_s = 0.0;
   double motion_model_max_distance_m = 0.15;
   int min_initial_points = 100;
+  // A new segment after a loss begins only on a frame with at least this many features with
+  // depth outside the moving mask. Past new_map_after_lost frames the map is not searched any
+  // more. At 300 a view of a blank wall beside a person nothing masks yet no longer starts a
+  // segment that follows the person (floor_lost), but floor seed 2 lost 156 mm: not a default
+  // (docs/figures.md, fifty-ninth session).
+  int new_map_min_points = 100;
 
   // Throws InputError naming the first impossible value (tracker_options.cpp).
   void Validate() const;
@@ -270,6 +276,8 @@ struct RelocalizationOptions {
           "relocalizations farther than this from that prediction are refused [m]");
     visit("min_initial_points", self.min_initial_points,
           "features with depth needed to start a map");
+    visit("new_map_min_points", self.new_map_min_points,
+          "features with depth (outside the moving mask) a new segment after a loss begins on");
   }
 };
 
