@@ -127,11 +127,15 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   Eigen::Isometry3d predicted = Predict(last, time);
   const LocalSet local = CollectLocalLandmarks();
   Association association(frame.size());
-  SearchAroundPredictions(&predicted, local, frame, &association);
+  // Past the wait the camera is not looked for in the map: a pose found now may lie metres off
+  // (the unseen motion), and the next view with enough points begins a new segment instead.
+  const bool past_wait = consecutive_lost >= options.relocalization.new_map_after_lost;
+  if (!past_wait) SearchAroundPredictions(&predicted, local, frame, &association);
   result.timings.match_ms = MillisecondsSince(stage);
 
   stage = Clock::now();
-  PoseEstimate estimate = FindPose(predicted, local, frame, time, &association);
+  PoseEstimate estimate =
+      past_wait ? PoseEstimate{} : FindPose(predicted, local, frame, time, &association);
   if (estimate.ok) CheckByRgbdOdometry(predicted, local, frame, time, &estimate, &association);
   const bool occluded = result.static_depth_share < options.relocalization.min_static_depth_share;
   result.timings.pose_ms = MillisecondsSince(stage);
@@ -181,9 +185,6 @@ Tracker::Impl::PoseEstimate Tracker::Impl::FindPose(const Eigen::Isometry3d& pre
                                                     const LocalSet& local, const FrameData& frame,
                                                     double time, Association* association) {
   PoseEstimate estimate;
-  // Past the wait the camera is not looked for in the map: a pose found now may lie metres off
-  // (the unseen motion), and the next view with enough points begins a new segment instead.
-  if (consecutive_lost >= options.relocalization.new_map_after_lost) return estimate;
   if (association->count() >= options.matching.min_matches) {
     estimate = EstimatePose(predicted, true, local, frame, association);
   }
