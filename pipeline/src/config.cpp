@@ -210,7 +210,7 @@ void DenseRefinementOptions::Validate() const {
   for (const double* value :
        {&max_next_gap_s, &revisit_min_gap_s, &revisit_max_distance_m, &revisit_max_angle_deg,
         &max_change_m, &max_change_deg, &revisit_max_change_m, &revisit_max_change_deg,
-        &cycle_max_m, &cycle_max_deg, &prior_sigma_m}) {
+        &cycle_max_m, &cycle_max_deg, &prior_sigma_m, &frame_smoothing_s}) {
     if (!(*value >= 0.0 && std::isfinite(*value)))
       throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, *value)));
   }

@@ -251,11 +251,56 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
   return figures;
 }
 
+namespace {
+
+using TimedCorrection = std::pair<double, Eigen::Isometry3d>;
+
+// The keyframes' corrections interpolated between the two on either side of `t` in time.
+Eigen::Isometry3d InterpolatedCorrection(const std::vector<TimedCorrection>& corrections,
+                                         double t) {
+  const auto next = std::upper_bound(corrections.begin(), corrections.end(), t,
+                                     [](double time, const auto& c) { return time < c.first; });
+  if (next == corrections.begin()) return next->second;
+  if (next == corrections.end()) return std::prev(next)->second;
+  const auto previous = std::prev(next);
+  const double share = (t - previous->first) / (next->first - previous->first);
+  return InterpolatePose(previous->second, next->second, share);
+}
+
+// The corrections of the keyframes within three smoothing_s of `t`, weighted by a Gaussian of
+// that width (translation and quaternion averaged); nothing when none is that near.
+std::optional<Eigen::Isometry3d> SmoothedCorrection(const std::vector<TimedCorrection>& corrections,
+                                                    double t, double smoothing_s) {
+  const auto first = std::lower_bound(corrections.begin(), corrections.end(), t - 3.0 * smoothing_s,
+                                      [](const auto& c, double time) { return c.first < time; });
+  double total = 0.0;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector4d rotation = Eigen::Vector4d::Zero();
+  std::optional<Eigen::Quaterniond> reference;
+  for (auto it = first; it != corrections.end() && it->first <= t + 3.0 * smoothing_s; ++it) {
+    const double z = (it->first - t) / smoothing_s;
+    const double weight = std::exp(-0.5 * z * z);
+    Eigen::Quaterniond q(it->second.linear());
+    if (!reference) reference = q;
+    if (q.dot(*reference) < 0.0) q.coeffs() = -q.coeffs();  // one hemisphere
+    translation += weight * it->second.translation();
+    rotation += weight * q.coeffs();
+    total += weight;
+  }
+  if (total <= 0.0) return std::nullopt;
+  Eigen::Isometry3d smoothed = Eigen::Isometry3d::Identity();
+  smoothed.linear() = Eigen::Quaterniond(rotation / total).normalized().toRotationMatrix();
+  smoothed.translation() = translation / total;
+  return smoothed;
+}
+
+}  // namespace
+
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,
-                      Trajectory* trajectory) {
-  std::vector<std::pair<double, Eigen::Isometry3d>> corrections;
+                      double smoothing_s, Trajectory* trajectory) {
+  std::vector<TimedCorrection> corrections;
   corrections.reserve(before.size());
   for (const auto& [id, pose] : before) {
     corrections.emplace_back(times.at(id), after.at(id) * pose.inverse());
@@ -267,19 +312,17 @@ void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
   for (size_t i = 0; i < poses.size(); ++i) {
     if (!in_map[i]) continue;
     const double t = poses[i].time;
-    const auto next = std::upper_bound(corrections.begin(), corrections.end(), t,
-                                       [](double time, const auto& c) { return time < c.first; });
-    Eigen::Isometry3d correction;
-    if (next == corrections.begin()) {
-      correction = next->second;
-    } else if (next == corrections.end()) {
-      correction = std::prev(next)->second;
-    } else {
-      const auto previous = std::prev(next);
-      const double share = (t - previous->first) / (next->first - previous->first);
-      correction = InterpolatePose(previous->second, next->second, share);
+    const auto at = std::lower_bound(corrections.begin(), corrections.end(), t,
+                                     [](const auto& c, double time) { return c.first < time; });
+    const bool keyframe = at != corrections.end() && at->first == t;
+    std::optional<Eigen::Isometry3d> correction;
+    if (keyframe) {
+      correction = at->second;
+    } else if (smoothing_s > 0.0) {
+      correction = SmoothedCorrection(corrections, t, smoothing_s);
     }
-    poses[i].world_from_camera = correction * poses[i].world_from_camera;
+    if (!correction) correction = InterpolatedCorrection(corrections, t);
+    poses[i].world_from_camera = *correction * poses[i].world_from_camera;
   }
   *trajectory = Trajectory(std::move(poses));
 }

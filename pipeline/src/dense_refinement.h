@@ -37,11 +37,13 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
                                            bool parallel = false);
 
 // Moves the frames of `trajectory` that `in_map` marks with the keyframes' corrections (after
-// against before, by keyframe id; `times` by keyframe id), interpolated between the keyframes
-// on either side in time.
+// against before, by keyframe id; `times` by keyframe id). A keyframe's frame takes its own; a
+// frame between keyframes takes the corrections of the keyframes around it averaged over
+// `smoothing_s` (a Gaussian's width [s]; 0: interpolated between the two on either side), so
+// that it takes the drift they share and not each keyframe's own noise.
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,
-                      Trajectory* trajectory);
+                      double smoothing_s, Trajectory* trajectory);
 
 }  // namespace stillmap

@@ -105,7 +105,7 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
     (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
   }
   CarryCorrections(before, *world_from_keyframe, times, segments.FramesInMap(*trajectory),
-                   trajectory);
+                   options.frame_smoothing_s, trajectory);
 }
 
 // What the user is told about tracking.planar_motion=on: that it was refused, or that the camera

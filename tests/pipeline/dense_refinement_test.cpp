@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <map>
 #include <opencv2/imgproc.hpp>
 
 #include "stillmap/io/sequence.h"
@@ -152,13 +154,46 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesMoveWithTheirCorrections) {
   Trajectory trajectory(frames);
   std::vector<bool> in_map(frames.size(), true);
   in_map[3] = false;  // a segment apart keeps its poses
-  CarryCorrections({{0, a}, {1, b}}, {{0, a}, {1, b_after}}, {{0, 10.0}, {1, 14.0}}, in_map,
+  CarryCorrections({{0, a}, {1, b}}, {{0, a}, {1, b_after}}, {{0, 10.0}, {1, 14.0}}, in_map, 0.0,
                    &trajectory);
   const std::vector<StampedPose>& moved = trajectory.poses();
   EXPECT_NEAR(moved[0].world_from_camera.translation().y(), 0.0, 1e-12);
   EXPECT_NEAR(moved[2].world_from_camera.translation().y(), 0.1, 1e-12);
   EXPECT_NEAR(moved[3].world_from_camera.translation().y(), 0.0, 1e-12);
   EXPECT_NEAR(moved[4].world_from_camera.translation().y(), 0.2, 1e-12);
+}
+
+// Smoothed, a frame between keyframes takes their corrections averaged with Gaussian weights
+// (recomputed here), a keyframe's frame its own correction, and a frame farther than three widths
+// from every keyframe the nearest one's.
+TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
+  const std::vector<double> key_times = {10.0, 11.0, 12.0, 13.0, 14.0};
+  const std::vector<double> shift_y = {0.01, -0.02, 0.03, 0.0, -0.01};  // each keyframe's own
+  std::map<int, Eigen::Isometry3d> before, after;
+  std::map<int, double> times;
+  for (int k = 0; k < 5; ++k) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.translation() = Eigen::Vector3d(0.5 * k, 0.0, 0.0);
+    before[k] = pose;
+    pose.translation().y() += shift_y[static_cast<size_t>(k)];
+    after[k] = pose;
+    times[k] = key_times[static_cast<size_t>(k)];
+  }
+  const std::vector<double> frame_times = {12.0, 12.5, 30.0};
+  std::vector<StampedPose> frames;
+  for (const double t : frame_times) frames.push_back({t, Eigen::Isometry3d::Identity()});
+  Trajectory trajectory(frames);
+  CarryCorrections(before, after, times, std::vector<bool>(frames.size(), true), 1.0, &trajectory);
+  const std::vector<StampedPose>& moved = trajectory.poses();
+  double weighted = 0.0, total = 0.0;
+  for (size_t k = 0; k < key_times.size(); ++k) {
+    const double w = std::exp(-0.5 * std::pow(key_times[k] - 12.5, 2.0));
+    weighted += w * shift_y[k];
+    total += w;
+  }
+  EXPECT_NEAR(moved[0].world_from_camera.translation().y(), 0.03, 1e-12);
+  EXPECT_NEAR(moved[1].world_from_camera.translation().y(), weighted / total, 1e-12);
+  EXPECT_NEAR(moved[2].world_from_camera.translation().y(), -0.01, 1e-12);
 }
 
 // Each keyframe held to its pose: held as sure as the alignments, a drifted path moves only part

@@ -34,6 +34,11 @@ struct DenseRefinementOptions {
   // lost a segment's place (docs/figures.md).
   double prior_sigma_m = 0.05;
   int cell_px = 4;  // the images are averaged over cells this wide [px]
+  // A frame between keyframes takes their corrections averaged over this (a Gaussian's width)
+  // [s]: the drift the keyframes share, not each one's own noise, which the frame does not have
+  // (0: interpolated between the two keyframes on either side). Chosen against 0 and 3 s on the
+  // four floors and the rooms (docs/figures.md, sixtieth session).
+  double frame_smoothing_s = 1.0;
 
   void Validate() const;  // throws InputError naming the key
 
@@ -68,6 +73,9 @@ struct DenseRefinementOptions {
     visit("dense_prior_sigma_m", self.prior_sigma_m,
           "each keyframe is held to its pose as sure as this (0: not held) [m]");
     visit("dense_cell_px", self.cell_px, "images are averaged over cells this wide [px]");
+    visit("dense_frame_smoothing_s", self.frame_smoothing_s,
+          "a frame between keyframes takes their corrections averaged over this (0: "
+          "interpolated) [s]");
   }
 };
 
