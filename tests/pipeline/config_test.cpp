@@ -105,6 +105,10 @@ TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
   ApplySetArgument(&config, "final_poses.dense_max_change_deg=-0.5");
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_max_change_deg"),
             std::string::npos);
+  config = BuildConfig();
+  ApplySetArgument(&config, "final_poses.dense_frame_smoothing_s=-1");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_frame_smoothing_s"),
+            std::string::npos);
 }
 
 TEST(ConfigTest, FileErrorsNameTheLine) {
