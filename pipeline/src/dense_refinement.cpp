@@ -255,11 +255,11 @@ namespace {
 
 using TimedCorrection = std::pair<double, Eigen::Isometry3d>;
 
-// The keyframes' corrections interpolated between the two on either side of `t` in time.
+// The keyframes' corrections interpolated between the two on either side of `t` in time; `next`
+// is the first keyframe after `t`.
 Eigen::Isometry3d InterpolatedCorrection(const std::vector<TimedCorrection>& corrections,
+                                         std::vector<TimedCorrection>::const_iterator next,
                                          double t) {
-  const auto next = std::upper_bound(corrections.begin(), corrections.end(), t,
-                                     [](double time, const auto& c) { return time < c.first; });
   if (next == corrections.begin()) return next->second;
   if (next == corrections.end()) return std::prev(next)->second;
   const auto previous = std::prev(next);
@@ -321,7 +321,7 @@ void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
     } else if (smoothing_s > 0.0) {
       correction = SmoothedCorrection(corrections, t, smoothing_s);
     }
-    if (!correction) correction = InterpolatedCorrection(corrections, t);
+    if (!correction) correction = InterpolatedCorrection(corrections, at, t);
     poses[i].world_from_camera = *correction * poses[i].world_from_camera;
   }
   *trajectory = Trajectory(std::move(poses));

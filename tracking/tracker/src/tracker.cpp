@@ -129,7 +129,7 @@ TrackResult Tracker::Impl::Track(size_t frame_index, double time, const cv::Mat&
   Association association(frame.size());
   // Past the wait the camera is not looked for in the map: a pose found now may lie metres off
   // (the unseen motion), and the next view with enough points begins a new segment instead.
-  const bool past_wait = consecutive_lost >= options.relocalization.new_map_after_lost;
+  const bool past_wait = PastNewMapWait();
   if (!past_wait) SearchAroundPredictions(&predicted, local, frame, &association);
   result.timings.match_ms = MillisecondsSince(stage);
 
@@ -259,8 +259,7 @@ void Tracker::Impl::TrackWithoutPose(const Eigen::Isometry3d& predicted, const L
   if (consecutive_lost == 1) DropUnconfirmedPredictions();
   weakest_inliers_since_keyframe = 0;
   have_last = false;
-  if (consecutive_lost >= options.relocalization.new_map_after_lost &&
-      with_depth >= options.relocalization.new_map_min_points) {
+  if (PastNewMapWait() && with_depth >= options.relocalization.new_map_min_points) {
     StartMap(last_good_camera_from_world, frame, frame_index, time, lock);
     ++stats.new_maps;
     --stats.lost;

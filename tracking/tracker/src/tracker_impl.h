@@ -243,6 +243,11 @@ struct Tracker::Impl {
   // HasPriorMotion: this frame and the last posed one both have a prior).
   Eigen::Isometry3d PriorPrediction() const;
   bool HasPriorMotion() const { return next_prior && last_good_prior; }
+  // Lost for tracking.new_map_after_lost frames: the map is no longer searched, and the next view
+  // with enough points begins a new segment.
+  bool PastNewMapWait() const {
+    return consecutive_lost >= options.relocalization.new_map_after_lost;
+  }
   // Projection search around *predicted; when it finds fewer than min_matches, around the
   // prior's prediction (which becomes *predicted when it finds more), then wider.
   void SearchAroundPredictions(Eigen::Isometry3d* predicted, const LocalSet& local,
