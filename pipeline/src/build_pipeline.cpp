@@ -136,6 +136,7 @@ LoopOptions LoopOptionsOf(const BuildRequest& request) {
                    depth.min_depth,
                    depth.max_depth};
   options.refinement = config.final_poses;
+  options.smoothing = config.trajectory_smoothing;
   options.segments.place = config.tracking.loops.place;
   options.segments.place_candidates = config.merge.place_candidates;
   options.segments.place_min_votes = config.merge.place_min_votes;

@@ -279,6 +279,7 @@ void BuildConfig::Validate() const {
   masking.Validate();
   merge.Validate();
   final_poses.Validate();
+  trajectory_smoothing.Validate();
   selection.Validate();
   grid.Validate();
   mesh.Validate();

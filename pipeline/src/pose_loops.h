@@ -15,6 +15,7 @@
 #include "stillmap/pipeline/dense_refinement_options.h"
 #include "stillmap/pipeline/progress.h"
 #include "stillmap/tracking/mask_stage.h"
+#include "stillmap/tracking/trajectory_smoothing.h"
 
 namespace stillmap {
 
@@ -29,10 +30,11 @@ struct PosedFrames {
 // What the frame loops read of the request.
 struct LoopOptions {
   PoseSource poses = PoseSource::kTracking;
-  TrackerOptions tracking;            // tracked runs
-  FuserOptions fuser;                 // tracked runs
-  MapSegmentOptions segments;         // tracked runs: joining segments after a loss (merge.*)
-  DenseRefinementOptions refinement;  // tracked runs: the final poses refined (final_poses.*)
+  TrackerOptions tracking;               // tracked runs
+  FuserOptions fuser;                    // tracked runs
+  MapSegmentOptions segments;            // tracked runs: joining segments after a loss (merge.*)
+  DenseRefinementOptions refinement;     // tracked runs: the final poses refined (final_poses.*)
+  TrajectorySmoothingOptions smoothing;  // tracked runs: the frames' poses (final_poses.*)
   // With ground-truth poses every n-th frame is a depth-check reference
   // (masking.groundtruth_reference_interval).
   int groundtruth_reference_interval = 5;

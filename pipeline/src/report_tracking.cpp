@@ -126,6 +126,11 @@ json TrackingJson(const TrackingFigures& tracking, const TrackerOptions& options
         {"next_taken", dense->next_taken},       {"revisit_pairs", dense->revisit_pairs},
         {"revisit_taken", dense->revisit_taken}, {"largest_move_m", dense->largest_move_m}};
   }
+  const TrajectorySmoothingFigures& smoothing = tracking.smoothing;
+  out["smoothing"] = {{"frames_moved", smoothing.frames_moved},
+                      {"runs", smoothing.runs},
+                      {"rms_move_m", smoothing.rms_move_m},
+                      {"largest_move_m", smoothing.largest_move_m}};
   return out;
 }
 

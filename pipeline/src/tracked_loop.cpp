@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -108,6 +109,23 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
                    options.frame_smoothing_s, trajectory);
 }
 
+// final_poses.smoothing_s: each frame's pose fitted to the frames around it in its run. A run
+// begins at a frame that began tracking anew (`run_start_times`) and where frames of the map give
+// way to those of a segment apart or back.
+void Smooth(const TrajectorySmoothingOptions& options, const std::vector<double>& run_start_times,
+            const SegmentKeeper& segments, Trajectory* trajectory, TrackingFigures* figures) {
+  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
+  std::vector<StampedPose> poses = trajectory->poses();
+  std::vector<bool> run_start(poses.size(), false);
+  for (size_t i = 0; i < poses.size(); ++i) {
+    run_start[i] =
+        (i > 0 && in_map[i] != in_map[i - 1]) ||
+        std::binary_search(run_start_times.begin(), run_start_times.end(), poses[i].time);
+  }
+  figures->smoothing = SmoothTrajectory(options, run_start, &poses);
+  *trajectory = Trajectory(std::move(poses));
+}
+
 // What the user is told about tracking.planar_motion=on: that it was refused, or that the camera
 // seems hand-held; nothing when it went as it should, or in "auto", which applies it only where
 // it fits.
@@ -148,6 +166,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   };
   TrackingFigures figures;
   size_t corrections = 0;
+  std::vector<double> run_start_times;  // frames that began tracking anew, in time order
   for (size_t k = 0; k < stages.reader.size(); ++k) {
     PreparedFrame prepared = stages.reader.Get(k);
     Frame& frame = prepared.frame;
@@ -158,6 +177,10 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
     const TrackResult tracked =
         tracker.Track(frame.index, frame.time, prepared.gray, frame.depth_m, mask);
     Record(tracked, frame.time, &figures);
+    if (tracked.status == TrackStatus::kInitialized ||
+        tracked.status == TrackStatus::kRelocalized || tracked.status == TrackStatus::kNewMap) {
+      run_start_times.push_back(frame.time);
+    }
     segments.Frame(tracked, frame.time);
     if (tracked.status == TrackStatus::kNewMap) fuser.NoteNewSegment();
     if (tracker.pose_corrections() != corrections) {  // the depth check's references moved too
@@ -211,6 +234,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
       result->warnings.push_back(std::move(*warning));
     }
   }
+  Smooth(options.smoothing, run_start_times, segments, &trajectory, &figures);
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
   stages.memory.Phase("frame loop's end: fusing moved keyframes again");
   const size_t moved = fuser.Refuse(final_poses);

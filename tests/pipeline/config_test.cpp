@@ -111,6 +111,22 @@ TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
             std::string::npos);
 }
 
+TEST(ConfigTest, TrajectorySmoothingIsReadAndCheckedUnderItsKeys) {
+  BuildConfig config;
+  ApplySetArgument(&config, "final_poses.smoothing_s=0.3");
+  ApplySetArgument(&config, "final_poses.rotation_smoothing_s=0");
+  EXPECT_DOUBLE_EQ(config.trajectory_smoothing.position_s, 0.3);
+  EXPECT_DOUBLE_EQ(config.trajectory_smoothing.rotation_s, 0.0);
+  EXPECT_NO_THROW(config.Validate());
+  ApplySetArgument(&config, "final_poses.rotation_smoothing_s=-0.1");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.rotation_smoothing_s"),
+            std::string::npos);
+  config = BuildConfig();
+  ApplySetArgument(&config, "final_poses.smoothing_s=11");
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.smoothing_s"),
+            std::string::npos);
+}
+
 TEST(ConfigTest, FileErrorsNameTheLine) {
   testing::TempDir dir;
   testing::WriteText(dir / "c.yaml", "mapping:\n  voxel_leaf_size: 0.02\n  voxel_size: 3\n");

@@ -18,6 +18,7 @@
 #include "stillmap/tracking/mask_stage.h"
 #include "stillmap/tracking/planar_motion.h"
 #include "stillmap/tracking/tracker.h"
+#include "stillmap/tracking/trajectory_smoothing.h"
 
 namespace stillmap {
 
@@ -61,6 +62,7 @@ struct FrameCounts {
 // Per-frame tracking figures (tracked runs).
 struct TrackingFigures {
   std::optional<DenseRefinementFigures> dense_refinement;  // final_poses.dense_enabled
+  TrajectorySmoothingFigures smoothing;                    // final_poses.smoothing_s
   TrackerStatistics statistics;
   std::map<std::string, size_t> status_counts;  // TrackStatusName -> frames
   std::vector<double> lost_times;               // frames without a pose [s]

@@ -19,6 +19,7 @@
 #include "stillmap/tracking/detector.h"
 #include "stillmap/tracking/dynamic_mask.h"
 #include "stillmap/tracking/tracker.h"
+#include "stillmap/tracking/trajectory_smoothing.h"
 #include "stillmap/viewer/renders.h"
 
 namespace stillmap {
@@ -95,6 +96,7 @@ struct BuildConfig {
   RpeOptions rpe;
   MergeOptions merge;                  // stillmap merge
   DenseRefinementOptions final_poses;  // tracked builds: the keyframes' poses refined densely
+  TrajectorySmoothingOptions trajectory_smoothing;  // tracked builds: the frames' poses
   // Write session.bin, what `stillmap merge` joins sessions from (tracked builds only).
   bool session_record = true;
 
@@ -138,6 +140,7 @@ struct BuildConfig {
     visit.Section("eval", self.rpe, "rpe_");
     visit.Section("merge", self.merge);
     visit.Section("final_poses", self.final_poses);
+    visit.Section("final_poses", self.trajectory_smoothing);
   }
 };
 
