@@ -150,6 +150,32 @@ std::optional<std::string> PlanarMotionWarning(const TrackingFigures& figures,
   return std::nullopt;
 }
 
+// A frame posed anew, not from the frame before: the smoothing's runs begin there.
+bool BeginsRun(TrackStatus status) {
+  return status == TrackStatus::kInitialized || status == TrackStatus::kRelocalized ||
+         status == TrackStatus::kNewMap;
+}
+
+// The final poses of the keyframes and frames: refined densely (final_poses.dense_enabled), put
+// on the plane of motion (tracking.planar_motion), then the frames smoothed.
+void SettlePoses(const Camera& camera, const LoopOptions& options,
+                 const std::vector<double>& run_start_times, const SegmentKeeper& segments,
+                 const KeyframeFuser& fuser, Trajectory* trajectory,
+                 std::map<int, Eigen::Isometry3d>* final_poses, TrackingFigures* figures,
+                 std::vector<std::string>* warnings) {
+  if (options.refinement.enabled) {
+    RefineDensely(camera, options.refinement, options.parallel, segments, fuser, trajectory,
+                  final_poses, figures);
+  }
+  if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
+    PutOnPlane(options.tracking.planar_motion, segments, trajectory, final_poses, figures);
+    if (std::optional<std::string> warning = PlanarMotionWarning(*figures, options.tracking)) {
+      warnings->push_back(std::move(*warning));
+    }
+  }
+  Smooth(options.smoothing, run_start_times, segments, trajectory, figures);
+}
+
 }  // namespace
 
 PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options, LoopStages stages,
@@ -177,10 +203,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
     const TrackResult tracked =
         tracker.Track(frame.index, frame.time, prepared.gray, frame.depth_m, mask);
     Record(tracked, frame.time, &figures);
-    if (tracked.status == TrackStatus::kInitialized ||
-        tracked.status == TrackStatus::kRelocalized || tracked.status == TrackStatus::kNewMap) {
-      run_start_times.push_back(frame.time);
-    }
+    if (BeginsRun(tracked.status)) run_start_times.push_back(frame.time);
     segments.Frame(tracked, frame.time);
     if (tracked.status == TrackStatus::kNewMap) fuser.NoteNewSegment();
     if (tracker.pose_corrections() != corrections) {  // the depth check's references moved too
@@ -225,16 +248,9 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   ReleaseFreedMemory();
   if (options.refinement.enabled) {
     stages.memory.Phase("frame loop's end: the keyframes' poses refined densely");
-    RefineDensely(inputs.camera, options.refinement, options.parallel, segments, fuser, &trajectory,
-                  &final_poses, &figures);
   }
-  if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
-    PutOnPlane(options.tracking.planar_motion, segments, &trajectory, &final_poses, &figures);
-    if (std::optional<std::string> warning = PlanarMotionWarning(figures, options.tracking)) {
-      result->warnings.push_back(std::move(*warning));
-    }
-  }
-  Smooth(options.smoothing, run_start_times, segments, &trajectory, &figures);
+  SettlePoses(inputs.camera, options, run_start_times, segments, fuser, &trajectory, &final_poses,
+              &figures, &result->warnings);
   // Loop corrections moved keyframes fused earlier: the map is fused again at the final poses.
   stages.memory.Phase("frame loop's end: fusing moved keyframes again");
   const size_t moved = fuser.Refuse(final_poses);

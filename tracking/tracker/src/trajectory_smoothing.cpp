@@ -27,7 +27,8 @@ std::vector<size_t> Runs(const std::vector<StampedPose>& poses,
   std::vector<size_t> run(poses.size(), 0);
   for (size_t i = 1; i < poses.size(); ++i) {
     const bool gap = poses[i].time - poses[i - 1].time > 1.5 * median;
-    run[i] = run[i - 1] + (run_start[i] || gap ? 1 : 0);
+    const bool starts = i < run_start.size() && run_start[i];
+    run[i] = run[i - 1] + (starts || gap ? 1 : 0);
   }
   return run;
 }

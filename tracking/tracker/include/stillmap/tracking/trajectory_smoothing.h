@@ -44,8 +44,8 @@ struct TrajectorySmoothingFigures {
   double largest_move_m = 0.0;  // of a frame's position
 };
 
-// Smooths `poses` (in time order) in place. `run_start[i]` (as many as poses): frame i begins a
-// run; a gap of more than 1.5 times the median frame interval begins one too.
+// Smooths `poses` (in time order) in place. `run_start[i]`: frame i begins a run (missing:
+// not); a gap of more than 1.5 times the median frame interval begins one too.
 TrajectorySmoothingFigures SmoothTrajectory(const TrajectorySmoothingOptions& options,
                                             const std::vector<bool>& run_start,
                                             std::vector<StampedPose>* poses);
