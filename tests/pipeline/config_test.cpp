@@ -123,8 +123,7 @@ TEST(ConfigTest, TrajectorySmoothingIsReadAndCheckedUnderItsKeys) {
             std::string::npos);
   config = BuildConfig();
   ApplySetArgument(&config, "final_poses.smoothing_s=11");
-  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.smoothing_s"),
-            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.smoothing_s"), std::string::npos);
 }
 
 TEST(ConfigTest, FileErrorsNameTheLine) {

@@ -36,6 +36,11 @@ std::vector<StampedPose> TruePath(size_t frames, double offset_m = 0.0, double s
   return poses;
 }
 
+// How far apart two poses' cameras are [m].
+double PositionError(const StampedPose& a, const StampedPose& b) {
+  return (a.world_from_camera.translation() - b.world_from_camera.translation()).norm();
+}
+
 double AngleBetween(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle();
 }
@@ -47,11 +52,7 @@ TEST(TrajectorySmoothingTest, MotionOfConstantAccelerationAndTurnRateIsKeptExact
       SmoothTrajectory(TrajectorySmoothingOptions(), std::vector<bool>(poses.size()), &poses);
   EXPECT_EQ(figures.runs, 1u);
   for (size_t i = 0; i < poses.size(); ++i) {
-    EXPECT_NEAR(
-        (poses[i].world_from_camera.translation() - truth[i].world_from_camera.translation())
-            .norm(),
-        0.0, 1e-9)
-        << i;
+    EXPECT_NEAR(PositionError(poses[i], truth[i]), 0.0, 1e-9) << i;
     EXPECT_NEAR(AngleBetween(poses[i].world_from_camera, truth[i].world_from_camera), 0.0, 1e-9);
   }
   EXPECT_LT(figures.largest_move_m, 1e-9);
@@ -108,18 +109,12 @@ TEST(TrajectorySmoothingTest, AJumpWhereARunBeginsOrAcrossAGapIsNotSpread) {
       SmoothTrajectory(TrajectorySmoothingOptions(), run_start, &poses);
   EXPECT_EQ(figures.runs, 3u);
   for (size_t i = 0; i < poses.size(); ++i) {
-    EXPECT_NEAR(
-        (poses[i].world_from_camera.translation() - truth[i].world_from_camera.translation())
-            .norm(),
-        0.0, 1e-9)
-        << i;
+    EXPECT_NEAR(PositionError(poses[i], truth[i]), 0.0, 1e-9) << i;
   }
   // Without the run start the frames beside the first jump are pulled towards it.
   poses = truth;
   SmoothTrajectory(TrajectorySmoothingOptions(), std::vector<bool>(truth.size()), &poses);
-  EXPECT_GT((poses[59].world_from_camera.translation() - truth[59].world_from_camera.translation())
-                .norm(),
-            0.01);
+  EXPECT_GT(PositionError(poses[59], truth[59]), 0.01);
 }
 
 TEST(TrajectorySmoothingTest, ARunsEndsAndAZeroWindowStayAsTracked) {
