@@ -205,12 +205,20 @@ void DenseRefinementOptions::Validate() const {
   }
   if (cell_px < 1 || cell_px > 64)
     throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, cell_px)));
+  if (max_span_keyframes < 2 || max_span_keyframes > 1024)
+    throw InputError(fmt::format("{} must be 2..1024", OptionKey(*this, max_span_keyframes)));
+  if (!(span_sigma_m > 0.0 && span_sigma_m < 1.0))
+    throw InputError(fmt::format("{} must be in (0, 1)", OptionKey(*this, span_sigma_m)));
+  if (!(span_rotation_sigma_deg > 0.0 && span_rotation_sigma_deg < 90.0))
+    throw InputError(
+        fmt::format("{} must be in (0, 90)", OptionKey(*this, span_rotation_sigma_deg)));
   if (!(alignment_sigma_m > 0.0 && alignment_sigma_m < 1.0))
     throw InputError(fmt::format("{} must be in (0, 1)", OptionKey(*this, alignment_sigma_m)));
   for (const double* value :
        {&max_next_gap_s, &revisit_min_gap_s, &revisit_max_distance_m, &revisit_max_angle_deg,
         &max_change_m, &max_change_deg, &revisit_max_change_m, &revisit_max_change_deg,
-        &cycle_max_m, &cycle_max_deg, &prior_sigma_m, &frame_smoothing_s}) {
+        &cycle_max_m, &cycle_max_deg, &prior_sigma_m, &span_drift_share,
+        &span_rotation_drift_deg_per_m, &frame_smoothing_s}) {
     if (!(*value >= 0.0 && std::isfinite(*value)))
       throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, *value)));
   }

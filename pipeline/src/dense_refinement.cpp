@@ -196,6 +196,58 @@ std::vector<Measured> AlignPairs(const Camera& camera, const KeyframeImages& ima
   return measured;
 }
 
+// The path between consecutive keyframes [m]: the camera's travel plus its turn at 0.5 m a
+// radian, so that a turn in place counts too.
+std::vector<double> PathTo(const std::vector<RefinedKeyframe>& nodes) {
+  std::vector<double> path(nodes.size(), 0.0);
+  for (size_t k = 1; k < nodes.size(); ++k) {
+    const Eigen::Isometry3d& a = nodes[k - 1].world_from_camera;
+    const Eigen::Isometry3d& b = nodes[k].world_from_camera;
+    path[k] = path[k - 1] + (b.translation() - a.translation()).norm() +
+              0.5 * RotationAngleDeg(a.inverse() * b) * M_PI / 180.0;
+  }
+  return path;
+}
+
+// The poses' shape as a pose graph: consecutive keyframes as the poses have them (the graph's
+// own noise), each keyframe to the first (prior_sigma_m), and to the keyframes 2, 4, 8 ... after
+// it (span_sigma_m plus span_drift_share of the path between).
+PoseGraphProblem ShapeGraph(const std::vector<RefinedKeyframe>& nodes,
+                            const DenseRefinementOptions& options,
+                            const PoseGraphOptions& graph_options) {
+  const bool held = options.prior_sigma_m > 0.0;
+  const double prior_weight =
+      held ? std::pow(graph_options.translation_sigma_m / options.prior_sigma_m, 2) : 0.0;
+  const std::vector<double> path = PathTo(nodes);
+  PoseGraphProblem problem;
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    const Eigen::Isometry3d& pose = nodes[k].world_from_camera;
+    problem.world_from_node.push_back(pose);
+    problem.fixed.push_back(k == 0);
+    const int to = static_cast<int>(k);
+    if (k > 0)
+      problem.edges.push_back(EdgeBetween(to - 1, to, nodes[k - 1].world_from_camera, pose));
+    if (k > 1 && held) {  // an edge to the fixed node (node 1's is its shape edge already)
+      problem.edges.push_back(EdgeBetween(0, to, nodes[0].world_from_camera, pose, prior_weight));
+    }
+    if (options.span_drift_share <= 0.0) continue;
+    for (size_t span = 2; span <= static_cast<size_t>(options.max_span_keyframes) && span <= k;
+         span *= 2) {
+      const double path_m = path[k] - path[k - span];
+      const double sigma_m = options.span_sigma_m + options.span_drift_share * path_m;
+      const double sigma_rad =
+          (options.span_rotation_sigma_deg + options.span_rotation_drift_deg_per_m * path_m) *
+          M_PI / 180.0;
+      PoseGraphEdge edge =
+          EdgeBetween(static_cast<int>(k - span), to, nodes[k - span].world_from_camera, pose,
+                      std::pow(graph_options.translation_sigma_m / sigma_m, 2));
+      edge.rotation_share = std::pow(graph_options.rotation_sigma_rad / sigma_rad, 2) / edge.weight;
+      problem.edges.push_back(edge);
+    }
+  }
+  return problem;
+}
+
 }  // namespace
 
 DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeImages& images,
@@ -208,23 +260,7 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
   if (nodes.size() < 2) return figures;
   const PoseGraphOptions graph_options;
   const double weight = std::pow(graph_options.translation_sigma_m / options.alignment_sigma_m, 2);
-  const bool held = options.prior_sigma_m > 0.0;  // each keyframe held to its pose
-  const double prior_weight =
-      held ? std::pow(graph_options.translation_sigma_m / options.prior_sigma_m, 2) : 0.0;
-  PoseGraphProblem problem;
-  for (size_t k = 0; k < nodes.size(); ++k) {
-    problem.world_from_node.push_back(nodes[k].world_from_camera);
-    problem.fixed.push_back(k == 0);
-    if (k > 0) {
-      problem.edges.push_back(EdgeBetween(static_cast<int>(k - 1), static_cast<int>(k),
-                                          nodes[k - 1].world_from_camera,
-                                          nodes[k].world_from_camera));
-    }
-    if (k > 1 && held) {  // an edge to the fixed node (node 1's is its shape edge already)
-      problem.edges.push_back(EdgeBetween(0, static_cast<int>(k), nodes[0].world_from_camera,
-                                          nodes[k].world_from_camera, prior_weight));
-    }
-  }
+  PoseGraphProblem problem = ShapeGraph(nodes, options, graph_options);
   const std::vector<Pair> pairs = Pairs(nodes, options);
   for (const Pair& pair : pairs) (pair.revisit ? figures.revisit_pairs : figures.next_pairs) += 1;
   const std::vector<Measured> measured =

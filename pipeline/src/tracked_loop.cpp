@@ -75,7 +75,8 @@ void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory
 // the frames moved with them.
 void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, bool parallel,
                    const SegmentKeeper& segments, const KeyframeFuser& fuser,
-                   Trajectory* trajectory, std::map<int, Eigen::Isometry3d>* world_from_keyframe,
+                   const Trajectory& smoothed, Trajectory* trajectory,
+                   std::map<int, Eigen::Isometry3d>* world_from_keyframe,
                    TrackingFigures* figures) {
   std::vector<RefinedKeyframe> keyframes;
   std::vector<size_t> kept_index;  // of each keyframe, among the fuser's
@@ -88,10 +89,15 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
                    [&kept](size_t a, size_t b) { return kept[a].time < kept[b].time; });
   for (const size_t k : order) {
     if (kept[k].apart || !segments.KeyframeInMap(kept[k].keyframe_id)) continue;
+    // Each keyframe starts from where the frames' poses, smoothed, put its stamp, not from where
+    // the bundle adjustment put it: the frames are nearer the truth (docs/figures.md), and the
+    // frames then follow the refined keyframes by the difference. A keyframe is a frame of the
+    // trajectory: nothing is interpolated.
     const auto it = world_from_keyframe->find(kept[k].keyframe_id);
-    keyframes.push_back(
-        {kept[k].keyframe_id, kept[k].time,
-         it != world_from_keyframe->end() ? it->second : kept[k].world_from_camera});
+    const Eigen::Isometry3d adjusted =
+        it != world_from_keyframe->end() ? it->second : kept[k].world_from_camera;
+    keyframes.push_back({kept[k].keyframe_id, kept[k].time,
+                         smoothed.Interpolate(kept[k].time, 0.0).value_or(adjusted)});
     kept_index.push_back(k);
     times[kept[k].keyframe_id] = kept[k].time;
     before[kept[k].keyframe_id] = keyframes.back().world_from_camera;
@@ -164,8 +170,11 @@ void SettlePoses(const Camera& camera, const LoopOptions& options,
                  std::map<int, Eigen::Isometry3d>* final_poses, TrackingFigures* figures,
                  std::vector<std::string>* warnings) {
   if (options.refinement.enabled) {
-    RefineDensely(camera, options.refinement, options.parallel, segments, fuser, trajectory,
-                  final_poses, figures);
+    Trajectory smoothed = *trajectory;
+    TrackingFigures unused;
+    Smooth(options.smoothing, run_start_times, segments, &smoothed, &unused);
+    RefineDensely(camera, options.refinement, options.parallel, segments, fuser, smoothed,
+                  trajectory, final_poses, figures);
   }
   if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
     PutOnPlane(options.tracking.planar_motion, segments, trajectory, final_poses, figures);

@@ -89,10 +89,15 @@ TEST(ConfigTest, DetectorOptionsAreCheckedUnderTheirOwnKeys) {
 // The final poses' dense refinement: its keys reach their fields, bad values are named.
 TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
   BuildConfig config;
-  ApplySetArgument(&config, "final_poses.dense_enabled=true");
+  EXPECT_TRUE(config.final_poses.enabled);  // on by default
+  ApplySetArgument(&config, "final_poses.dense_enabled=false");
   ApplySetArgument(&config, "final_poses.dense_cycle_max_m=0.005");
-  EXPECT_TRUE(config.final_poses.enabled);
+  ApplySetArgument(&config, "final_poses.dense_span_drift_share=0.05");
+  ApplySetArgument(&config, "final_poses.dense_span_rotation_drift_deg_per_m=0.2");
+  EXPECT_FALSE(config.final_poses.enabled);
   EXPECT_DOUBLE_EQ(config.final_poses.cycle_max_m, 0.005);
+  EXPECT_DOUBLE_EQ(config.final_poses.span_drift_share, 0.05);
+  EXPECT_DOUBLE_EQ(config.final_poses.span_rotation_drift_deg_per_m, 0.2);
   EXPECT_NO_THROW(config.Validate());
   ApplySetArgument(&config, "final_poses.dense_cell_px=0");
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_cell_px"),
@@ -109,6 +114,14 @@ TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
   ApplySetArgument(&config, "final_poses.dense_frame_smoothing_s=-1");
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_frame_smoothing_s"),
             std::string::npos);
+  for (const char* bad :
+       {"final_poses.dense_span_drift_share=-0.1", "final_poses.dense_span_sigma_m=0",
+        "final_poses.dense_span_rotation_sigma_deg=0", "final_poses.dense_max_span_keyframes=1"}) {
+    config = BuildConfig();
+    ApplySetArgument(&config, bad);
+    const std::string key = std::string(bad).substr(0, std::string(bad).find('='));
+    EXPECT_NE(ErrorOf([&] { config.Validate(); }).find(key), std::string::npos) << bad;
+  }
 }
 
 TEST(ConfigTest, TrajectorySmoothingIsReadAndCheckedUnderItsKeys) {

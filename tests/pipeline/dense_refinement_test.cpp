@@ -94,6 +94,7 @@ TEST_F(DenseRefinementTest, ADriftedPathComesBackToTheTruth) {
   ASSERT_GT(before, 0.01);
   DenseRefinementOptions options;
   options.enabled = true;
+  options.span_drift_share = 0.0;  // the alignments alone (the spans: below)
   options.max_change_m = 0.05;
   options.max_change_deg = 1.0;
   const DenseRefinementFigures figures =
@@ -126,6 +127,7 @@ TEST_F(DenseRefinementTest, AlignmentsInTrianglesThatDoNotCloseAreNotTaken) {
   std::vector<RefinedKeyframe> poses = Drifted(truth);
   DenseRefinementOptions options;
   options.enabled = true;
+  options.span_drift_share = 0.0;  // the alignments alone (the spans: below)
   options.max_change_m = 0.05;  // alone, every alignment would be taken
   options.max_change_deg = 1.0;
   options.cycle_max_m = 0.0;  // no triangle closes
@@ -202,6 +204,7 @@ TEST_F(DenseRefinementTest, KeyframesHeldToTheirPosesMoveLess) {
   const std::vector<RefinedKeyframe> truth = Truth();
   DenseRefinementOptions options;
   options.enabled = true;
+  options.span_drift_share = 0.0;  // the alignments alone (the spans: below)
   options.max_change_m = 0.05;
   options.max_change_deg = 1.0;
   const std::vector<RefinedKeyframe> drifted = Drifted(truth);
@@ -217,6 +220,33 @@ TEST_F(DenseRefinementTest, KeyframesHeldToTheirPosesMoveLess) {
   std::vector<RefinedKeyframe> loose = drifted;
   RefineKeyframePoses(sequence_->camera(), Images(), options, &loose);
   EXPECT_LT(LargestError(loose, truth), before / 5.0);
+}
+
+// Each keyframe held to the ones 2, 4, 8 after it, at the relative poses it has: held firmly, a
+// drifted path stays as it was; held as sure as 3 % of the path between them (the drift lies
+// within), the alignments bring it back to the truth.
+TEST_F(DenseRefinementTest, SpansHoldThePathsShapeAndLetItsDriftGo) {
+  const std::vector<RefinedKeyframe> truth = Truth();
+  DenseRefinementOptions options;
+  options.enabled = true;
+  options.max_change_m = 0.05;
+  options.max_change_deg = 1.0;
+  options.prior_sigma_m = 0.0;
+  const std::vector<RefinedKeyframe> drifted = Drifted(truth);
+  const double before = LargestError(drifted, truth);
+  options.span_drift_share = 0.03;
+  std::vector<RefinedKeyframe> free = drifted;
+  const DenseRefinementFigures figures =
+      RefineKeyframePoses(sequence_->camera(), Images(), options, &free);
+  EXPECT_GT(figures.next_taken, figures.next_pairs / 2);
+  EXPECT_LT(LargestError(free, truth), before / 3.0);
+  options.span_drift_share = 1e-6;
+  options.span_sigma_m = options.alignment_sigma_m / 10.0;
+  options.span_rotation_sigma_deg = 0.001;
+  options.span_rotation_drift_deg_per_m = 0.0;
+  std::vector<RefinedKeyframe> firm = drifted;
+  RefineKeyframePoses(sequence_->camera(), Images(), options, &firm);
+  EXPECT_LT(LargestError(firm, drifted), LargestError(free, drifted) / 3.0);
 }
 
 }  // namespace

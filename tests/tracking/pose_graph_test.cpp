@@ -33,6 +33,10 @@ Eigen::Isometry3d DriftedStep(int i) {
   return step;
 }
 
+double RotationDeg(const Eigen::Matrix3d& rotation) {
+  return Eigen::AngleAxisd(rotation).angle() * 180.0 / M_PI;
+}
+
 double PositionError(const std::vector<Eigen::Isometry3d>& poses) {
   double sum = 0.0;
   for (int i = 0; i < kNodes; ++i) {
@@ -95,6 +99,27 @@ TEST(PoseGraphTest, RefusesMalformedGraphs) {
   problem.fixed = {true, false};
   problem.edges.push_back({0, 2, Eigen::Isometry3d::Identity(), 1.0});
   EXPECT_THROW(SolvePoseGraph(problem, PoseGraphOptions{}), std::invalid_argument);
+}
+
+// Two edges disagree on one node's pose: the one whose information is in its translation sets
+// the position, the other (its rotation's share a million times its weight) the rotation.
+TEST(PoseGraphTest, AnEdgesRotationShareWeighsItsRotationAlone) {
+  Eigen::Isometry3d near = Eigen::Isometry3d::Identity();
+  near.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
+  Eigen::Isometry3d turned = Eigen::Isometry3d::Identity();
+  turned.translation() = Eigen::Vector3d(2.0, 0.0, 0.0);
+  turned.linear() = Eigen::AngleAxisd(10.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).matrix();
+  PoseGraphProblem problem;
+  problem.world_from_node = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
+  problem.fixed = {true, false};
+  PoseGraphEdge position{0, 1, near, 1.0};
+  position.rotation_share = 1e-6;
+  PoseGraphEdge rotation{0, 1, turned, 1e-6};
+  rotation.rotation_share = 1e6;
+  problem.edges = {position, rotation};
+  const Eigen::Isometry3d solved = SolvePoseGraph(problem, PoseGraphOptions{}).world_from_node[1];
+  EXPECT_LT((solved.translation() - near.translation()).norm(), 1e-3);
+  EXPECT_LT(RotationDeg(solved.linear().transpose() * turned.linear()), 0.01);
 }
 
 }  // namespace

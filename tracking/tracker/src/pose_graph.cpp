@@ -75,9 +75,10 @@ PoseGraphResult SolvePoseGraph(const PoseGraphProblem& problem, const PoseGraphO
       throw std::invalid_argument("pose graph: an edge names a missing node");
     }
     const double w = std::sqrt(edge.weight);
-    auto* cost =
-        new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(new RelativePoseCost(
-            edge.from_from_to, w / options.translation_sigma_m, w / options.rotation_sigma_rad));
+    const double w_rotation = std::sqrt(edge.weight * edge.rotation_share);
+    auto* cost = new ceres::AutoDiffCostFunction<RelativePoseCost, 6, 4, 3, 4, 3>(
+        new RelativePoseCost(edge.from_from_to, w / options.translation_sigma_m,
+                             w_rotation / options.rotation_sigma_rad));
     const auto from = static_cast<size_t>(edge.from), to = static_cast<size_t>(edge.to);
     ceres_problem.AddResidualBlock(cost, nullptr, rotations[from].coeffs().data(),
                                    positions[from].data(), rotations[to].coeffs().data(),

@@ -5,7 +5,7 @@
 namespace stillmap {
 
 struct DenseRefinementOptions {
-  bool enabled = false;
+  bool enabled = true;
   int next_keyframes = 2;               // each keyframe aligned to this many after it
   double max_next_gap_s = 3.0;          // ... at most this much later [s]
   int revisit_pairs = 2;                // and to this many keyframes of another time
@@ -28,24 +28,39 @@ struct DenseRefinementOptions {
   double cycle_max_deg = 0.05;
   // An alignment's noise against the poses' shape (the pose graph's 0.01 m) [m].
   double alignment_sigma_m = 0.002;
-  // Each keyframe is also held to where the poses put it in the map, as sure as this [m]
-  // (0: not held): the loops and joins the poses closed stay closed where the alignments' chain
-  // is broken. Held at 5 cm every floor gained (seeds 1, 2, floor_lost); not held, floor seed 2
-  // lost a segment's place (docs/figures.md).
-  double prior_sigma_m = 0.05;
+  // Each keyframe may also be held to where the poses put it in the map, as sure as this [m]
+  // (0: not held). Held at 5 cm (the fifty-third to sixty-first sessions' choice) the feature
+  // poses' scale, 0.2-0.4 % short on the floors, stays; the spans below keep what it kept
+  // (docs/figures.md, sixty-second session).
+  double prior_sigma_m = 0.0;
+  // Each keyframe is also held to the keyframes 2, 4, 8 ... max_span_keyframes after it at the
+  // relative pose the poses give, as sure as span_sigma_m plus span_drift_share of the path
+  // between them (0: no such edge): a stretch where the alignments' chain is broken cannot
+  // swing what follows (floor seed 2 lost a segment's place without), while a drift the
+  // alignments measure along the path (the feature poses' scale) is free to go. The feature
+  // keyframes' relative poses on the floor are 5 mm and 0.05 degrees off at one keyframe, 11 mm
+  // and 0.34 degrees at 2.8 m of path (docs/figures.md).
+  double span_drift_share = 0.03;
+  double span_sigma_m = 0.005;
+  // ... and their relative rotation as sure as span_rotation_sigma_deg plus
+  // span_rotation_drift_deg_per_m of the path between them.
+  double span_rotation_sigma_deg = 0.05;
+  double span_rotation_drift_deg_per_m = 0.1;
+  int max_span_keyframes = 64;
   int cell_px = 4;  // the images are averaged over cells this wide [px]
   // A frame between keyframes takes their corrections averaged over this (a Gaussian's width)
-  // [s]: the drift the keyframes share, not each one's own noise, which the frame does not have
-  // (0: interpolated between the two keyframes on either side). Chosen against 0 and 3 s on the
-  // four floors and the rooms (docs/figures.md, sixtieth session).
-  double frame_smoothing_s = 1.0;
+  // [s] (0: interpolated between the two keyframes on either side). The corrections are taken
+  // against the frames' own smoothed poses at the keyframes' stamps, which is where the
+  // keyframes start from: interpolated, every room and floor did as well or better than
+  // averaged over 1 s (docs/figures.md, sixty-second session).
+  double frame_smoothing_s = 0.0;
 
   void Validate() const;  // throws InputError naming the key
 
   template <typename Self, typename Visitor>
   static void VisitFields(Self& self, Visitor& visit) {
     visit("dense_enabled", self.enabled,
-          "refine the keyframes' final poses by dense alignment of pairs of them (off by default)");
+          "refine the keyframes' final poses by dense alignment of pairs of them");
     visit("dense_next_keyframes", self.next_keyframes,
           "each keyframe is aligned to this many keyframes after it");
     visit("dense_max_next_gap_s", self.max_next_gap_s, "... at most this much later [s]");
@@ -72,6 +87,16 @@ struct DenseRefinementOptions {
           "an alignment's noise in the pose graph (the poses' shape: 0.01 m) [m]");
     visit("dense_prior_sigma_m", self.prior_sigma_m,
           "each keyframe is held to its pose as sure as this (0: not held) [m]");
+    visit("dense_span_drift_share", self.span_drift_share,
+          "each keyframe is held to the ones 2, 4, 8 ... after it as sure as this share of the "
+          "path between them (0: not held) [m/m]");
+    visit("dense_span_sigma_m", self.span_sigma_m, "... plus this [m]");
+    visit("dense_span_rotation_sigma_deg", self.span_rotation_sigma_deg,
+          "... and their relative rotation as sure as this [deg]");
+    visit("dense_span_rotation_drift_deg_per_m", self.span_rotation_drift_deg_per_m,
+          "... plus this per metre of path between them [deg/m]");
+    visit("dense_max_span_keyframes", self.max_span_keyframes,
+          "... up to this many keyframes after it");
     visit("dense_cell_px", self.cell_px, "images are averaged over cells this wide [px]");
     visit("dense_frame_smoothing_s", self.frame_smoothing_s,
           "a frame between keyframes takes their corrections averaged over this (0: "

@@ -33,6 +33,7 @@ struct PoseGraphEdge {
   // world_from_to).
   Eigen::Isometry3d from_from_to = Eigen::Isometry3d::Identity();
   double weight = 1.0;  // scales the information of the edge
+  double rotation_share = 1.0;  // its rotation's information is weight times this
 };
 
 struct PoseGraphProblem {
