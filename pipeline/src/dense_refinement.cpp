@@ -291,14 +291,29 @@ namespace {
 
 using TimedCorrection = std::pair<double, Eigen::Isometry3d>;
 
+// `correction` taken by `share` (0: none, 1: all of it).
+Eigen::Isometry3d Part(const Eigen::Isometry3d& correction, double share) {
+  return InterpolatePose(Eigen::Isometry3d::Identity(), correction, std::clamp(share, 0.0, 1.0));
+}
+
 // The keyframes' corrections interpolated between the two on either side of `t` in time; `next`
-// is the first keyframe after `t`.
+// is the first keyframe after `t`. Where those two are more than `max_gap_s` apart, or on the
+// far side of the first or last keyframe, the frame takes the nearer keyframe's correction
+// fading to none over `max_gap_s`: such frames were tracked against the map's older keyframes
+// (a revisit), not against these two.
 Eigen::Isometry3d InterpolatedCorrection(const std::vector<TimedCorrection>& corrections,
                                          std::vector<TimedCorrection>::const_iterator next,
-                                         double t) {
-  if (next == corrections.begin()) return next->second;
-  if (next == corrections.end()) return std::prev(next)->second;
+                                         double t, double max_gap_s) {
+  if (next == corrections.begin()) return Part(next->second, 1.0 - (next->first - t) / max_gap_s);
   const auto previous = std::prev(next);
+  if (next == corrections.end()) {
+    return Part(previous->second, 1.0 - (t - previous->first) / max_gap_s);
+  }
+  if (next->first - previous->first > max_gap_s) {
+    const double after = t - previous->first, before = next->first - t;
+    return after <= before ? Part(previous->second, 1.0 - after / max_gap_s)
+                           : Part(next->second, 1.0 - before / max_gap_s);
+  }
   const double share = (t - previous->first) / (next->first - previous->first);
   return InterpolatePose(previous->second, next->second, share);
 }
@@ -335,7 +350,7 @@ std::optional<Eigen::Isometry3d> SmoothedCorrection(const std::vector<TimedCorre
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,
-                      double smoothing_s, Trajectory* trajectory) {
+                      double smoothing_s, double max_gap_s, Trajectory* trajectory) {
   std::vector<TimedCorrection> corrections;
   corrections.reserve(before.size());
   for (const auto& [id, pose] : before) {
@@ -357,7 +372,7 @@ void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
     } else if (smoothing_s > 0.0) {
       correction = SmoothedCorrection(corrections, t, smoothing_s);
     }
-    if (!correction) correction = InterpolatedCorrection(corrections, at, t);
+    if (!correction) correction = InterpolatedCorrection(corrections, at, t, max_gap_s);
     poses[i].world_from_camera = *correction * poses[i].world_from_camera;
   }
   *trajectory = Trajectory(std::move(poses));

@@ -40,10 +40,12 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
 // against before, by keyframe id; `times` by keyframe id). A keyframe's frame takes its own; a
 // frame between keyframes takes the corrections of the keyframes around it averaged over
 // `smoothing_s` (a Gaussian's width [s]; 0: interpolated between the two on either side), so
-// that it takes the drift they share and not each keyframe's own noise.
+// that it takes the drift they share and not each keyframe's own noise. Interpolated, a frame
+// between keyframes more than `max_gap_s` apart (or beyond the first or last) takes the nearer
+// one's correction fading to none over `max_gap_s` [s].
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,
-                      double smoothing_s, Trajectory* trajectory);
+                      double smoothing_s, double max_gap_s, Trajectory* trajectory);
 
 }  // namespace stillmap

@@ -112,7 +112,7 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
     (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
   }
   CarryCorrections(before, *world_from_keyframe, times, segments.FramesInMap(*trajectory),
-                   options.frame_smoothing_s, trajectory);
+                   options.frame_smoothing_s, options.max_next_gap_s, trajectory);
 }
 
 // final_poses.smoothing_s: each frame's pose fitted to the frames around it in its run. A run

@@ -128,7 +128,7 @@ TEST_F(DenseRefinementTest, AlignmentsInTrianglesThatDoNotCloseAreNotTaken) {
   DenseRefinementOptions options;
   options.enabled = true;
   options.span_drift_share = 0.0;  // the alignments alone (the spans: below)
-  options.max_change_m = 0.05;  // alone, every alignment would be taken
+  options.max_change_m = 0.05;     // alone, every alignment would be taken
   options.max_change_deg = 1.0;
   options.cycle_max_m = 0.0;  // no triangle closes
   DenseRefinementFigures figures =
@@ -157,7 +157,7 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesMoveWithTheirCorrections) {
   std::vector<bool> in_map(frames.size(), true);
   in_map[3] = false;  // a segment apart keeps its poses
   CarryCorrections({{0, a}, {1, b}}, {{0, a}, {1, b_after}}, {{0, 10.0}, {1, 14.0}}, in_map, 0.0,
-                   &trajectory);
+                   10.0, &trajectory);
   const std::vector<StampedPose>& moved = trajectory.poses();
   EXPECT_NEAR(moved[0].world_from_camera.translation().y(), 0.0, 1e-12);
   EXPECT_NEAR(moved[2].world_from_camera.translation().y(), 0.1, 1e-12);
@@ -167,7 +167,7 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesMoveWithTheirCorrections) {
 
 // Smoothed, a frame between keyframes takes their corrections averaged with Gaussian weights
 // (recomputed here), a keyframe's frame its own correction, and a frame farther than three widths
-// from every keyframe the nearest one's.
+// from every keyframe the nearest one's, faded as interpolated (to none 16 s past the last).
 TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
   const std::vector<double> key_times = {10.0, 11.0, 12.0, 13.0, 14.0};
   const std::vector<double> shift_y = {0.01, -0.02, 0.03, 0.0, -0.01};  // each keyframe's own
@@ -185,7 +185,8 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
   std::vector<StampedPose> frames;
   for (const double t : frame_times) frames.push_back({t, Eigen::Isometry3d::Identity()});
   Trajectory trajectory(frames);
-  CarryCorrections(before, after, times, std::vector<bool>(frames.size(), true), 1.0, &trajectory);
+  CarryCorrections(before, after, times, std::vector<bool>(frames.size(), true), 1.0, 3.0,
+                   &trajectory);
   const std::vector<StampedPose>& moved = trajectory.poses();
   double weighted = 0.0, total = 0.0;
   for (size_t k = 0; k < key_times.size(); ++k) {
@@ -195,7 +196,7 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
   }
   EXPECT_NEAR(moved[0].world_from_camera.translation().y(), 0.03, 1e-12);
   EXPECT_NEAR(moved[1].world_from_camera.translation().y(), weighted / total, 1e-12);
-  EXPECT_NEAR(moved[2].world_from_camera.translation().y(), -0.01, 1e-12);
+  EXPECT_NEAR(moved[2].world_from_camera.translation().y(), 0.0, 1e-12);
 }
 
 // Each keyframe held to its pose: held as sure as the alignments, a drifted path moves only part
@@ -247,6 +248,28 @@ TEST_F(DenseRefinementTest, SpansHoldThePathsShapeAndLetItsDriftGo) {
   std::vector<RefinedKeyframe> firm = drifted;
   RefineKeyframePoses(sequence_->camera(), Images(), options, &firm);
   EXPECT_LT(LargestError(firm, drifted), LargestError(free, drifted) / 3.0);
+}
+
+// Keyframes 10 s apart (frames between them tracked against older keyframes, as in a revisit):
+// a frame takes the nearer keyframe's correction fading to none over the largest gap (3 s here),
+// and so beyond the last keyframe.
+TEST(CarryCorrectionsTest, FramesFarFromTheirKeyframesTakeLessOfTheirCorrection) {
+  Eigen::Isometry3d a_after = Eigen::Isometry3d::Identity();
+  a_after.translation() = Eigen::Vector3d(0.0, 0.3, 0.0);  // a moves 0.3 m, b stays
+  std::vector<StampedPose> frames;
+  for (const double time : {10.0, 11.0, 13.0, 15.0, 19.0, 20.0, 21.5}) {
+    frames.push_back({time, Eigen::Isometry3d::Identity()});
+  }
+  Trajectory trajectory(frames);
+  const Eigen::Isometry3d at_rest = Eigen::Isometry3d::Identity();
+  CarryCorrections({{0, at_rest}, {1, at_rest}}, {{0, a_after}, {1, at_rest}},
+                   {{0, 10.0}, {1, 20.0}}, std::vector<bool>(frames.size(), true), 0.0, 3.0,
+                   &trajectory);
+  const std::vector<double> expected = {0.3, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0};
+  for (size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_NEAR(trajectory.poses()[i].world_from_camera.translation().y(), expected[i], 1e-12)
+        << frames[i].time;
+  }
 }
 
 }  // namespace
