@@ -108,6 +108,8 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
         fuser.ImagesOf(kept_index[index], gray, depth_m);
       },
       options, &keyframes, parallel);
+  const DenseRefinementFigures& refined = *figures->dense_refinement;
+  if (refined.next_taken + refined.revisit_taken == 0) return;  // nothing confirmed: as they were
   for (const RefinedKeyframe& keyframe : keyframes) {
     (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
   }
