@@ -32,7 +32,7 @@ struct PoseGraphEdge {
   // The measured pose of `to` in the frame of `from` (from_from_to = world_from_from^-1 *
   // world_from_to).
   Eigen::Isometry3d from_from_to = Eigen::Isometry3d::Identity();
-  double weight = 1.0;  // scales the information of the edge
+  double weight = 1.0;          // scales the information of the edge
   double rotation_share = 1.0;  // its rotation's information is weight times this
 };
 
