@@ -196,6 +196,9 @@ std::vector<Measured> AlignPairs(const Camera& camera, const KeyframeImages& ima
   return measured;
 }
 
+// The weight that makes an edge of the graph's noise `graph_sigma` as sure as `sigma`.
+double WeightFor(double graph_sigma, double sigma) { return std::pow(graph_sigma / sigma, 2); }
+
 // The path between consecutive keyframes [m]: the camera's travel plus its turn at 0.5 m a
 // radian, so that a turn in place counts too.
 std::vector<double> PathTo(const std::vector<RefinedKeyframe>& nodes) {
@@ -217,7 +220,7 @@ PoseGraphProblem ShapeGraph(const std::vector<RefinedKeyframe>& nodes,
                             const PoseGraphOptions& graph_options) {
   const bool held = options.prior_sigma_m > 0.0;
   const double prior_weight =
-      held ? std::pow(graph_options.translation_sigma_m / options.prior_sigma_m, 2) : 0.0;
+      held ? WeightFor(graph_options.translation_sigma_m, options.prior_sigma_m) : 0.0;
   const std::vector<double> path = PathTo(nodes);
   PoseGraphProblem problem;
   for (size_t k = 0; k < nodes.size(); ++k) {
@@ -240,8 +243,8 @@ PoseGraphProblem ShapeGraph(const std::vector<RefinedKeyframe>& nodes,
           M_PI / 180.0;
       PoseGraphEdge edge =
           EdgeBetween(static_cast<int>(k - span), to, nodes[k - span].world_from_camera, pose,
-                      std::pow(graph_options.translation_sigma_m / sigma_m, 2));
-      edge.rotation_share = std::pow(graph_options.rotation_sigma_rad / sigma_rad, 2) / edge.weight;
+                      WeightFor(graph_options.translation_sigma_m, sigma_m));
+      edge.rotation_share = WeightFor(graph_options.rotation_sigma_rad, sigma_rad) / edge.weight;
       problem.edges.push_back(edge);
     }
   }
@@ -259,7 +262,7 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
   figures.keyframes = nodes.size();
   if (nodes.size() < 2) return figures;
   const PoseGraphOptions graph_options;
-  const double weight = std::pow(graph_options.translation_sigma_m / options.alignment_sigma_m, 2);
+  const double weight = WeightFor(graph_options.translation_sigma_m, options.alignment_sigma_m);
   PoseGraphProblem problem = ShapeGraph(nodes, options, graph_options);
   const std::vector<Pair> pairs = Pairs(nodes, options);
   for (const Pair& pair : pairs) (pair.revisit ? figures.revisit_pairs : figures.next_pairs) += 1;
