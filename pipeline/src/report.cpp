@@ -397,9 +397,9 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
     const PlanarMotion& plane = *result.tracking->planar_motion;
     lines.push_back(fmt::format(
         "poses put on the camera's plane of motion ({}): the tracked ones kept to it within {:.0f} "
-        "mm of height and {:.2f} degrees of tilt",
-        OptionKey(&TrackerOptions::planar_motion), plane.height_spread_m * 1e3,
-        plane.tilt_spread_deg));
+        "mm of height and {:.2f} degrees of tilt (median deviations)",
+        OptionKey(&TrackerOptions::planar_motion), plane.height_median_deviation_m * 1e3,
+        plane.tilt_median_deviation_deg));
   }
   size_t apart_frames = 0, apart_segments = 0;
   for (const SegmentSummary& segment : result.segments) {

@@ -63,6 +63,8 @@ json PlanarMotionJson(const TrackingFigures& tracking, const TrackerOptions& opt
   out["height_m"] = plane.height_m;
   out["tracked_height_spread_m"] = plane.height_spread_m;
   out["tracked_tilt_spread_deg"] = plane.tilt_spread_deg;
+  out["tracked_height_median_deviation_m"] = plane.height_median_deviation_m;  // "auto" reads
+  out["tracked_tilt_median_deviation_deg"] = plane.tilt_median_deviation_deg;  // these two
   out["heading_spread"] = plane.heading_spread;
   return out;
 }

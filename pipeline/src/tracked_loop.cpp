@@ -150,10 +150,10 @@ std::optional<std::string> PlanarMotionWarning(const TrackingFigures& figures,
   const std::optional<PlanarMotion>& plane = figures.planar_motion;
   if (plane && !KeptToPlane(*plane)) {
     return fmt::format(
-        "{}: the tracked camera rose and fell by {:.0f} mm and tilted by {:.1f} degrees (standard "
+        "{}: the tracked camera rose and fell by {:.0f} mm and tilted by {:.1f} degrees (median "
         "deviations), more than a robot's does: if the camera was hand-held, build with {}=auto "
         "or off",
-        key, plane->height_spread_m * 1e3, plane->tilt_spread_deg, key);
+        key, plane->height_median_deviation_m * 1e3, plane->tilt_median_deviation_deg, key);
   }
   return std::nullopt;
 }

@@ -140,6 +140,54 @@ TEST(PlanarMotionTest, AHeadingErrorIsKeptAndAPoseOnThePlaneStaysWhereItIs) {
   EXPECT_LT((on_plane.translation() - turned.translation()).norm(), 1e-9);
 }
 
+// The true loop with 2 mm of height noise, and from pose `first` on a stretch whose height error
+// grows to `rise_m` and back (a segment tilted against the rest, as a join at one place leaves
+// it).
+std::vector<Eigen::Isometry3d> WithDriftedStretch(const Loop& loop, size_t first, size_t count,
+                                                  double rise_m) {
+  std::mt19937 random(11);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  const Eigen::Vector3d up = WorldFromFloor() * Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Isometry3d> poses = loop.truth;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    double rise = noise(random);
+    if (i >= first && i < first + count) {
+      rise += rise_m * std::sin(M_PI * static_cast<double>(i - first) / static_cast<double>(count));
+    }
+    poses[i].translation() += rise * up;
+  }
+  return poses;
+}
+
+TEST(PlanarMotionTest, ARobotsPosesWithOneDriftedStretchKeepToThePlaneAndAHandHeldCamerasDoNot) {
+  const Loop loop = MakeLoop(400);
+  // A tenth of the path rises to 30 cm: the spread is over 3 cm, the median deviation is the
+  // noise's (0.67 of 2 mm for the rest, a little more with the stretch).
+  const std::optional<PlanarMotion> robot = FitPlanarMotion(WithDriftedStretch(loop, 200, 40, 0.3));
+  ASSERT_TRUE(robot);
+  EXPECT_GT(robot->height_spread_m, 0.05);
+  EXPECT_LT(robot->height_median_deviation_m, 0.003);
+  EXPECT_LT(robot->tilt_median_deviation_deg, 0.01);
+  EXPECT_TRUE(KeptToPlane(*robot));
+  // The whole path bobbing by 8 cm, five times round: the median deviation of |0.08 sin| is
+  // 0.08 sin 45 degrees.
+  std::vector<Eigen::Isometry3d> bobbing = loop.truth;
+  const Eigen::Vector3d up = WorldFromFloor() * Eigen::Vector3d::UnitZ();
+  for (size_t i = 0; i < bobbing.size(); ++i) {
+    bobbing[i].translation() += 0.08 * std::sin(2.0 * M_PI * 5.0 * i / 400.0) * up;
+  }
+  const std::optional<PlanarMotion> hand = FitPlanarMotion(bobbing);
+  ASSERT_TRUE(hand);
+  EXPECT_NEAR(hand->height_median_deviation_m, 0.08 * std::sin(M_PI / 4), 0.01);
+  EXPECT_FALSE(KeptToPlane(*hand));
+  // The drifting loop above: its 4 cm rise's median deviation is 4 sin 45 degrees = 2.8 cm, its
+  // tilts of 0.4 and 0.3 degrees well within one degree.
+  const PlanarMotion drifting = *FitPlanarMotion(loop.tracked);
+  EXPECT_NEAR(drifting.height_median_deviation_m, 0.04 * std::sin(M_PI / 4), 0.003);
+  EXPECT_LT(drifting.tilt_median_deviation_deg, 0.5);
+  EXPECT_TRUE(KeptToPlane(drifting));
+}
+
 TEST(PlanarMotionTest, ACameraThatNeverTurnedLeavesTheVerticalOpen) {
   std::vector<Eigen::Isometry3d> straight;
   straight.reserve(100);

@@ -6,6 +6,16 @@
 #include <cmath>
 
 namespace stillmap {
+namespace {
+
+// The upper median (the middle one of an odd count) of a copy of `values`, not empty.
+double Median(std::vector<double> values) {
+  const auto middle = values.begin() + static_cast<long>(values.size() / 2);
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+}  // namespace
 
 std::optional<PlanarMotion> FitPlanarMotion(
     const std::vector<Eigen::Isometry3d>& world_from_camera) {
@@ -37,20 +47,23 @@ std::optional<PlanarMotion> FitPlanarMotion(
   for (const Eigen::Isometry3d& pose : world_from_camera) {
     heights.push_back(plane.up_in_world.dot(pose.translation()));
   }
-  std::vector<double> sorted = heights;
-  const auto middle = sorted.begin() + static_cast<long>(sorted.size() / 2);
-  std::nth_element(sorted.begin(), middle, sorted.end());
-  plane.height_m = *middle;
+  plane.height_m = Median(heights);
+  std::vector<double> height_deviations, tilts;
+  height_deviations.reserve(heights.size());
+  tilts.reserve(heights.size());
   double height_squares = 0.0, tilt_squares = 0.0;
   for (size_t i = 0; i < world_from_camera.size(); ++i) {
-    height_squares += (heights[i] - plane.height_m) * (heights[i] - plane.height_m);
+    height_deviations.push_back(std::abs(heights[i] - plane.height_m));
     const Eigen::Vector3d up = world_from_camera[i].linear().transpose() * plane.up_in_world;
-    const double tilt = std::atan2(up.cross(plane.up_in_camera).norm(), up.dot(plane.up_in_camera));
-    tilt_squares += tilt * tilt;
+    tilts.push_back(std::atan2(up.cross(plane.up_in_camera).norm(), up.dot(plane.up_in_camera)));
+    height_squares += height_deviations.back() * height_deviations.back();
+    tilt_squares += tilts.back() * tilts.back();
   }
   const double count = static_cast<double>(world_from_camera.size());
   plane.height_spread_m = std::sqrt(height_squares / count);
   plane.tilt_spread_deg = std::sqrt(tilt_squares / count) * 180.0 / M_PI;
+  plane.height_median_deviation_m = Median(height_deviations);
+  plane.tilt_median_deviation_deg = Median(tilts) * 180.0 / M_PI;
   return plane;
 }
 
@@ -67,8 +80,8 @@ Eigen::Isometry3d OntoPlane(const PlanarMotion& plane, const Eigen::Isometry3d& 
 }
 
 bool KeptToPlane(const PlanarMotion& plane) {
-  return plane.height_spread_m <= kRobotMaxHeightSpreadM &&
-         plane.tilt_spread_deg <= kRobotMaxTiltSpreadDeg;
+  return plane.height_median_deviation_m <= kRobotMaxHeightDeviationM &&
+         plane.tilt_median_deviation_deg <= kRobotMaxTiltDeviationDeg;
 }
 
 const char* PlanarMotionModeName(PlanarMotionMode mode) {
