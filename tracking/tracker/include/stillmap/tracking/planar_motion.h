@@ -40,7 +40,7 @@ constexpr double kMinPlanarHeadingSpread = 0.1;
 // Tracked poses whose median deviation from their plane is above this (of their height [m], of
 // their tilt [deg]) were more likely carried by hand than by a robot. Medians, so that one drifted
 // stretch (a segment joined at one place) does not make a robot's poses look hand-held. The
-// height's lies between the synthetic floors' medians (12-20 mm; floor_lost seed 2's tilted
+// height's lies between the synthetic floors' medians (8-20 mm; floor_lost seed 2's tilted
 // segment spreads its heights 35 mm, their median 20 mm) and the hand-held rooms' (41 mm and
 // more) (docs/figures.md, issue 47).
 constexpr double kRobotMaxHeightDeviationM = 0.03;
