@@ -369,10 +369,14 @@ void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
     const auto at = std::lower_bound(corrections.begin(), corrections.end(), t,
                                      [](const auto& c, double time) { return c.first < time; });
     const bool keyframe = at != corrections.end() && at->first == t;
+    // Averaged only between keyframes at most max_gap_s apart: elsewhere the frame was tracked
+    // against older keyframes (a revisit), and takes the fade.
+    const bool between_near_keyframes = at != corrections.begin() && at != corrections.end() &&
+                                        at->first - std::prev(at)->first <= max_gap_s;
     std::optional<Eigen::Isometry3d> correction;
     if (keyframe) {
       correction = at->second;
-    } else if (smoothing_s > 0.0) {
+    } else if (smoothing_s > 0.0 && between_near_keyframes) {
       correction = SmoothedCorrection(corrections, t, smoothing_s);
     }
     if (!correction) correction = InterpolatedCorrection(corrections, at, t, max_gap_s);

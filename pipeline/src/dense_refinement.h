@@ -40,9 +40,9 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
 // against before, by keyframe id; `times` by keyframe id). A keyframe's frame takes its own; a
 // frame between keyframes takes the corrections of the keyframes around it averaged over
 // `smoothing_s` (a Gaussian's width [s]; 0: interpolated between the two on either side), so
-// that it takes the drift they share and not each keyframe's own noise. Interpolated, a frame
-// between keyframes more than `max_gap_s` apart (or beyond the first or last) takes the nearer
-// one's correction fading to none over `max_gap_s` [s].
+// that it takes the drift they share and not each keyframe's own noise. A frame between
+// keyframes more than `max_gap_s` apart (or beyond the first or last) takes the nearer one's
+// correction fading to none over `max_gap_s` [s], averaged or not.
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,

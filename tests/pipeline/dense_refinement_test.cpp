@@ -252,7 +252,8 @@ TEST_F(DenseRefinementTest, SpansHoldThePathsShapeAndLetItsDriftGo) {
 
 // Keyframes 10 s apart (frames between them tracked against older keyframes, as in a revisit):
 // a frame takes the nearer keyframe's correction fading to none over the largest gap (3 s here),
-// and so beyond the last keyframe.
+// and so beyond the last keyframe; the same when frames between near keyframes are averaged
+// (smoothing 3 s, the default), as these frames have no near keyframes on both sides.
 TEST(CarryCorrectionsTest, FramesFarFromTheirKeyframesTakeLessOfTheirCorrection) {
   Eigen::Isometry3d a_after = Eigen::Isometry3d::Identity();
   a_after.translation() = Eigen::Vector3d(0.0, 0.3, 0.0);  // a moves 0.3 m, b stays
@@ -260,15 +261,17 @@ TEST(CarryCorrectionsTest, FramesFarFromTheirKeyframesTakeLessOfTheirCorrection)
   for (const double time : {10.0, 11.0, 13.0, 15.0, 19.0, 20.0, 21.5}) {
     frames.push_back({time, Eigen::Isometry3d::Identity()});
   }
-  Trajectory trajectory(frames);
   const Eigen::Isometry3d at_rest = Eigen::Isometry3d::Identity();
-  CarryCorrections({{0, at_rest}, {1, at_rest}}, {{0, a_after}, {1, at_rest}},
-                   {{0, 10.0}, {1, 20.0}}, std::vector<bool>(frames.size(), true), 0.0, 3.0,
-                   &trajectory);
-  const std::vector<double> expected = {0.3, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0};
-  for (size_t i = 0; i < frames.size(); ++i) {
-    EXPECT_NEAR(trajectory.poses()[i].world_from_camera.translation().y(), expected[i], 1e-12)
-        << frames[i].time;
+  for (const double smoothing_s : {0.0, 3.0}) {
+    Trajectory trajectory(frames);
+    CarryCorrections({{0, at_rest}, {1, at_rest}}, {{0, a_after}, {1, at_rest}},
+                     {{0, 10.0}, {1, 20.0}}, std::vector<bool>(frames.size(), true), smoothing_s,
+                     3.0, &trajectory);
+    const std::vector<double> expected = {0.3, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0};
+    for (size_t i = 0; i < frames.size(); ++i) {
+      EXPECT_NEAR(trajectory.poses()[i].world_from_camera.translation().y(), expected[i], 1e-12)
+          << frames[i].time << " s, smoothing " << smoothing_s << " s";
+    }
   }
 }
 
