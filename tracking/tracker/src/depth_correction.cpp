@@ -5,18 +5,14 @@
 #include <cmath>
 #include <cstdint>
 
+#include "median.h"
+
 namespace stillmap {
 namespace {
 
 using Row = Eigen::Matrix<double, 5, 1>;
 
 Row Basis(const Eigen::Vector2d& n) { return DepthCorrection::Basis(n.x(), n.y()); }
-
-double Median(std::vector<double> values) {
-  const auto middle = values.begin() + static_cast<long>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
 
 void Factors(const DepthCorrection& correction, const std::vector<Eigen::Vector2f>& rays,
              const Camera& camera, cv::Mat* factors) {

@@ -5,17 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "median.h"
+
 namespace stillmap {
-namespace {
-
-// The upper median (the middle one of an odd count) of a copy of `values`, not empty.
-double Median(std::vector<double> values) {
-  const auto middle = values.begin() + static_cast<long>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
-}
-
-}  // namespace
 
 std::optional<PlanarMotion> FitPlanarMotion(
     const std::vector<Eigen::Isometry3d>& world_from_camera) {
