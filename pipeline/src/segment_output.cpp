@@ -27,7 +27,25 @@ FinishedMap MapOf(const SessionKeyframeList& keyframes, const SegmentOutputConte
   return mapper.Finish();
 }
 
+// The segment's map files, in its own frame; returns why no map could be made of it, or "".
+std::string WriteSegmentMap(const SessionKeyframeList& keyframes, const PosedFrames& posed,
+                            const SegmentOutputContext& context, OutputSet& outputs,
+                            MapFrameFigures* frame) {
+  try {
+    FinishedBuildMap finished = FinishMapInFrame(MapOf(keyframes, context), posed, context.inputs,
+                                                 context.masking, context.finish);
+    StageTimings timings;
+    WriteMapFiles(finished.map, &finished.cloud, finished.frame, finished.grid, context.files,
+                  outputs, &timings);
+    *frame = finished.frame;
+    return "";
+  } catch (const std::runtime_error& e) {
+    return e.what();  // too little to map: its poses and keyframes are still the user's
+  }
+}
+
 // One segment as a build of its own in `dir`; returns why its map could not be made, or "".
+// A segment none of whose keyframes was kept has its poses written only.
 std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& context,
                          const std::string& dir) {
   OutputSet outputs(dir, "build", BuildOutputNames());
@@ -38,18 +56,11 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
     posed.fused_poses.push_back({keyframe.time, keyframe.map_from_camera});
   }
   posed.session_depth_unit_m = context.depth_unit_m;
-  std::string failure;
   MapFrameFigures frame;
-  try {
-    FinishedBuildMap finished = FinishMapInFrame(MapOf(segment.keyframes, context), posed,
-                                                 context.inputs, context.masking, context.finish);
-    StageTimings timings;
-    WriteMapFiles(finished.map, &finished.cloud, finished.frame, finished.grid, context.files,
-                  outputs, &timings);
-    frame = finished.frame;
-  } catch (const std::runtime_error& e) {
-    failure = e.what();  // too little to map: its poses and keyframes are still the user's
-  }
+  const std::string failure =
+      segment.keyframes.size() == 0
+          ? ""
+          : WriteSegmentMap(segment.keyframes, posed, context, outputs, &frame);
   posed.session_keyframes = std::move(segment.keyframes);
   WriteBuildFiles(&posed, frame, context.inputs, context.config, context.sequence_dir,
                   PoseSource::kTracking, outputs);
@@ -58,6 +69,26 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
 }
 
 }  // namespace
+
+std::string ApartSegmentWarning(const SegmentSummary& summary, size_t kept,
+                                const std::string& failure, const std::string& path) {
+  std::string warning = fmt::format(
+      "tracking was lost at {:.2f} s and not relocalized, and the {:.1f} s after it ({:.2f} - "
+      "{:.2f} s, {} frames, {} keyframes kept) could not be placed in the map: it is not in the "
+      "map but written apart in {}/ in a frame of its own",
+      summary.first_time, summary.last_time - summary.first_time, summary.first_time,
+      summary.last_time, summary.frames, kept, path);
+  if (kept == 0) {  // nothing to map, nothing a merge could link it by: not an empty map's advice
+    return warning + fmt::format(
+                         "; its poses only: none of its {} keyframe(s) was kept for a map (each "
+                         "was judged invalid, too much of it masked as moving, or redundant), so "
+                         "no map can be made of it and 'stillmap merge' cannot join it",
+                         summary.keyframes);
+  }
+  warning += " ('stillmap merge' can join it with this build's session.bin)";
+  if (!failure.empty()) warning += "; it holds no map, only its poses: " + failure;
+  return warning;
+}
 
 std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
                                             const SegmentOutputContext& context,
@@ -69,15 +100,7 @@ std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
     const size_t keyframes = segment.keyframes.size();
     const std::string failure =
         WriteSegment(std::move(segment), context, outputs.TemporaryPath(name));
-    std::string warning = fmt::format(
-        "tracking was lost at {:.2f} s and not relocalized, and the {:.1f} s after it ({:.2f} - "
-        "{:.2f} s, {} frames, {} keyframes) could not be placed in the map: it is not in the map "
-        "but written apart in {}/ in a frame of its own ('stillmap merge' can join it with "
-        "this build's session.bin)",
-        summary.first_time, summary.last_time - summary.first_time, summary.first_time,
-        summary.last_time, summary.frames, keyframes, outputs.FinalPath(name));
-    if (!failure.empty()) warning += "; it holds no map, only its poses: " + failure;
-    warnings.push_back(warning);
+    warnings.push_back(ApartSegmentWarning(summary, keyframes, failure, outputs.FinalPath(name)));
   }
   return warnings;
 }

@@ -34,4 +34,10 @@ std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
                                             const SegmentOutputContext& context,
                                             OutputSet& outputs);
 
+// What the user is told of `summary`'s segment, written apart in `path` with `kept` of its
+// keyframes kept for a map; `failure` says why no map could be made of them ("" when one was).
+// Without a keyframe kept it says so: no map, and nothing a merge could join it by.
+std::string ApartSegmentWarning(const SegmentSummary& summary, size_t kept,
+                                const std::string& failure, const std::string& path);
+
 }  // namespace stillmap
