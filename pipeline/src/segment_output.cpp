@@ -57,7 +57,7 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
   }
   posed.session_depth_unit_m = context.depth_unit_m;
   MapFrameFigures frame;
-  const std::string failure =
+  std::string failure =
       segment.keyframes.size() == 0
           ? ""
           : WriteSegmentMap(segment.keyframes, posed, context, outputs, &frame);
