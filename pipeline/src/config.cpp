@@ -218,7 +218,7 @@ void DenseRefinementOptions::Validate() const {
        {&max_next_gap_s, &revisit_min_gap_s, &revisit_max_distance_m, &revisit_max_angle_deg,
         &max_change_m, &max_change_deg, &revisit_max_change_m, &revisit_max_change_deg,
         &cycle_max_m, &cycle_max_deg, &prior_sigma_m, &span_drift_share,
-        &span_rotation_drift_deg_per_m, &frame_smoothing_s}) {
+        &span_rotation_drift_deg_per_m, &frame_smoothing_s, &anew_sigma_m}) {
     if (!(*value >= 0.0 && std::isfinite(*value)))
       throw InputError(fmt::format("{} must be >= 0", OptionKey(*this, *value)));
   }

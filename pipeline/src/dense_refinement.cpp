@@ -212,9 +212,33 @@ std::vector<double> PathTo(const std::vector<RefinedKeyframe>& nodes) {
   return path;
 }
 
+// Per node, how many of the steps into nodes 1..k began tracking anew: the stretch between
+// nodes j and k holds one when the counts differ.
+std::vector<int> AnewSteps(const std::vector<RefinedKeyframe>& nodes) {
+  std::vector<int> count(nodes.size(), 0);
+  for (size_t k = 1; k < nodes.size(); ++k) count[k] = count[k - 1] + (nodes[k].anew ? 1 : 0);
+  return count;
+}
+
+// The edge from node k - 1 to k as the poses have it: the graph's own noise, its translation
+// `extra_m` less sure where tracking began anew in between (its rotation as sure).
+PoseGraphEdge StepEdge(const std::vector<RefinedKeyframe>& nodes, size_t k, double extra_m,
+                       const PoseGraphOptions& graph_options) {
+  const int to = static_cast<int>(k);
+  PoseGraphEdge edge =
+      EdgeBetween(to - 1, to, nodes[k - 1].world_from_camera, nodes[k].world_from_camera);
+  if (extra_m > 0.0) {
+    edge.weight =
+        WeightFor(graph_options.translation_sigma_m, graph_options.translation_sigma_m + extra_m);
+    edge.rotation_share = 1.0 / edge.weight;
+  }
+  return edge;
+}
+
 // The poses' shape as a pose graph: consecutive keyframes as the poses have them (the graph's
 // own noise), each keyframe to the first (prior_sigma_m), and to the keyframes 2, 4, 8 ... after
-// it (span_sigma_m plus span_drift_share of the path between).
+// it (span_sigma_m plus span_drift_share of the path between); each edge over a step where
+// tracking began anew anew_sigma_m less sure in translation.
 PoseGraphProblem ShapeGraph(const std::vector<RefinedKeyframe>& nodes,
                             const DenseRefinementOptions& options,
                             const PoseGraphOptions& graph_options) {
@@ -222,14 +246,17 @@ PoseGraphProblem ShapeGraph(const std::vector<RefinedKeyframe>& nodes,
   const double prior_weight =
       held ? WeightFor(graph_options.translation_sigma_m, options.prior_sigma_m) : 0.0;
   const std::vector<double> path = PathTo(nodes);
+  const std::vector<int> anew = AnewSteps(nodes);
+  const auto extra_m = [&](size_t from, size_t to) {
+    return anew[to] > anew[from] ? options.anew_sigma_m : 0.0;
+  };
   PoseGraphProblem problem;
   for (size_t k = 0; k < nodes.size(); ++k) {
     const Eigen::Isometry3d& pose = nodes[k].world_from_camera;
     problem.world_from_node.push_back(pose);
     problem.fixed.push_back(k == 0);
     const int to = static_cast<int>(k);
-    if (k > 0)
-      problem.edges.push_back(EdgeBetween(to - 1, to, nodes[k - 1].world_from_camera, pose));
+    if (k > 0) problem.edges.push_back(StepEdge(nodes, k, extra_m(k - 1, k), graph_options));
     if (k > 1 && held) {  // an edge to the fixed node (node 1's is its shape edge already)
       problem.edges.push_back(EdgeBetween(0, to, nodes[0].world_from_camera, pose, prior_weight));
     }
@@ -237,7 +264,8 @@ PoseGraphProblem ShapeGraph(const std::vector<RefinedKeyframe>& nodes,
     for (size_t span = 2; span <= static_cast<size_t>(options.max_span_keyframes) && span <= k;
          span *= 2) {
       const double path_m = path[k] - path[k - span];
-      const double sigma_m = options.span_sigma_m + options.span_drift_share * path_m;
+      const double sigma_m =
+          options.span_sigma_m + options.span_drift_share * path_m + extra_m(k - span, k);
       const double sigma_rad =
           (options.span_rotation_sigma_deg + options.span_rotation_drift_deg_per_m * path_m) *
           M_PI / 180.0;

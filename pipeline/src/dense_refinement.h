@@ -23,6 +23,9 @@ struct RefinedKeyframe {
   int id = 0;
   double time = 0.0;
   Eigen::Isometry3d world_from_camera = Eigen::Isometry3d::Identity();
+  // Tracking began anew (relocalized, a new segment) since the keyframe before: the poses'
+  // relative pose between the two was not tracked frame to frame.
+  bool anew = false;
 };
 
 // Gives the `index`th keyframe's gray image (CV_8U) and depth [m] (CV_32F, 0 where unknown or

@@ -71,17 +71,13 @@ void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory
   figures->planar_motion_applied = true;
 }
 
-// final_poses.dense_enabled: the map's keyframes refined by dense alignment of pairs of them, and
-// the frames moved with them.
-void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, bool parallel,
-                   const SegmentKeeper& segments, const KeyframeFuser& fuser,
-                   const Trajectory& smoothed, Trajectory* trajectory,
-                   std::map<int, Eigen::Isometry3d>* world_from_keyframe,
-                   TrackingFigures* figures) {
+// The map's keyframes kept compact, in time order, as the dense refinement starts from them;
+// *kept_index gets each one's index among the fuser's.
+std::vector<RefinedKeyframe> MapKeyframes(
+    const SegmentKeeper& segments, const KeyframeFuser& fuser,
+    const std::vector<double>& run_start_times, const Trajectory& smoothed,
+    const std::map<int, Eigen::Isometry3d>& world_from_keyframe, std::vector<size_t>* kept_index) {
   std::vector<RefinedKeyframe> keyframes;
-  std::vector<size_t> kept_index;  // of each keyframe, among the fuser's
-  std::map<int, double> times;
-  std::map<int, Eigen::Isometry3d> before;
   const std::vector<KeyframeFuser::KeptKeyframe> kept = fuser.KeptKeyframes();
   std::vector<size_t> order(kept.size());
   std::iota(order.begin(), order.end(), 0);
@@ -93,14 +89,37 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
     // the bundle adjustment put it: the frames are nearer the truth (docs/figures.md), and the
     // frames then follow the refined keyframes by the difference. A keyframe is a frame of the
     // trajectory: nothing is interpolated.
-    const auto it = world_from_keyframe->find(kept[k].keyframe_id);
+    const auto it = world_from_keyframe.find(kept[k].keyframe_id);
     const Eigen::Isometry3d adjusted =
-        it != world_from_keyframe->end() ? it->second : kept[k].world_from_camera;
+        it != world_from_keyframe.end() ? it->second : kept[k].world_from_camera;
+    // Whether a frame after the keyframe before, up to this one, began tracking anew.
+    const auto start = keyframes.empty()
+                           ? run_start_times.end()
+                           : std::upper_bound(run_start_times.begin(), run_start_times.end(),
+                                              keyframes.back().time);
+    const bool anew = start != run_start_times.end() && *start <= kept[k].time;
     keyframes.push_back({kept[k].keyframe_id, kept[k].time,
-                         smoothed.Interpolate(kept[k].time, 0.0).value_or(adjusted)});
-    kept_index.push_back(k);
-    times[kept[k].keyframe_id] = kept[k].time;
-    before[kept[k].keyframe_id] = keyframes.back().world_from_camera;
+                         smoothed.Interpolate(kept[k].time, 0.0).value_or(adjusted), anew});
+    kept_index->push_back(k);
+  }
+  return keyframes;
+}
+
+// final_poses.dense_enabled: the map's keyframes refined by dense alignment of pairs of them, and
+// the frames moved with them.
+void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, bool parallel,
+                   const std::vector<double>& run_start_times, const SegmentKeeper& segments,
+                   const KeyframeFuser& fuser, const Trajectory& smoothed, Trajectory* trajectory,
+                   std::map<int, Eigen::Isometry3d>* world_from_keyframe,
+                   TrackingFigures* figures) {
+  std::vector<size_t> kept_index;
+  std::vector<RefinedKeyframe> keyframes =
+      MapKeyframes(segments, fuser, run_start_times, smoothed, *world_from_keyframe, &kept_index);
+  std::map<int, double> times;
+  std::map<int, Eigen::Isometry3d> before;
+  for (const RefinedKeyframe& keyframe : keyframes) {
+    times[keyframe.id] = keyframe.time;
+    before[keyframe.id] = keyframe.world_from_camera;
   }
   figures->dense_refinement = RefineKeyframePoses(
       camera,
@@ -175,8 +194,8 @@ void SettlePoses(const Camera& camera, const LoopOptions& options,
     Trajectory smoothed = *trajectory;
     TrackingFigures unused;
     Smooth(options.smoothing, run_start_times, segments, &smoothed, &unused);
-    RefineDensely(camera, options.refinement, options.parallel, segments, fuser, smoothed,
-                  trajectory, final_poses, figures);
+    RefineDensely(camera, options.refinement, options.parallel, run_start_times, segments, fuser,
+                  smoothed, trajectory, final_poses, figures);
   }
   if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
     PutOnPlane(options.tracking.planar_motion, segments, trajectory, final_poses, figures);

@@ -116,7 +116,8 @@ TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
             std::string::npos);
   for (const char* bad :
        {"final_poses.dense_span_drift_share=-0.1", "final_poses.dense_span_sigma_m=0",
-        "final_poses.dense_span_rotation_sigma_deg=0", "final_poses.dense_max_span_keyframes=1"}) {
+        "final_poses.dense_span_rotation_sigma_deg=0", "final_poses.dense_max_span_keyframes=1",
+        "final_poses.dense_anew_sigma_m=-0.01"}) {
     config = BuildConfig();
     ApplySetArgument(&config, bad);
     const std::string key = std::string(bad).substr(0, std::string(bad).find('='));
