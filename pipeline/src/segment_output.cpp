@@ -57,10 +57,9 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
   }
   posed.session_depth_unit_m = context.depth_unit_m;
   MapFrameFigures frame;
-  std::string failure =
-      segment.keyframes.size() == 0
-          ? ""
-          : WriteSegmentMap(segment.keyframes, posed, context, outputs, &frame);
+  std::string failure = segment.keyframes.empty()
+                            ? ""
+                            : WriteSegmentMap(segment.keyframes, posed, context, outputs, &frame);
   posed.session_keyframes = std::move(segment.keyframes);
   WriteBuildFiles(&posed, frame, context.inputs, context.config, context.sequence_dir,
                   PoseSource::kTracking, outputs);
