@@ -43,24 +43,11 @@ std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker
           {"keyframe_copies", fuser.stored_bytes()}};
 }
 
-// tracking.planar_motion: the poses of the map's segments fix the plane of motion (nothing when
-// the camera turned too little to find it); their frames and keyframes are put on it, in "auto"
-// only when they kept to it as a robot's do. Segments never joined stay as tracked, in frames of
-// their own.
-void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory* trajectory,
-                std::map<int, Eigen::Isometry3d>* world_from_keyframe, TrackingFigures* figures) {
+// The frames and keyframes of the map's segments put on `plane`.
+void OntoPlane(const PlanarMotion& plane, const SegmentKeeper& segments, Trajectory* trajectory,
+               std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
   const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
   std::vector<StampedPose> on_plane = trajectory->poses();
-  std::vector<Eigen::Isometry3d> poses;
-  poses.reserve(on_plane.size());
-  for (size_t i = 0; i < on_plane.size(); ++i) {
-    if (in_map[i]) poses.push_back(on_plane[i].world_from_camera);
-  }
-  figures->planar_motion = FitPlanarMotion(poses);
-  figures->planar_motion_refused = !figures->planar_motion && !trajectory->empty();
-  if (!figures->planar_motion) return;
-  const PlanarMotion& plane = *figures->planar_motion;
-  if (mode == PlanarMotionMode::kAuto && !KeptToPlane(plane)) return;
   for (size_t i = 0; i < on_plane.size(); ++i) {
     if (in_map[i]) on_plane[i].world_from_camera = OntoPlane(plane, on_plane[i].world_from_camera);
   }
@@ -68,6 +55,25 @@ void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory
   for (auto& [id, world_from_camera] : *world_from_keyframe) {
     if (segments.KeyframeInMap(id)) world_from_camera = OntoPlane(plane, world_from_camera);
   }
+}
+
+// tracking.planar_motion: the poses of the map's segments fix the plane of motion (nothing when
+// the camera turned too little to find it); their frames and keyframes are put on it, in "auto"
+// only when they kept to it as a robot's do. Segments never joined stay as tracked, in frames of
+// their own.
+void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory* trajectory,
+                std::map<int, Eigen::Isometry3d>* world_from_keyframe, TrackingFigures* figures) {
+  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
+  std::vector<Eigen::Isometry3d> poses;
+  poses.reserve(trajectory->size());
+  for (size_t i = 0; i < trajectory->size(); ++i) {
+    if (in_map[i]) poses.push_back(trajectory->poses()[i].world_from_camera);
+  }
+  figures->planar_motion = FitPlanarMotion(poses);
+  figures->planar_motion_refused = !figures->planar_motion && !trajectory->empty();
+  if (!figures->planar_motion) return;
+  if (mode == PlanarMotionMode::kAuto && !KeptToPlane(*figures->planar_motion)) return;
+  OntoPlane(*figures->planar_motion, segments, trajectory, world_from_keyframe);
   figures->planar_motion_applied = true;
 }
 
@@ -183,24 +189,30 @@ bool BeginsRun(TrackStatus status) {
          status == TrackStatus::kNewMap;
 }
 
-// The final poses of the keyframes and frames: refined densely (final_poses.dense_enabled), put
-// on the plane of motion (tracking.planar_motion), then the frames smoothed.
+// The final poses of the keyframes and frames: put on the plane of motion
+// (tracking.planar_motion), refined densely (final_poses.dense_enabled) and put on the plane
+// again, then the frames smoothed. The plane comes first too, so that the refinement judges
+// the alignments against level poses: floor seed 1's first and second pass along its east
+// corridor were 3-4.5 degrees apart in tilt as tracked, and their revisits all refused.
 void SettlePoses(const Camera& camera, const LoopOptions& options,
                  const std::vector<double>& run_start_times, const SegmentKeeper& segments,
                  const KeyframeFuser& fuser, Trajectory* trajectory,
                  std::map<int, Eigen::Isometry3d>* final_poses, TrackingFigures* figures,
                  std::vector<std::string>* warnings) {
+  if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
+    PutOnPlane(options.tracking.planar_motion, segments, trajectory, final_poses, figures);
+    if (std::optional<std::string> warning = PlanarMotionWarning(*figures, options.tracking)) {
+      warnings->push_back(std::move(*warning));
+    }
+  }
   if (options.refinement.enabled) {
     Trajectory smoothed = *trajectory;
     TrackingFigures unused;
     Smooth(options.smoothing, run_start_times, segments, &smoothed, &unused);
     RefineDensely(camera, options.refinement, options.parallel, run_start_times, segments, fuser,
                   smoothed, trajectory, final_poses, figures);
-  }
-  if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
-    PutOnPlane(options.tracking.planar_motion, segments, trajectory, final_poses, figures);
-    if (std::optional<std::string> warning = PlanarMotionWarning(*figures, options.tracking)) {
-      warnings->push_back(std::move(*warning));
+    if (figures->planar_motion_applied) {  // the alignments may have tilted it a little
+      OntoPlane(*figures->planar_motion, segments, trajectory, final_poses);
     }
   }
   Smooth(options.smoothing, run_start_times, segments, trajectory, figures);
