@@ -43,10 +43,10 @@ std::vector<std::pair<std::string, size_t>> TrackedOwners(const Tracker& tracker
           {"keyframe_copies", fuser.stored_bytes()}};
 }
 
-// The frames and keyframes of the map's segments put on `plane`.
-void OntoPlane(const PlanarMotion& plane, const SegmentKeeper& segments, Trajectory* trajectory,
-               std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
-  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
+// The frames of the map's segments (`in_map`, by frame) and their keyframes put on `plane`.
+void SegmentsOntoPlane(const PlanarMotion& plane, const SegmentKeeper& segments,
+                       const std::vector<bool>& in_map, Trajectory* trajectory,
+                       std::map<int, Eigen::Isometry3d>* world_from_keyframe) {
   std::vector<StampedPose> on_plane = trajectory->poses();
   for (size_t i = 0; i < on_plane.size(); ++i) {
     if (in_map[i]) on_plane[i].world_from_camera = OntoPlane(plane, on_plane[i].world_from_camera);
@@ -64,16 +64,17 @@ void OntoPlane(const PlanarMotion& plane, const SegmentKeeper& segments, Traject
 void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory* trajectory,
                 std::map<int, Eigen::Isometry3d>* world_from_keyframe, TrackingFigures* figures) {
   const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
+  const std::vector<StampedPose>& tracked = trajectory->poses();
   std::vector<Eigen::Isometry3d> poses;
-  poses.reserve(trajectory->size());
-  for (size_t i = 0; i < trajectory->size(); ++i) {
-    if (in_map[i]) poses.push_back(trajectory->poses()[i].world_from_camera);
+  poses.reserve(tracked.size());
+  for (size_t i = 0; i < tracked.size(); ++i) {
+    if (in_map[i]) poses.push_back(tracked[i].world_from_camera);
   }
   figures->planar_motion = FitPlanarMotion(poses);
   figures->planar_motion_refused = !figures->planar_motion && !trajectory->empty();
   if (!figures->planar_motion) return;
   if (mode == PlanarMotionMode::kAuto && !KeptToPlane(*figures->planar_motion)) return;
-  OntoPlane(*figures->planar_motion, segments, trajectory, world_from_keyframe);
+  SegmentsOntoPlane(*figures->planar_motion, segments, in_map, trajectory, world_from_keyframe);
   figures->planar_motion_applied = true;
 }
 
@@ -212,7 +213,8 @@ void SettlePoses(const Camera& camera, const LoopOptions& options,
     RefineDensely(camera, options.refinement, options.parallel, run_start_times, segments, fuser,
                   smoothed, trajectory, final_poses, figures);
     if (figures->planar_motion_applied) {  // the alignments may have tilted it a little
-      OntoPlane(*figures->planar_motion, segments, trajectory, final_poses);
+      SegmentsOntoPlane(*figures->planar_motion, segments, segments.FramesInMap(*trajectory),
+                        trajectory, final_poses);
     }
   }
   Smooth(options.smoothing, run_start_times, segments, trajectory, figures);
