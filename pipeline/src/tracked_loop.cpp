@@ -57,13 +57,13 @@ void SegmentsOntoPlane(const PlanarMotion& plane, const SegmentKeeper& segments,
   }
 }
 
-// tracking.planar_motion: the poses of the map's segments fix the plane of motion (nothing when
-// the camera turned too little to find it); their frames and keyframes are put on it, in "auto"
-// only when they kept to it as a robot's do. Segments never joined stay as tracked, in frames of
-// their own.
-void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments, Trajectory* trajectory,
+// tracking.planar_motion: the poses of the map's segments (`in_map`, by frame) fix the plane of
+// motion (nothing when the camera turned too little to find it); their frames and keyframes are
+// put on it, in "auto" only when they kept to it as a robot's do. Segments never joined stay as
+// tracked, in frames of their own.
+void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments,
+                const std::vector<bool>& in_map, Trajectory* trajectory,
                 std::map<int, Eigen::Isometry3d>* world_from_keyframe, TrackingFigures* figures) {
-  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
   const std::vector<StampedPose>& tracked = trajectory->poses();
   std::vector<Eigen::Isometry3d> poses;
   poses.reserve(tracked.size());
@@ -116,7 +116,8 @@ std::vector<RefinedKeyframe> MapKeyframes(
 // the frames moved with them.
 void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, bool parallel,
                    const std::vector<double>& run_start_times, const SegmentKeeper& segments,
-                   const KeyframeFuser& fuser, const Trajectory& smoothed, Trajectory* trajectory,
+                   const KeyframeFuser& fuser, const std::vector<bool>& in_map,
+                   const Trajectory& smoothed, Trajectory* trajectory,
                    std::map<int, Eigen::Isometry3d>* world_from_keyframe,
                    TrackingFigures* figures) {
   std::vector<size_t> kept_index;
@@ -139,16 +140,15 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
   for (const RefinedKeyframe& keyframe : keyframes) {
     (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
   }
-  CarryCorrections(before, *world_from_keyframe, times, segments.FramesInMap(*trajectory),
-                   options.frame_smoothing_s, options.max_next_gap_s, trajectory);
+  CarryCorrections(before, *world_from_keyframe, times, in_map, options.frame_smoothing_s,
+                   options.max_next_gap_s, trajectory);
 }
 
 // final_poses.smoothing_s: each frame's pose fitted to the frames around it in its run. A run
 // begins at a frame that began tracking anew (`run_start_times`) and where frames of the map give
 // way to those of a segment apart or back.
 void Smooth(const TrajectorySmoothingOptions& options, const std::vector<double>& run_start_times,
-            const SegmentKeeper& segments, Trajectory* trajectory, TrackingFigures* figures) {
-  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
+            const std::vector<bool>& in_map, Trajectory* trajectory, TrackingFigures* figures) {
   std::vector<StampedPose> poses = trajectory->poses();
   std::vector<bool> run_start(poses.size(), false);
   for (size_t i = 0; i < poses.size(); ++i) {
@@ -200,8 +200,10 @@ void SettlePoses(const Camera& camera, const LoopOptions& options,
                  const KeyframeFuser& fuser, Trajectory* trajectory,
                  std::map<int, Eigen::Isometry3d>* final_poses, TrackingFigures* figures,
                  std::vector<std::string>* warnings) {
+  // The frames of the map's segments: the steps below move poses, never frames or segments.
+  const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
   if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
-    PutOnPlane(options.tracking.planar_motion, segments, trajectory, final_poses, figures);
+    PutOnPlane(options.tracking.planar_motion, segments, in_map, trajectory, final_poses, figures);
     if (std::optional<std::string> warning = PlanarMotionWarning(*figures, options.tracking)) {
       warnings->push_back(std::move(*warning));
     }
@@ -209,15 +211,14 @@ void SettlePoses(const Camera& camera, const LoopOptions& options,
   if (options.refinement.enabled) {
     Trajectory smoothed = *trajectory;
     TrackingFigures unused;
-    Smooth(options.smoothing, run_start_times, segments, &smoothed, &unused);
+    Smooth(options.smoothing, run_start_times, in_map, &smoothed, &unused);
     RefineDensely(camera, options.refinement, options.parallel, run_start_times, segments, fuser,
-                  smoothed, trajectory, final_poses, figures);
+                  in_map, smoothed, trajectory, final_poses, figures);
     if (figures->planar_motion_applied) {  // the alignments may have tilted it a little
-      SegmentsOntoPlane(*figures->planar_motion, segments, segments.FramesInMap(*trajectory),
-                        trajectory, final_poses);
+      SegmentsOntoPlane(*figures->planar_motion, segments, in_map, trajectory, final_poses);
     }
   }
-  Smooth(options.smoothing, run_start_times, segments, trajectory, figures);
+  Smooth(options.smoothing, run_start_times, in_map, trajectory, figures);
 }
 
 }  // namespace
