@@ -69,6 +69,15 @@ json PlanarMotionJson(const TrackingFigures& tracking, const TrackerOptions& opt
   return out;
 }
 
+// New maps lost again before a keyframe of theirs was kept: their frames are counted as lost.
+json LostAgainJson(const std::vector<SegmentSummary>& lost_again) {
+  json out = json::array();
+  for (const SegmentSummary& s : lost_again) {
+    out.push_back({{"first_time", s.first_time}, {"last_time", s.last_time}, {"frames", s.frames}});
+  }
+  return out;
+}
+
 json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options) {
   const TrackerStatistics& t = tracking.statistics;
   return {{"frames", t.frames},
@@ -76,6 +85,7 @@ json TrackerJson(const TrackingFigures& tracking, const TrackerOptions& options)
           {"lost", t.lost},
           {"relocalized", t.relocalized},
           {"new_maps", t.new_maps},
+          {"new_maps_lost_again", LostAgainJson(tracking.lost_again)},
           {"status_counts", tracking.status_counts},
           {"lost_frame_times", tracking.lost_times},
           {"occluded", t.occluded},

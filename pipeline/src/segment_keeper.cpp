@@ -2,6 +2,15 @@
 
 namespace stillmap {
 
+std::vector<ApartSegment> TakeLostAgain(std::vector<ApartSegment>* apart) {
+  std::vector<ApartSegment> lost_again, kept;
+  for (ApartSegment& segment : *apart) {
+    (segment.keyframes.empty() ? lost_again : kept).push_back(std::move(segment));
+  }
+  *apart = std::move(kept);
+  return lost_again;
+}
+
 void SegmentKeeper::Frame(const TrackResult& tracked, double time) {
   if (tracked.status == TrackStatus::kInitialized || tracked.status == TrackStatus::kNewMap) {
     segments_.Begin(tracked.keyframe_id, time);

@@ -45,7 +45,6 @@ std::string WriteSegmentMap(const SessionKeyframeList& keyframes, const PosedFra
 }
 
 // One segment as a build of its own in `dir`; returns why its map could not be made, or "".
-// A segment none of whose keyframes was kept has its poses written only.
 std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& context,
                          const std::string& dir) {
   OutputSet outputs(dir, "build", BuildOutputNames());
@@ -57,9 +56,7 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
   }
   posed.session_depth_unit_m = context.depth_unit_m;
   MapFrameFigures frame;
-  std::string failure = segment.keyframes.empty()
-                            ? ""
-                            : WriteSegmentMap(segment.keyframes, posed, context, outputs, &frame);
+  std::string failure = WriteSegmentMap(segment.keyframes, posed, context, outputs, &frame);
   posed.session_keyframes = std::move(segment.keyframes);
   WriteBuildFiles(&posed, frame, context.inputs, context.config, context.sequence_dir,
                   PoseSource::kTracking, outputs);
@@ -69,24 +66,26 @@ std::string WriteSegment(ApartSegment segment, const SegmentOutputContext& conte
 
 }  // namespace
 
-std::string ApartSegmentWarning(const SegmentSummary& summary, size_t kept,
-                                const std::string& failure, const std::string& path) {
+std::string ApartSegmentWarning(const SegmentSummary& summary, const std::string& failure,
+                                const std::string& path) {
   std::string warning = fmt::format(
       "tracking was lost at {:.2f} s and not relocalized, and the {:.1f} s after it ({:.2f} - "
-      "{:.2f} s, {} frames, {} keyframes kept) could not be placed in the map: it is not in the "
-      "map but written apart in {}/ in a frame of its own",
+      "{:.2f} s, {} frames) could not be placed in the map: it is not in the map but written "
+      "apart in {}/ in a frame of its own ('stillmap merge' can join it with this build's "
+      "session.bin)",
       summary.first_time, summary.last_time - summary.first_time, summary.first_time,
-      summary.last_time, summary.frames, kept, path);
-  if (kept == 0) {  // nothing to map, nothing a merge could link it by: not an empty map's advice
-    return warning + fmt::format(
-                         "; its poses only: none of its {} keyframe(s) was kept for a map (each "
-                         "was judged invalid, too much of it masked as moving, or redundant), so "
-                         "no map can be made of it and 'stillmap merge' cannot join it",
-                         summary.keyframes);
-  }
-  warning += " ('stillmap merge' can join it with this build's session.bin)";
+      summary.last_time, summary.frames, path);
   if (!failure.empty()) warning += "; it holds no map, only its poses: " + failure;
   return warning;
+}
+
+std::string LostAgainWarning(const SegmentSummary& summary) {
+  return fmt::format(
+      "tracking began anew at {:.2f} s after a loss and was lost again at {:.2f} s ({} frames) "
+      "before any of its {} keyframe(s) was kept for a map (each was judged invalid, too much of "
+      "it masked as moving, or redundant): nothing of it can be mapped or placed, so its frames "
+      "count as lost (report.json: tracking.new_maps_lost_again)",
+      summary.first_time, summary.last_time, summary.frames, summary.keyframes);
 }
 
 std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
@@ -96,10 +95,9 @@ std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
   for (ApartSegment& segment : apart) {
     const SegmentSummary summary = segment.summary;
     const std::string name = fmt::format("segments/{}", summary.id);
-    const size_t keyframes = segment.keyframes.size();
     const std::string failure =
         WriteSegment(std::move(segment), context, outputs.TemporaryPath(name));
-    warnings.push_back(ApartSegmentWarning(summary, keyframes, failure, outputs.FinalPath(name)));
+    warnings.push_back(ApartSegmentWarning(summary, failure, outputs.FinalPath(name)));
   }
   return warnings;
 }

@@ -27,17 +27,20 @@ struct SegmentOutputContext {
   double depth_unit_m = 0.0;  // of the keyframes' depth PNGs
 };
 
-// Writes each segment into outputs' segments/<id>/ and returns, per segment, a warning naming
-// its time span and where it went (or why no map could be made of it: its trajectory and session
-// record are written all the same).
+// Writes each segment (each with keyframes kept: TakeLostAgain first) into outputs'
+// segments/<id>/ and returns, per segment, a warning naming its time span and where it went (or
+// why no map could be made of it: its trajectory and session record are written all the same).
 std::vector<std::string> WriteApartSegments(std::vector<ApartSegment> apart,
                                             const SegmentOutputContext& context,
                                             OutputSet& outputs);
 
-// What the user is told of `summary`'s segment, written apart in `path` with `kept` of its
-// keyframes kept for a map; `failure` says why no map could be made of them ("" when one was).
-// Without a keyframe kept it says so: no map, and nothing a merge could join it by.
-std::string ApartSegmentWarning(const SegmentSummary& summary, size_t kept,
-                                const std::string& failure, const std::string& path);
+// What the user is told of `summary`'s segment, written apart in `path`; `failure` says why no
+// map could be made of its keyframes ("" when one was).
+std::string ApartSegmentWarning(const SegmentSummary& summary, const std::string& failure,
+                                const std::string& path);
+
+// What the user is told of a new map lost again before any of its keyframes was kept for a map
+// (TakeLostAgain, segment_keeper.h): its span, and that its frames count as lost.
+std::string LostAgainWarning(const SegmentSummary& summary);
 
 }  // namespace stillmap

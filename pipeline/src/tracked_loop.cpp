@@ -8,6 +8,7 @@
 #include "dense_refinement.h"
 #include "keyframe_fuser.h"
 #include "pose_loops.h"
+#include "segment_output.h"
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/option_names.h"
 #include "stillmap/tracking/planar_motion.h"
@@ -28,6 +29,27 @@ void Record(const TrackResult& result, double time, TrackingFigures* figures) {
     figures->flagged_times.push_back(time);
   }
   figures->static_depth_share.push_back(result.static_depth_share);
+}
+
+// The segments apart lost again before a keyframe of theirs was kept (TakeLostAgain): their frames
+// count as lost, they leave the segments' list, and a warning names each.
+void CountLostAgain(const std::vector<ApartSegment>& lost_again, LoopResult* result,
+                    TrackingFigures* figures) {
+  for (const ApartSegment& segment : lost_again) {
+    const SegmentSummary& summary = segment.summary;
+    for (const StampedPose& pose : segment.trajectory.poses()) {
+      figures->lost_times.push_back(pose.time);
+    }
+    figures->statistics.tracked -= segment.trajectory.size();
+    figures->statistics.lost += segment.trajectory.size();
+    result->warnings.push_back(LostAgainWarning(summary));
+    std::vector<SegmentSummary>& segments = result->segments;
+    segments.erase(std::remove_if(segments.begin(), segments.end(),
+                                  [&](const SegmentSummary& s) { return s.id == summary.id; }),
+                   segments.end());
+    figures->lost_again.push_back(summary);
+  }
+  std::sort(figures->lost_times.begin(), figures->lost_times.end());
 }
 
 // What the tracked loop's own owners hold [bytes] (memory_ledger.h).
@@ -303,6 +325,7 @@ PosedFrames RunTrackedLoop(const BuildInputs& inputs, const LoopOptions& options
   result->apart = segments.TakeApart(fuser, &trajectory);
   result->segments = segments.Summaries();
   result->segment_links = segments.segments().figures();
+  CountLostAgain(TakeLostAgain(&result->apart), result, &figures);
   PosedFrames posed{std::move(trajectory), fuser.fused_poses(), fuser.TakeSessionKeyframes(),
                     fuser.depth_unit_m()};
   if (posed.trajectory.empty()) {

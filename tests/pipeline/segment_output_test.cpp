@@ -21,22 +21,23 @@ bool Has(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
 }
 
-TEST(SegmentOutputTest, ASegmentWithNoKeyframeKeptSaysSoAndPromisesNoMerge) {
-  const std::string warning = ApartSegmentWarning(TwoFramesLostAgain(), 0, "", "OUT/segments/5");
-  EXPECT_TRUE(Has(warning, "1298.33 - 1298.37 s, 2 frames, 0 keyframes kept")) << warning;
-  EXPECT_TRUE(Has(warning, "written apart in OUT/segments/5/")) << warning;
-  EXPECT_TRUE(Has(warning, "none of its 2 keyframe(s) was kept for a map")) << warning;
-  EXPECT_TRUE(Has(warning, "'stillmap merge' cannot join it")) << warning;
-  EXPECT_FALSE(Has(warning, "can join it")) << warning;
+TEST(SegmentOutputTest, ANewMapLostAgainNamesItsSpanAndCountsItsFramesAsLost) {
+  const std::string warning = LostAgainWarning(TwoFramesLostAgain());
+  EXPECT_TRUE(Has(warning, "began anew at 1298.33 s")) << warning;
+  EXPECT_TRUE(Has(warning, "lost again at 1298.37 s (2 frames)")) << warning;
+  EXPECT_TRUE(Has(warning, "before any of its 2 keyframe(s) was kept for a map")) << warning;
+  EXPECT_TRUE(Has(warning, "its frames count as lost")) << warning;
+  EXPECT_FALSE(Has(warning, "segments/")) << warning;
 }
 
-TEST(SegmentOutputTest, ASegmentWithKeyframesCanBeMergedAndNamesWhyItHasNoMap) {
-  const std::string mapped = ApartSegmentWarning(TwoFramesLostAgain(), 2, "", "OUT/segments/5");
-  EXPECT_TRUE(Has(mapped, "2 keyframes kept")) << mapped;
+TEST(SegmentOutputTest, ASegmentApartCanBeMergedAndNamesWhyItHasNoMap) {
+  const std::string mapped = ApartSegmentWarning(TwoFramesLostAgain(), "", "OUT/segments/5");
+  EXPECT_TRUE(Has(mapped, "1298.33 - 1298.37 s, 2 frames")) << mapped;
+  EXPECT_TRUE(Has(mapped, "written apart in OUT/segments/5/")) << mapped;
   EXPECT_TRUE(Has(mapped, "'stillmap merge' can join it with this build's session.bin")) << mapped;
   EXPECT_FALSE(Has(mapped, "holds no map")) << mapped;
   const std::string unmapped =
-      ApartSegmentWarning(TwoFramesLostAgain(), 2, "the map is empty", "OUT/segments/5");
+      ApartSegmentWarning(TwoFramesLostAgain(), "the map is empty", "OUT/segments/5");
   EXPECT_TRUE(Has(unmapped, "it holds no map, only its poses: the map is empty")) << unmapped;
 }
 

@@ -66,6 +66,9 @@ struct TrackingFigures {
   TrackerStatistics statistics;
   std::map<std::string, size_t> status_counts;  // TrackStatusName -> frames
   std::vector<double> lost_times;               // frames without a pose [s]
+  // New maps lost again before any of their keyframes was kept for a map: their frames count as
+  // lost (TakeLostAgain, pipeline/src/segment_keeper.h), not as segments.
+  std::vector<SegmentSummary> lost_again;
   bool prior = false;  // given poses were the tracker's prior (poses.use=prior)
   // Frames posed with too little static depth (occluded, predicted by the motion model) or
   // carried by the prior where vision failed [s].
