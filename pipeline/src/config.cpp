@@ -205,6 +205,11 @@ void DenseRefinementOptions::Validate() const {
   }
   if (cell_px < 1 || cell_px > 64)
     throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, cell_px)));
+  if (coarse_cell_px != 0 && (coarse_cell_px <= cell_px || coarse_cell_px > 64)) {
+    throw InputError(
+        fmt::format("{} must be 0 (no coarse alignment) or more than {} and at most 64",
+                    OptionKey(*this, coarse_cell_px), OptionKey(*this, cell_px)));
+  }
   if (max_span_keyframes < 2 || max_span_keyframes > 1024)
     throw InputError(fmt::format("{} must be 2..1024", OptionKey(*this, max_span_keyframes)));
   if (!(span_sigma_m > 0.0 && span_sigma_m < 1.0))

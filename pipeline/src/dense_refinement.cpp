@@ -154,12 +154,39 @@ bool Taken(const Measured& m, const NextAlignments& next, const DenseRefinementO
   return Within(change, options.max_change_m, options.max_change_deg);
 }
 
+// The cameras and options of an alignment: the coarse one first (when coarse_cell_px is set),
+// then the fine one.
+struct AlignmentLevels {
+  AlignmentLevels(const Camera& camera, const DenseRefinementOptions& options)
+      : fine_cells(camera, options.cell_px) {
+    fine.cell_px = options.cell_px;
+    coarse.cell_px = options.coarse_cell_px;
+    if (options.coarse_cell_px > 0) coarse_cells.emplace(camera, options.coarse_cell_px);
+  }
+  CellCamera fine_cells;
+  std::optional<CellCamera> coarse_cells;  // none: no coarse alignment
+  RgbdOdometryOptions fine, coarse;
+};
+
+// Pair b aligned to a from `initial`: on the coarse cells first, and on the fine ones from there
+// where the coarse alignment was taken, else from `initial`.
+RgbdAlignment AlignPair(const AlignmentLevels& levels, const RgbdImages& reference,
+                        const RgbdImages& current, const Eigen::Isometry3d& initial) {
+  Eigen::Isometry3d start = initial;
+  if (levels.coarse_cells) {
+    const RgbdAlignment coarse =
+        AlignRgbd(*levels.coarse_cells, reference, current, initial, levels.coarse);
+    if (coarse.ok()) start = coarse.reference_from_current;
+  }
+  return AlignRgbd(levels.fine_cells, reference, current, start, levels.fine);
+}
+
 // The alignments of `pairs[first, last)` that are taken as alignments (RgbdAlignment::ok).
-std::vector<std::optional<Measured>> AlignRange(const CellCamera& cells,
+std::vector<std::optional<Measured>> AlignRange(const AlignmentLevels& levels,
                                                 const KeyframeImages& images,
                                                 const std::vector<RefinedKeyframe>& nodes,
                                                 const std::vector<Pair>& pairs, size_t first,
-                                                size_t last, const RgbdOdometryOptions& alignment) {
+                                                size_t last) {
   ImageCache cache(images, 24);
   std::vector<std::optional<Measured>> measured(last - first);
   for (size_t i = first; i < last; ++i) {
@@ -168,7 +195,7 @@ std::vector<std::optional<Measured>> AlignRange(const CellCamera& cells,
         nodes[pair.a].world_from_camera.inverse() * nodes[pair.b].world_from_camera;
     const std::shared_ptr<const RgbdImages> reference = cache.Get(pair.a);
     const std::shared_ptr<const RgbdImages> current = cache.Get(pair.b);
-    const RgbdAlignment aligned = AlignRgbd(cells, *reference, *current, initial, alignment);
+    const RgbdAlignment aligned = AlignPair(levels, *reference, *current, initial);
     if (aligned.ok()) measured[i - first] = Measured{pair, initial, aligned.reference_from_current};
   }
   return measured;
@@ -179,15 +206,12 @@ std::vector<Measured> AlignPairs(const Camera& camera, const KeyframeImages& ima
                                  const std::vector<RefinedKeyframe>& nodes,
                                  const std::vector<Pair>& pairs,
                                  const DenseRefinementOptions& options, bool parallel) {
-  RgbdOdometryOptions alignment;
-  alignment.cell_px = options.cell_px;
-  const CellCamera cells(camera, options.cell_px);
+  const AlignmentLevels levels(camera, options);
   const size_t half = parallel ? pairs.size() / 2 : pairs.size();
-  std::future<std::vector<std::optional<Measured>>> second = std::async(
-      parallel ? std::launch::async : std::launch::deferred,
-      [&] { return AlignRange(cells, images, nodes, pairs, half, pairs.size(), alignment); });
-  std::vector<std::optional<Measured>> all =
-      AlignRange(cells, images, nodes, pairs, 0, half, alignment);
+  std::future<std::vector<std::optional<Measured>>> second =
+      std::async(parallel ? std::launch::async : std::launch::deferred,
+                 [&] { return AlignRange(levels, images, nodes, pairs, half, pairs.size()); });
+  std::vector<std::optional<Measured>> all = AlignRange(levels, images, nodes, pairs, 0, half);
   for (std::optional<Measured>& m : second.get()) all.push_back(std::move(m));
   std::vector<Measured> measured;
   for (std::optional<Measured>& m : all) {
@@ -327,19 +351,18 @@ Eigen::Isometry3d Part(const Eigen::Isometry3d& correction, double share) {
   return InterpolatePose(Eigen::Isometry3d::Identity(), correction, std::clamp(share, 0.0, 1.0));
 }
 
-// The keyframes' corrections interpolated between the two on either side of `t` in time; `next`
-// is the first keyframe after `t`. Where those two are more than `max_gap_s` apart, or on the
-// far side of the first or last keyframe, the frame takes the nearer keyframe's correction
-// fading to none over `max_gap_s`: such frames were tracked against the map's older keyframes
-// (a revisit), not against these two.
-Eigen::Isometry3d InterpolatedCorrection(const std::vector<TimedCorrection>& corrections,
-                                         std::vector<TimedCorrection>::const_iterator next,
+using Corrections = std::vector<TimedCorrection>::const_iterator;
+
+// The keyframes' corrections in [begin, end) interpolated between the two on either side of `t`
+// in time; `next` is the first keyframe after `t`. Where those two are more than `max_gap_s`
+// apart, or on the far side of the first or last keyframe, the frame takes the nearer keyframe's
+// correction fading to none over `max_gap_s`: such frames were tracked against the map's older
+// keyframes (a revisit), not against these two.
+Eigen::Isometry3d InterpolatedCorrection(Corrections begin, Corrections end, Corrections next,
                                          double t, double max_gap_s) {
-  if (next == corrections.begin()) return Part(next->second, 1.0 - (next->first - t) / max_gap_s);
+  if (next == begin) return Part(next->second, 1.0 - (next->first - t) / max_gap_s);
   const auto previous = std::prev(next);
-  if (next == corrections.end()) {
-    return Part(previous->second, 1.0 - (t - previous->first) / max_gap_s);
-  }
+  if (next == end) return Part(previous->second, 1.0 - (t - previous->first) / max_gap_s);
   if (next->first - previous->first > max_gap_s) {
     const double after = t - previous->first, before = next->first - t;
     return after <= before ? Part(previous->second, 1.0 - after / max_gap_s)
@@ -349,17 +372,17 @@ Eigen::Isometry3d InterpolatedCorrection(const std::vector<TimedCorrection>& cor
   return InterpolatePose(previous->second, next->second, share);
 }
 
-// The corrections of the keyframes within three smoothing_s of `t`, weighted by a Gaussian of
-// that width (translation and quaternion averaged); nothing when none is that near.
-std::optional<Eigen::Isometry3d> SmoothedCorrection(const std::vector<TimedCorrection>& corrections,
-                                                    double t, double smoothing_s) {
-  const auto first = std::lower_bound(corrections.begin(), corrections.end(), t - 3.0 * smoothing_s,
+// The corrections of the keyframes in [begin, end) within three smoothing_s of `t`, weighted by
+// a Gaussian of that width (translation and quaternion averaged); nothing when none is that near.
+std::optional<Eigen::Isometry3d> SmoothedCorrection(Corrections begin, Corrections end, double t,
+                                                    double smoothing_s) {
+  const auto first = std::lower_bound(begin, end, t - 3.0 * smoothing_s,
                                       [](const auto& c, double time) { return c.first < time; });
   double total = 0.0;
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   Eigen::Vector4d rotation = Eigen::Vector4d::Zero();
   std::optional<Eigen::Quaterniond> reference;
-  for (auto it = first; it != corrections.end() && it->first <= t + 3.0 * smoothing_s; ++it) {
+  for (auto it = first; it != end && it->first <= t + 3.0 * smoothing_s; ++it) {
     const double z = (it->first - t) / smoothing_s;
     const double weight = std::exp(-0.5 * z * z);
     Eigen::Quaterniond q(it->second.linear());
@@ -376,12 +399,33 @@ std::optional<Eigen::Isometry3d> SmoothedCorrection(const std::vector<TimedCorre
   return smoothed;
 }
 
+// The keyframes of the run of frames `t` lies in (a run begins where tracking began anew,
+// `run_start_times`): keyframes of another run were tracked on another chain, and their
+// corrections are not this frame's. All of them when its run holds none.
+std::pair<Corrections, Corrections> RunKeyframes(const std::vector<TimedCorrection>& corrections,
+                                                 const std::vector<double>& run_start_times,
+                                                 double t) {
+  const auto next_start = std::upper_bound(run_start_times.begin(), run_start_times.end(), t);
+  const auto by_time = [](const auto& c, double time) { return c.first < time; };
+  const Corrections begin = next_start == run_start_times.begin()
+                                ? corrections.begin()
+                                : std::lower_bound(corrections.begin(), corrections.end(),
+                                                   *std::prev(next_start), by_time);
+  const Corrections end =
+      next_start == run_start_times.end()
+          ? corrections.end()
+          : std::lower_bound(corrections.begin(), corrections.end(), *next_start, by_time);
+  if (begin == end) return {corrections.begin(), corrections.end()};
+  return {begin, end};
+}
+
 }  // namespace
 
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,
-                      double smoothing_s, double max_gap_s, Trajectory* trajectory) {
+                      const std::vector<double>& run_start_times, double smoothing_s,
+                      double max_gap_s, Trajectory* trajectory) {
   std::vector<TimedCorrection> corrections;
   corrections.reserve(before.size());
   for (const auto& [id, pose] : before) {
@@ -394,20 +438,21 @@ void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
   for (size_t i = 0; i < poses.size(); ++i) {
     if (!in_map[i]) continue;
     const double t = poses[i].time;
-    const auto at = std::lower_bound(corrections.begin(), corrections.end(), t,
-                                     [](const auto& c, double time) { return c.first < time; });
-    const bool keyframe = at != corrections.end() && at->first == t;
+    const auto [begin, end] = RunKeyframes(corrections, run_start_times, t);
+    const auto at =
+        std::lower_bound(begin, end, t, [](const auto& c, double time) { return c.first < time; });
+    const bool keyframe = at != end && at->first == t;
     // Averaged only between keyframes at most max_gap_s apart: elsewhere the frame was tracked
     // against older keyframes (a revisit), and takes the fade.
-    const bool between_near_keyframes = at != corrections.begin() && at != corrections.end() &&
-                                        at->first - std::prev(at)->first <= max_gap_s;
+    const bool between_near_keyframes =
+        at != begin && at != end && at->first - std::prev(at)->first <= max_gap_s;
     std::optional<Eigen::Isometry3d> correction;
     if (keyframe) {
       correction = at->second;
     } else if (smoothing_s > 0.0 && between_near_keyframes) {
-      correction = SmoothedCorrection(corrections, t, smoothing_s);
+      correction = SmoothedCorrection(begin, end, t, smoothing_s);
     }
-    if (!correction) correction = InterpolatedCorrection(corrections, at, t, max_gap_s);
+    if (!correction) correction = InterpolatedCorrection(begin, end, at, t, max_gap_s);
     poses[i].world_from_camera = *correction * poses[i].world_from_camera;
   }
   *trajectory = Trajectory(std::move(poses));

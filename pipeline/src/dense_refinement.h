@@ -45,10 +45,13 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
 // `smoothing_s` (a Gaussian's width [s]; 0: interpolated between the two on either side), so
 // that it takes the drift they share and not each keyframe's own noise. A frame between
 // keyframes more than `max_gap_s` apart (or beyond the first or last) takes the nearer one's
-// correction fading to none over `max_gap_s` [s], averaged or not.
+// correction fading to none over `max_gap_s` [s], averaged or not. Only the keyframes of the
+// frame's own run count (a run begins at each of the sorted `run_start_times`, where tracking
+// began anew), unless its run holds none.
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,
-                      double smoothing_s, double max_gap_s, Trajectory* trajectory);
+                      const std::vector<double>& run_start_times, double smoothing_s,
+                      double max_gap_s, Trajectory* trajectory);
 
 }  // namespace stillmap

@@ -162,8 +162,8 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
   for (const RefinedKeyframe& keyframe : keyframes) {
     (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
   }
-  CarryCorrections(before, *world_from_keyframe, times, in_map, options.frame_smoothing_s,
-                   options.max_next_gap_s, trajectory);
+  CarryCorrections(before, *world_from_keyframe, times, in_map, run_start_times,
+                   options.frame_smoothing_s, options.max_next_gap_s, trajectory);
 }
 
 // final_poses.smoothing_s: each frame's pose fitted to the frames around it in its run. A run

@@ -103,6 +103,15 @@ TEST(ConfigTest, DenseRefinementOptionsAreCheckedUnderTheirKeys) {
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_cell_px"),
             std::string::npos);
   config = BuildConfig();
+  EXPECT_EQ(config.final_poses.coarse_cell_px, 0);
+  ApplySetArgument(&config, "final_poses.dense_coarse_cell_px=8");
+  EXPECT_NO_THROW(config.Validate());
+  ApplySetArgument(&config, "final_poses.dense_coarse_cell_px=4");  // not coarser than the cells
+  EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_coarse_cell_px"),
+            std::string::npos);
+  ApplySetArgument(&config, "final_poses.dense_coarse_cell_px=0");  // none
+  EXPECT_NO_THROW(config.Validate());
+  config = BuildConfig();
   ApplySetArgument(&config, "final_poses.dense_revisit_pairs=-1");
   EXPECT_NE(ErrorOf([&] { config.Validate(); }).find("final_poses.dense_revisit_pairs"),
             std::string::npos);

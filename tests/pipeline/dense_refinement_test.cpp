@@ -1,7 +1,7 @@
 // The final poses' dense refinement against a rendered room whose camera poses are exact: poses
 // given a drift (short by 3 % and turning 0.2 degrees a keyframe, as feature tracking drifts
 // along a corridor) must come back to the truth; where the alignments are refused the poses
-// must stay as they were.
+// must stay as they were. In the floor's blank corridor, a keyframe far off must be found again.
 #include "dense_refinement.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "stillmap/io/sequence.h"
+#include "stillmap/io/truth_files.h"
 #include "stillmap/synth/synthetic.h"
 #include "test_util.h"
 
@@ -142,6 +143,70 @@ TEST_F(DenseRefinementTest, AlignmentsInTrianglesThatDoNotCloseAreNotTaken) {
   EXPECT_LT(LargestError(poses, truth), before / 2.0);
 }
 
+// The floor's first frames: a corridor of blank walls and tiles, a person walking ahead (masked
+// by the truth's masks). Keyframes every 3rd frame.
+class CorridorRefinementTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new testing::TempDir();
+    SynthOptions options;
+    options.scenario = "floor";
+    options.frames = 13;
+    WriteSyntheticSequence(dir_->path(), options);
+    sequence_ = new Sequence(Sequence::Open(dir_->path(), ResolveCamera(dir_->path(), {})));
+  }
+  static void TearDownTestSuite() {
+    delete sequence_;
+    delete dir_;
+  }
+  static std::vector<RefinedKeyframe> Truth() {
+    std::vector<RefinedKeyframe> keyframes;
+    for (size_t i = 0; i < 13; i += 3) {
+      const double time = sequence_->frames()[i].time;
+      keyframes.push_back(
+          {static_cast<int>(i), time, *sequence_->groundtruth()->Interpolate(time, 0.1)});
+    }
+    return keyframes;
+  }
+  static KeyframeImages Images() {
+    return [](size_t index, cv::Mat* gray, cv::Mat* depth_m) {
+      const Frame frame = sequence_->LoadFrame(index * 3);
+      cv::cvtColor(frame.color, *gray, cv::COLOR_BGR2GRAY);
+      *depth_m = frame.depth_m.clone();
+      const double time = sequence_->frames()[index * 3].time;
+      depth_m->setTo(0.0f, TruthMasks(dir_->path()).Get(time));  // the person: masked
+    };
+  }
+  static testing::TempDir* dir_;
+  static Sequence* sequence_;
+};
+
+testing::TempDir* CorridorRefinementTest::dir_ = nullptr;
+Sequence* CorridorRefinementTest::sequence_ = nullptr;
+
+// A keyframe put 8 cm off sideways, as a new segment's first tracked frames slide in a blank
+// corridor: aligned on coarse cells first, its pairs find it again; on the fine cells alone,
+// the alignment slides along the walls and is refused.
+TEST_F(CorridorRefinementTest, AKeyframeFarOffSidewaysIsFoundAgainByACoarseAlignmentFirst) {
+  const std::vector<RefinedKeyframe> truth = Truth();
+  std::vector<RefinedKeyframe> off = truth;
+  off[2].world_from_camera = off[2].world_from_camera * Eigen::Translation3d(0.08, 0.0, 0.0);
+  const auto error = [&truth](const std::vector<RefinedKeyframe>& poses) {
+    return (poses[2].world_from_camera.translation() - truth[2].world_from_camera.translation())
+        .norm();
+  };
+  DenseRefinementOptions options;
+  options.span_drift_share = 0.0;  // the alignments alone
+  options.coarse_cell_px = 8;
+  std::vector<RefinedKeyframe> poses = off;
+  RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  EXPECT_LT(error(poses), 0.01);
+  options.coarse_cell_px = 0;
+  poses = off;
+  RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  EXPECT_GT(error(poses), 0.05);
+}
+
 TEST(CarryCorrectionsTest, FramesBetweenKeyframesMoveWithTheirCorrections) {
   Eigen::Isometry3d a = Eigen::Isometry3d::Identity(), b = Eigen::Isometry3d::Identity();
   b.translation() = Eigen::Vector3d(1.0, 0.0, 0.0);
@@ -156,8 +221,8 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesMoveWithTheirCorrections) {
   Trajectory trajectory(frames);
   std::vector<bool> in_map(frames.size(), true);
   in_map[3] = false;  // a segment apart keeps its poses
-  CarryCorrections({{0, a}, {1, b}}, {{0, a}, {1, b_after}}, {{0, 10.0}, {1, 14.0}}, in_map, 0.0,
-                   10.0, &trajectory);
+  CarryCorrections({{0, a}, {1, b}}, {{0, a}, {1, b_after}}, {{0, 10.0}, {1, 14.0}}, in_map, {},
+                   0.0, 10.0, &trajectory);
   const std::vector<StampedPose>& moved = trajectory.poses();
   EXPECT_NEAR(moved[0].world_from_camera.translation().y(), 0.0, 1e-12);
   EXPECT_NEAR(moved[2].world_from_camera.translation().y(), 0.1, 1e-12);
@@ -183,9 +248,10 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
   }
   const std::vector<double> frame_times = {12.0, 12.5, 30.0};
   std::vector<StampedPose> frames;
+  frames.reserve(frame_times.size());
   for (const double t : frame_times) frames.push_back({t, Eigen::Isometry3d::Identity()});
   Trajectory trajectory(frames);
-  CarryCorrections(before, after, times, std::vector<bool>(frames.size(), true), 1.0, 3.0,
+  CarryCorrections(before, after, times, std::vector<bool>(frames.size(), true), {}, 1.0, 3.0,
                    &trajectory);
   const std::vector<StampedPose>& moved = trajectory.poses();
   double weighted = 0.0, total = 0.0;
@@ -197,6 +263,40 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
   EXPECT_NEAR(moved[0].world_from_camera.translation().y(), 0.03, 1e-12);
   EXPECT_NEAR(moved[1].world_from_camera.translation().y(), weighted / total, 1e-12);
   EXPECT_NEAR(moved[2].world_from_camera.translation().y(), 0.0, 1e-12);
+}
+
+// Where tracking began anew (12.2 s), the frames after take the corrections of their own run's
+// keyframes only, averaged or interpolated, and those before of theirs: the two runs were
+// tracked on two chains. A run with no keyframe takes all of them, as without runs.
+TEST(CarryCorrectionsTest, FramesTakeOnlyTheCorrectionsOfTheirOwnRun) {
+  const std::vector<double> key_times = {10.0, 11.0, 12.0, 12.5, 13.0, 14.0};
+  const std::vector<double> shift_y = {0.0, 0.0, 0.0, 0.3, 0.2, 0.1};  // the new run's moved
+  std::map<int, Eigen::Isometry3d> before, after;
+  std::map<int, double> times;
+  for (int k = 0; k < 6; ++k) {
+    before[k] = Eigen::Isometry3d::Identity();
+    after[k] = Eigen::Isometry3d(Eigen::Translation3d(0.0, shift_y[static_cast<size_t>(k)], 0.0));
+    times[k] = key_times[static_cast<size_t>(k)];
+  }
+  const std::vector<double> frame_times = {11.5, 12.1, 12.3, 12.75, 15.0};
+  for (const double smoothing_s : {0.0, 3.0}) {
+    std::vector<StampedPose> frames;
+    frames.reserve(frame_times.size());
+    for (const double t : frame_times) frames.push_back({t, Eigen::Isometry3d::Identity()});
+    Trajectory trajectory(frames);
+    CarryCorrections(before, after, times, std::vector<bool>(frames.size(), true), {12.2, 14.5},
+                     smoothing_s, 3.0, &trajectory);
+    const std::vector<StampedPose>& moved = trajectory.poses();
+    const auto y = [&moved](size_t i) { return moved[i].world_from_camera.translation().y(); };
+    EXPECT_NEAR(y(0), 0.0, 1e-12) << smoothing_s;  // the first run's keyframes did not move
+    EXPECT_NEAR(y(1), 0.0, 1e-12) << smoothing_s;
+    EXPECT_NEAR(y(2), 0.3 * (1.0 - 0.2 / 3.0), 1e-12) << smoothing_s;  // before its first: fading
+    if (smoothing_s == 0.0) {
+      EXPECT_NEAR(y(3), 0.25, 1e-12);  // interpolated between 0.3 and 0.2
+    }
+    EXPECT_GT(y(3), 0.2) << smoothing_s;  // averaged over 0.3, 0.2 and 0.1 only
+    EXPECT_NEAR(y(4), 0.1 * (1.0 - 1.0 / 3.0), 1e-12) << smoothing_s;  // no keyframe: all of them
+  }
 }
 
 // Each keyframe held to its pose: held as sure as the alignments, a drifted path moves only part
@@ -265,8 +365,8 @@ TEST(CarryCorrectionsTest, FramesFarFromTheirKeyframesTakeLessOfTheirCorrection)
   for (const double smoothing_s : {0.0, 3.0}) {
     Trajectory trajectory(frames);
     CarryCorrections({{0, at_rest}, {1, at_rest}}, {{0, a_after}, {1, at_rest}},
-                     {{0, 10.0}, {1, 20.0}}, std::vector<bool>(frames.size(), true), smoothing_s,
-                     3.0, &trajectory);
+                     {{0, 10.0}, {1, 20.0}}, std::vector<bool>(frames.size(), true), {},
+                     smoothing_s, 3.0, &trajectory);
     const std::vector<double> expected = {0.3, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0};
     for (size_t i = 0; i < frames.size(); ++i) {
       EXPECT_NEAR(trajectory.poses()[i].world_from_camera.translation().y(), expected[i], 1e-12)

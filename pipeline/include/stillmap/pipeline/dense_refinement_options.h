@@ -55,6 +55,13 @@ struct DenseRefinementOptions {
   // rooms the same bytes (docs/figures.md, sixty-fourth session).
   double anew_sigma_m = 0.05;
   int cell_px = 4;  // the images are averaged over cells this wide [px]
+  // Each pair is first aligned on cells this wide [px] (0: not), from the poses, and then on
+  // cell_px from there where that alignment was taken: in a blank corridor a start 5-10 cm off
+  // slides the fine alignment along the walls into a wrong minimum, which the coarse one
+  // escapes (floor seed 2's new segment at 1117.3 s: of 11 pairs, 9 within 9 mm of the truth
+  // at 8 px against 3 at 4 px). Not by default: at 8 px the floors' clouds came out 0.2-0.3
+  // points less within 3 cm of the truth (docs/figures.md, sixty-ninth session).
+  int coarse_cell_px = 0;
   // A frame between keyframes takes their corrections averaged over this (a Gaussian's width)
   // [s] (0: interpolated between the two keyframes on either side). The corrections are taken
   // against the frames' own smoothed poses at the keyframes' stamps, where the keyframes start
@@ -110,6 +117,9 @@ struct DenseRefinementOptions {
           "where tracking began anew between two keyframes (relocalized, a new segment), the "
           "edges over that step are as sure as their own sigma plus this (0: as any step) [m]");
     visit("dense_cell_px", self.cell_px, "images are averaged over cells this wide [px]");
+    visit("dense_coarse_cell_px", self.coarse_cell_px,
+          "each pair is first aligned on cells this wide, then on dense_cell_px from there "
+          "(0: not) [px]");
     visit("dense_frame_smoothing_s", self.frame_smoothing_s,
           "a frame between keyframes takes their corrections averaged over this (0: "
           "interpolated) [s]");
