@@ -58,7 +58,7 @@ struct DenseRefinementOptions {
   // Each pair is first aligned on cells this wide [px] (0: not), from the poses, and then on
   // cell_px from there where that alignment was taken: in a blank corridor a start 5-10 cm off
   // slides the fine alignment along the walls into a wrong minimum, which the coarse one
-  // escapes (floor seed 2's new segment at 1117.3 s: of 11 pairs, 9 within 9 mm of the truth
+  // escapes (floor seed 2's new segment at 1117.3 s: of 11 pairs, 9 within 10 mm of the truth
   // at 8 px against 3 at 4 px). Not by default: at 8 px the floors' clouds came out 0.2-0.3
   // points less within 3 cm of the truth (docs/figures.md, sixty-ninth session).
   int coarse_cell_px = 0;
