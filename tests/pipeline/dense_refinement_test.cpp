@@ -9,6 +9,8 @@
 #include <cmath>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
+#include <string>
 
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/truth_files.h"
@@ -18,34 +20,59 @@
 namespace stillmap {
 namespace {
 
-constexpr size_t kFrames = 60;
-constexpr size_t kEvery = 6;  // every 6th frame is a keyframe
-
-class DenseRefinementTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    dir_ = new testing::TempDir();
+// A scenario's first `frames` frames rendered into a temporary folder, every `every`th of them a
+// keyframe.
+class Rendered {
+ public:
+  Rendered(const std::string& scenario, size_t frames, size_t every)
+      : frames_(frames), every_(every) {
     SynthOptions options;
-    options.scenario = "static";
-    options.frames = static_cast<int>(kFrames);
-    WriteSyntheticSequence(dir_->path(), options);
-    sequence_ = new Sequence(Sequence::Open(dir_->path(), ResolveCamera(dir_->path(), {})));
+    options.scenario = scenario;
+    options.frames = frames;
+    WriteSyntheticSequence(dir_.path(), options);
+    sequence_.emplace(Sequence::Open(dir_.path(), ResolveCamera(dir_.path(), {})));
   }
-  static void TearDownTestSuite() {
-    delete sequence_;
-    delete dir_;
-  }
+
+  const Camera& camera() const { return sequence_->camera(); }
 
   // The keyframes at their true poses.
-  static std::vector<RefinedKeyframe> Truth() {
+  std::vector<RefinedKeyframe> Truth() const {
     std::vector<RefinedKeyframe> keyframes;
-    for (size_t i = 0; i < kFrames; i += kEvery) {
+    for (size_t i = 0; i < frames_; i += every_) {
       const double time = sequence_->frames()[i].time;
       keyframes.push_back(
           {static_cast<int>(i), time, *sequence_->groundtruth()->Interpolate(time, 0.1)});
     }
     return keyframes;
   }
+
+  // The keyframes' images; with `mask_moving`, no depth where the truth's masks say moving.
+  KeyframeImages Images(bool mask_moving) const {
+    return [this, mask_moving](size_t index, cv::Mat* gray, cv::Mat* depth_m) {
+      const size_t i = index * every_;
+      const Frame frame = sequence_->LoadFrame(i);
+      cv::cvtColor(frame.color, *gray, cv::COLOR_BGR2GRAY);
+      *depth_m = frame.depth_m.clone();
+      if (mask_moving) {
+        depth_m->setTo(0.0f, TruthMasks(dir_.path()).Get(sequence_->frames()[i].time));
+      }
+    };
+  }
+
+ private:
+  testing::TempDir dir_;
+  std::optional<Sequence> sequence_;
+  size_t frames_, every_;
+};
+
+class DenseRefinementTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { room_ = new Rendered("static", 60, 6); }
+  static void TearDownTestSuite() { delete room_; }
+
+  static std::vector<RefinedKeyframe> Truth() { return room_->Truth(); }
+  static KeyframeImages Images() { return room_->Images(false); }
+  static const Camera& camera() { return room_->camera(); }
 
   // The same, drifted: each step short by 3 % and turned 0.2 degrees more than the last.
   static std::vector<RefinedKeyframe> Drifted(const std::vector<RefinedKeyframe>& truth) {
@@ -61,14 +88,6 @@ class DenseRefinementTest : public ::testing::Test {
     return drifted;
   }
 
-  static KeyframeImages Images() {
-    return [](size_t index, cv::Mat* gray, cv::Mat* depth_m) {
-      const Frame frame = sequence_->LoadFrame(index * kEvery);
-      cv::cvtColor(frame.color, *gray, cv::COLOR_BGR2GRAY);
-      *depth_m = frame.depth_m;
-    };
-  }
-
   // The largest distance of a keyframe's camera from the truth's [m].
   static double LargestError(const std::vector<RefinedKeyframe>& poses,
                              const std::vector<RefinedKeyframe>& truth) {
@@ -81,12 +100,10 @@ class DenseRefinementTest : public ::testing::Test {
     return largest;
   }
 
-  static testing::TempDir* dir_;
-  static Sequence* sequence_;
+  static Rendered* room_;
 };
 
-testing::TempDir* DenseRefinementTest::dir_ = nullptr;
-Sequence* DenseRefinementTest::sequence_ = nullptr;
+Rendered* DenseRefinementTest::room_ = nullptr;
 
 TEST_F(DenseRefinementTest, ADriftedPathComesBackToTheTruth) {
   const std::vector<RefinedKeyframe> truth = Truth();
@@ -98,8 +115,7 @@ TEST_F(DenseRefinementTest, ADriftedPathComesBackToTheTruth) {
   options.span_drift_share = 0.0;  // the alignments alone (the spans: below)
   options.max_change_m = 0.05;
   options.max_change_deg = 1.0;
-  const DenseRefinementFigures figures =
-      RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  const DenseRefinementFigures figures = RefineKeyframePoses(camera(), Images(), options, &poses);
   EXPECT_GT(figures.next_taken, figures.next_pairs / 2);
   EXPECT_LT(LargestError(poses, truth), 0.004) << "before: " << before << " m";
   EXPECT_LT(LargestError(poses, truth), before / 5.0);
@@ -115,8 +131,7 @@ TEST_F(DenseRefinementTest, AlignmentsFarFromThePosesAreNotTaken) {
   options.max_change_deg = 0.01;
   options.revisit_max_change_m = 0.0005;
   options.revisit_max_change_deg = 0.01;
-  const DenseRefinementFigures figures =
-      RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  const DenseRefinementFigures figures = RefineKeyframePoses(camera(), Images(), options, &poses);
   EXPECT_EQ(figures.next_taken + figures.revisit_taken, 0U);
   for (size_t k = 0; k < poses.size(); ++k) {
     EXPECT_TRUE(poses[k].world_from_camera.isApprox(drifted[k].world_from_camera)) << k;
@@ -132,13 +147,12 @@ TEST_F(DenseRefinementTest, AlignmentsInTrianglesThatDoNotCloseAreNotTaken) {
   options.max_change_m = 0.05;     // alone, every alignment would be taken
   options.max_change_deg = 1.0;
   options.cycle_max_m = 0.0;  // no triangle closes
-  DenseRefinementFigures figures =
-      RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  DenseRefinementFigures figures = RefineKeyframePoses(camera(), Images(), options, &poses);
   EXPECT_EQ(figures.next_taken, 0U) << "of " << figures.next_pairs;
   options.next_keyframes = 1;  // no triangles: the change alone decides
   poses = Drifted(truth);
   const double before = LargestError(poses, truth);
-  figures = RefineKeyframePoses(sequence_->camera(), Images(), options, &poses, true);
+  figures = RefineKeyframePoses(camera(), Images(), options, &poses, true);
   EXPECT_EQ(figures.next_taken, figures.next_pairs);
   EXPECT_LT(LargestError(poses, truth), before / 2.0);
 }
@@ -147,48 +161,18 @@ TEST_F(DenseRefinementTest, AlignmentsInTrianglesThatDoNotCloseAreNotTaken) {
 // by the truth's masks). Keyframes every 3rd frame.
 class CorridorRefinementTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    dir_ = new testing::TempDir();
-    SynthOptions options;
-    options.scenario = "floor";
-    options.frames = 13;
-    WriteSyntheticSequence(dir_->path(), options);
-    sequence_ = new Sequence(Sequence::Open(dir_->path(), ResolveCamera(dir_->path(), {})));
-  }
-  static void TearDownTestSuite() {
-    delete sequence_;
-    delete dir_;
-  }
-  static std::vector<RefinedKeyframe> Truth() {
-    std::vector<RefinedKeyframe> keyframes;
-    for (size_t i = 0; i < 13; i += 3) {
-      const double time = sequence_->frames()[i].time;
-      keyframes.push_back(
-          {static_cast<int>(i), time, *sequence_->groundtruth()->Interpolate(time, 0.1)});
-    }
-    return keyframes;
-  }
-  static KeyframeImages Images() {
-    return [](size_t index, cv::Mat* gray, cv::Mat* depth_m) {
-      const Frame frame = sequence_->LoadFrame(index * 3);
-      cv::cvtColor(frame.color, *gray, cv::COLOR_BGR2GRAY);
-      *depth_m = frame.depth_m.clone();
-      const double time = sequence_->frames()[index * 3].time;
-      depth_m->setTo(0.0f, TruthMasks(dir_->path()).Get(time));  // the person: masked
-    };
-  }
-  static testing::TempDir* dir_;
-  static Sequence* sequence_;
+  static void SetUpTestSuite() { corridor_ = new Rendered("floor", 13, 3); }
+  static void TearDownTestSuite() { delete corridor_; }
+  static Rendered* corridor_;
 };
 
-testing::TempDir* CorridorRefinementTest::dir_ = nullptr;
-Sequence* CorridorRefinementTest::sequence_ = nullptr;
+Rendered* CorridorRefinementTest::corridor_ = nullptr;
 
 // A keyframe put 8 cm off sideways, as a new segment's first tracked frames slide in a blank
 // corridor: aligned on coarse cells first, its pairs find it again; on the fine cells alone,
 // the alignment slides along the walls and is refused.
 TEST_F(CorridorRefinementTest, AKeyframeFarOffSidewaysIsFoundAgainByACoarseAlignmentFirst) {
-  const std::vector<RefinedKeyframe> truth = Truth();
+  const std::vector<RefinedKeyframe> truth = corridor_->Truth();
   std::vector<RefinedKeyframe> off = truth;
   off[2].world_from_camera = off[2].world_from_camera * Eigen::Translation3d(0.08, 0.0, 0.0);
   const auto error = [&truth](const std::vector<RefinedKeyframe>& poses) {
@@ -199,11 +183,11 @@ TEST_F(CorridorRefinementTest, AKeyframeFarOffSidewaysIsFoundAgainByACoarseAlign
   options.span_drift_share = 0.0;  // the alignments alone
   options.coarse_cell_px = 8;
   std::vector<RefinedKeyframe> poses = off;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  RefineKeyframePoses(corridor_->camera(), corridor_->Images(true), options, &poses);
   EXPECT_LT(error(poses), 0.01);
   options.coarse_cell_px = 0;
   poses = off;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &poses);
+  RefineKeyframePoses(corridor_->camera(), corridor_->Images(true), options, &poses);
   EXPECT_GT(error(poses), 0.05);
 }
 
@@ -311,15 +295,15 @@ TEST_F(DenseRefinementTest, KeyframesHeldToTheirPosesMoveLess) {
   const std::vector<RefinedKeyframe> drifted = Drifted(truth);
   const double before = LargestError(drifted, truth);
   std::vector<RefinedKeyframe> free = drifted;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &free);
+  RefineKeyframePoses(camera(), Images(), options, &free);
   options.prior_sigma_m = options.alignment_sigma_m / 4.0;
   std::vector<RefinedKeyframe> held = drifted;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &held);
+  RefineKeyframePoses(camera(), Images(), options, &held);
   EXPECT_GT(LargestError(held, truth), 2.0 * LargestError(free, truth));
   EXPECT_LT(LargestError(held, drifted), LargestError(free, drifted) / 2.0);
   options.prior_sigma_m = 1.0;
   std::vector<RefinedKeyframe> loose = drifted;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &loose);
+  RefineKeyframePoses(camera(), Images(), options, &loose);
   EXPECT_LT(LargestError(loose, truth), before / 5.0);
 }
 
@@ -337,8 +321,7 @@ TEST_F(DenseRefinementTest, SpansHoldThePathsShapeAndLetItsDriftGo) {
   const double before = LargestError(drifted, truth);
   options.span_drift_share = 0.03;
   std::vector<RefinedKeyframe> free = drifted;
-  const DenseRefinementFigures figures =
-      RefineKeyframePoses(sequence_->camera(), Images(), options, &free);
+  const DenseRefinementFigures figures = RefineKeyframePoses(camera(), Images(), options, &free);
   EXPECT_GT(figures.next_taken, figures.next_pairs / 2);
   EXPECT_LT(LargestError(free, truth), before / 3.0);
   options.span_drift_share = 1e-6;
@@ -346,7 +329,7 @@ TEST_F(DenseRefinementTest, SpansHoldThePathsShapeAndLetItsDriftGo) {
   options.span_rotation_sigma_deg = 0.001;
   options.span_rotation_drift_deg_per_m = 0.0;
   std::vector<RefinedKeyframe> firm = drifted;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &firm);
+  RefineKeyframePoses(camera(), Images(), options, &firm);
   EXPECT_LT(LargestError(firm, drifted), LargestError(free, drifted) / 3.0);
 }
 
@@ -394,12 +377,11 @@ TEST_F(DenseRefinementTest, AJumpWhereTrackingBeganAnewIsLeftToTheAlignments) {
   options.max_change_deg = 3.0;
   options.anew_sigma_m = 0.0;  // as any other step
   std::vector<RefinedKeyframe> tracked = jumped;
-  RefineKeyframePoses(sequence_->camera(), Images(), options, &tracked);
+  RefineKeyframePoses(camera(), Images(), options, &tracked);
   options.anew_sigma_m = 0.05;
   std::vector<RefinedKeyframe> anew = jumped;
   anew[relocalized].anew = true;
-  const DenseRefinementFigures figures =
-      RefineKeyframePoses(sequence_->camera(), Images(), options, &anew);
+  const DenseRefinementFigures figures = RefineKeyframePoses(camera(), Images(), options, &anew);
   EXPECT_GT(figures.next_taken, figures.next_pairs / 2);
   EXPECT_GT(LargestError(tracked, truth), 0.005) << "before: " << before << " m";
   EXPECT_LT(LargestError(anew, truth), LargestError(tracked, truth) / 3.0);
