@@ -399,8 +399,8 @@ std::optional<Eigen::Isometry3d> SmoothedCorrection(Corrections begin, Correctio
   return smoothed;
 }
 
-// The keyframes of the run of frames `t` lies in (a run begins where tracking began anew,
-// `run_start_times`): keyframes of another run were tracked on another chain, and their
+// The keyframes of the run of frames `t` lies in (a run begins at each of `run_start_times`, where
+// a new map segment began): keyframes of another run were tracked on another chain, and their
 // corrections are not this frame's. All of them when its run holds none.
 std::pair<Corrections, Corrections> RunKeyframes(const std::vector<TimedCorrection>& corrections,
                                                  const std::vector<double>& run_start_times,

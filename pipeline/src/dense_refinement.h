@@ -46,8 +46,8 @@ DenseRefinementFigures RefineKeyframePoses(const Camera& camera, const KeyframeI
 // that it takes the drift they share and not each keyframe's own noise. A frame between
 // keyframes more than `max_gap_s` apart (or beyond the first or last) takes the nearer one's
 // correction fading to none over `max_gap_s` [s], averaged or not. Only the keyframes of the
-// frame's own run count (a run begins at each of the sorted `run_start_times`, where tracking
-// began anew), unless its run holds none.
+// frame's own run count (a run begins at each of the sorted `run_start_times`: where a new map
+// segment began), unless its run holds none.
 void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
                       const std::map<int, Eigen::Isometry3d>& after,
                       const std::map<int, double>& times, const std::vector<bool>& in_map,

@@ -162,7 +162,13 @@ void RefineDensely(const Camera& camera, const DenseRefinementOptions& options, 
   for (const RefinedKeyframe& keyframe : keyframes) {
     (*world_from_keyframe)[keyframe.id] = keyframe.world_from_camera;
   }
-  CarryCorrections(before, *world_from_keyframe, times, in_map, run_start_times,
+  // A new segment's frames were tracked on a chain of their own, until the segment was joined;
+  // after a relocalization the frames are tracked against the map, older keyframes included.
+  std::vector<double> segment_starts;
+  for (const SegmentSummary& segment : segments.Summaries()) {
+    segment_starts.push_back(segment.first_time);
+  }
+  CarryCorrections(before, *world_from_keyframe, times, in_map, segment_starts,
                    options.frame_smoothing_s, options.max_next_gap_s, trajectory);
 }
 

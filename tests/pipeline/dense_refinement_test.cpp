@@ -249,8 +249,8 @@ TEST(CarryCorrectionsTest, FramesBetweenKeyframesTakeTheirCorrectionsAveraged) {
   EXPECT_NEAR(moved[2].world_from_camera.translation().y(), 0.0, 1e-12);
 }
 
-// Where tracking began anew (12.2 s), the frames after take the corrections of their own run's
-// keyframes only, averaged or interpolated, and those before of theirs: the two runs were
+// Where a new map segment began (12.2 s), the frames after take the corrections of their own
+// run's keyframes only, averaged or interpolated, and those before of theirs: the two runs were
 // tracked on two chains. A run with no keyframe takes all of them, as without runs.
 TEST(CarryCorrectionsTest, FramesTakeOnlyTheCorrectionsOfTheirOwnRun) {
   const std::vector<double> key_times = {10.0, 11.0, 12.0, 12.5, 13.0, 14.0};
