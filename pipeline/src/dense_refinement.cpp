@@ -353,6 +353,9 @@ Eigen::Isometry3d Part(const Eigen::Isometry3d& correction, double share) {
 
 using Corrections = std::vector<TimedCorrection>::const_iterator;
 
+// Orders corrections by their keyframe's time against a time (std::lower_bound).
+bool EarlierThan(const TimedCorrection& correction, double time) { return correction.first < time; }
+
 // The keyframes' corrections in [begin, end) interpolated between the two on either side of `t`
 // in time; `next` is the first keyframe after `t`. Where those two are more than `max_gap_s`
 // apart, or on the far side of the first or last keyframe, the frame takes the nearer keyframe's
@@ -376,8 +379,7 @@ Eigen::Isometry3d InterpolatedCorrection(Corrections begin, Corrections end, Cor
 // a Gaussian of that width (translation and quaternion averaged); nothing when none is that near.
 std::optional<Eigen::Isometry3d> SmoothedCorrection(Corrections begin, Corrections end, double t,
                                                     double smoothing_s) {
-  const auto first = std::lower_bound(begin, end, t - 3.0 * smoothing_s,
-                                      [](const auto& c, double time) { return c.first < time; });
+  const auto first = std::lower_bound(begin, end, t - 3.0 * smoothing_s, EarlierThan);
   double total = 0.0;
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   Eigen::Vector4d rotation = Eigen::Vector4d::Zero();
@@ -406,15 +408,14 @@ std::pair<Corrections, Corrections> RunKeyframes(const std::vector<TimedCorrecti
                                                  const std::vector<double>& run_start_times,
                                                  double t) {
   const auto next_start = std::upper_bound(run_start_times.begin(), run_start_times.end(), t);
-  const auto by_time = [](const auto& c, double time) { return c.first < time; };
   const Corrections begin = next_start == run_start_times.begin()
                                 ? corrections.begin()
                                 : std::lower_bound(corrections.begin(), corrections.end(),
-                                                   *std::prev(next_start), by_time);
+                                                   *std::prev(next_start), EarlierThan);
   const Corrections end =
       next_start == run_start_times.end()
           ? corrections.end()
-          : std::lower_bound(corrections.begin(), corrections.end(), *next_start, by_time);
+          : std::lower_bound(corrections.begin(), corrections.end(), *next_start, EarlierThan);
   if (begin == end) return {corrections.begin(), corrections.end()};
   return {begin, end};
 }
@@ -439,8 +440,7 @@ void CarryCorrections(const std::map<int, Eigen::Isometry3d>& before,
     if (!in_map[i]) continue;
     const double t = poses[i].time;
     const auto [begin, end] = RunKeyframes(corrections, run_start_times, t);
-    const auto at =
-        std::lower_bound(begin, end, t, [](const auto& c, double time) { return c.first < time; });
+    const auto at = std::lower_bound(begin, end, t, EarlierThan);
     const bool keyframe = at != end && at->first == t;
     // Averaged only between keyframes at most max_gap_s apart: elsewhere the frame was tracked
     // against older keyframes (a revisit), and takes the fade.
