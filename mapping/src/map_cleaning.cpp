@@ -183,18 +183,20 @@ std::vector<std::uint8_t> SeenThroughViews(const MapCleaningOptions& options,
 }  // namespace
 
 KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
-                              const Eigen::Isometry3d& world_from_camera) {
-  CV_Assert(depth_m.type() == CV_32FC1 && (mask.empty() || mask.size() == depth_m.size()));
-  // Each 2 x 2 block keeps its nearest reading (a voxel at an object's edge is not seen through
-  // by the view that saw the object), or 0 when any of it is masked or none has a reading.
-  cv::Mat nearest_m((depth_m.rows + 1) / 2, (depth_m.cols + 1) / 2, CV_32FC1);
+                              const Eigen::Isometry3d& world_from_camera, int block) {
+  CV_Assert(depth_m.type() == CV_32FC1 && (mask.empty() || mask.size() == depth_m.size()) &&
+            block >= 1);
+  // Each block keeps its nearest reading (a voxel at an object's edge is not seen through by the
+  // view that saw the object), or 0 when any of it is masked or none has a reading.
+  cv::Mat nearest_m((depth_m.rows + block - 1) / block, (depth_m.cols + block - 1) / block,
+                    CV_32FC1);
   for (int v = 0; v < nearest_m.rows; ++v) {
     float* out = nearest_m.ptr<float>(v);
     for (int u = 0; u < nearest_m.cols; ++u) {
       float nearest = 0.0f;
       bool masked = false;
-      for (int r = 2 * v; r < std::min(2 * v + 2, depth_m.rows); ++r) {
-        for (int c = 2 * u; c < std::min(2 * u + 2, depth_m.cols); ++c) {
+      for (int r = block * v; r < std::min(block * v + block, depth_m.rows); ++r) {
+        for (int c = block * u; c < std::min(block * u + block, depth_m.cols); ++c) {
           masked = masked || (!mask.empty() && mask.at<std::uint8_t>(r, c) != 0);
           const float z = depth_m.at<float>(r, c);
           if (z > 0.0f && (nearest == 0.0f || z < nearest)) nearest = z;
@@ -213,6 +215,7 @@ KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
   nearest_m.convertTo(view.depth, CV_16U, 1.0 / view.depth_unit_m);
   view.depth.setTo(1, (view.depth == 0) & (nearest_m > 0.0f));
   view.camera_from_world = world_from_camera.inverse().cast<float>();
+  view.block = block;
   return view;
 }
 

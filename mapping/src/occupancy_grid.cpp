@@ -63,6 +63,13 @@ void GridOptions::Validate() const {
   if (!(surface_spill_ratio >= 1.0 && surface_spill_ratio <= 1e6)) {
     throw InputError(fmt::format("{} must be 1..1e6", OptionKey(*this, surface_spill_ratio)));
   }
+  if (!(min_unseen_layer_m >= 0.0 && min_unseen_layer_m <= max_height - min_height)) {
+    throw InputError(fmt::format("{} must be 0 (off) up to the band's height",
+                                 OptionKey(*this, min_unseen_layer_m)));
+  }
+  if (unseen_layer_block_step < 1 || unseen_layer_block_step > 64) {
+    throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, unseen_layer_block_step)));
+  }
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError(fmt::format("{} must be in [0.5, 1)", OptionKey(*this, occupied_probability)));
   }

@@ -208,6 +208,8 @@ size_t OccupancyMap::MemoryBytes() const { return impl_->tree.memoryUsage(); }
 
 double OccupancyMap::resolution() const { return impl_->tree.getResolution(); }
 
+double OccupancyMap::max_range() const { return impl_->options.max_range; }
+
 void OccupancyMap::WriteBinary(const std::string& path) const {
   std::ofstream out(path, std::ios::binary);
   // The header of OctoMap's .bt format, then its binary node data. Debian's liboctomap is built

@@ -294,7 +294,9 @@ BuildResult RunBuild(const BuildRequest& request) {
 
   MapperOptions mapper_options = request.config.mapping;
   mapper_options.in_background = mapper_options.in_background && request.threads() > 1;
-  Mapper mapper(inputs.camera, mapper_options);
+  const GridOptions& grid = request.config.grid;
+  Mapper mapper(inputs.camera, mapper_options,
+                grid.enabled && grid.min_unseen_layer_m > 0.0 && mapper_options.occupancy.enabled);
   const double loop_cpu_start = ThreadCpuMs();
   memory.Phase("frame loop");
   LoopResult loop = RunPoseLoop(inputs, LoopOptionsOf(request), *masks.stage, mapper, memory);

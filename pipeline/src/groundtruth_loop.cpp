@@ -40,7 +40,8 @@ PosedFrames RunGroundTruthLoop(const BuildInputs& inputs, const LoopOptions& opt
     if (reference) stages.masks.AddReference(frame, mask, pose, -1);
     if (j % kMemorySampleFrames == 0) SampleLoopMemory(stages, frame.time);
     if (fuse) {
-      stages.mapper.Integrate({frame.time, frame.color, frame.depth_m, mask, pose, false});
+      stages.mapper.Integrate(
+          {frame.time, frame.color, frame.depth_m, mask, pose, false, cv::Mat()});
       fused.push_back(inputs.known_poses[k]);
       if (session) session->Offer(frame, prepared.gray, mask, pose);
     }

@@ -82,7 +82,7 @@ void KeyframeFuser::Fuse(const std::vector<FinalKeyframe>& finals,
                                             static_cast<double>(mask.total());
     if (selector_.Judge(share, keyframe.landmarks) == KeyframeVerdict::kFused) {
       MapperFrame input{frame.time, frame.color, frame.depth_m, mask, keyframe.world_from_camera,
-                        false};
+                        false,      cv::Mat()};
       // The depth corrected as the tracker's self-calibration has it now (the poses are
       // consistent with it).
       if (!correction.IsIdentity()) input.depth_m = frame.depth_m.mul(factors_.For(correction));
@@ -113,7 +113,10 @@ void KeyframeFuser::FuseNow(const FinalKeyframe& keyframe, MapperFrame input, in
     stored.in_map = FusingLive();
     stored.cells_left_out = cells;
   }
-  if (!seen->empty()) input.mask = input.mask.empty() ? *seen : (input.mask | *seen);
+  if (!seen->empty()) {
+    input.moving_mask = input.mask.empty() ? cv::Mat::zeros(seen->size(), CV_8UC1) : input.mask;
+    input.mask = input.mask.empty() ? *seen : (input.mask | *seen);
+  }
   if (FusingLive()) mapper_.Integrate(input);
   fused_poses_.push_back({keyframe.time, keyframe.world_from_camera});
 }
@@ -144,6 +147,7 @@ bool KeyframeFuser::FuseStored(Stored* stored) {
   if (!seen) return false;
   if (!seen->empty()) {
     stored->seen_png = parked_->Append(EncodePng(*seen));
+    input.moving_mask = cv::Mat::zeros(seen->size(), CV_8UC1);  // moving pixels: 0 in its depth
     input.mask = *seen;
   }
   stored->in_map = FusingLive();
@@ -174,6 +178,8 @@ MapperFrame KeyframeFuser::Decode(const Stored& stored, cv::Mat depth_m) const {
   input.depth_m = depth_m.empty() ? DepthOf(stored) : std::move(depth_m);
   if (stored.seen_png.size > 0) {
     input.mask = cv::imdecode(parked_->Read(stored.seen_png), cv::IMREAD_UNCHANGED);
+    // Its moving pixels are 0 in its depth: the cells fused before are the whole mask.
+    input.moving_mask = cv::Mat::zeros(input.mask.size(), CV_8UC1);
   }
   input.world_from_camera = stored.world_from_camera;
   return input;

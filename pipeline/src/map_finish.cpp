@@ -8,11 +8,43 @@
 #include "stillmap/io/cpu_usage.h"
 #include "stillmap/io/option_names.h"
 #include "stillmap/io/timing.h"
+#include "stillmap/mapping/band_coverage.h"
 
 namespace stillmap {
 namespace {
 
+// The grid's unseen layers are found in layers this thick [m]: a table's top is 2-5 cm.
+constexpr double kUnseenLayerStepM = 0.01;
+
 using Clock = std::chrono::steady_clock;
+
+// The free cells of `grid` over which the views' rays leave a layer unseen
+// (GridOptions::min_unseen_layer_m) made unknown; returns how many. The views are cast in two
+// halves on two threads when `parallel`, each into a coverage of its own, then joined: the same
+// cells either way.
+size_t UnknownWhereViewsLeaveLayersUnseen(const FinishedMap& map,
+                                          const std::vector<KeyframeView>& views,
+                                          const GridOptions& options, bool parallel,
+                                          OccupancyGrid* grid) {
+  std::vector<std::vector<Eigen::Vector2f>> rays(map.cameras.size());
+  for (size_t camera = 0; camera < rays.size(); ++camera)
+    rays[camera] = PixelRays(map.cameras[camera]);
+  auto cast = [&](size_t first, size_t last) {
+    BandCoverage coverage(*grid, kUnseenLayerStepM);
+    for (size_t k = first; k < last; ++k) {
+      const auto camera = static_cast<size_t>(views[k].camera);
+      coverage.AddView(views[k], rays[camera], map.cameras[camera].width,
+                       map.occupancy->max_range(), options.unseen_layer_block_step);
+    }
+    return coverage;
+  };
+  const size_t half = parallel ? views.size() / 2 : views.size();
+  std::future<BandCoverage> second =
+      std::async(parallel ? std::launch::async : std::launch::deferred, cast, half, views.size());
+  BandCoverage coverage = cast(0, half);
+  coverage.Join(second.get());
+  return UnknownWhereLayersUnseen(coverage, options.min_unseen_layer_m, grid);
+}
 
 // Why a build ends without a map, from the figures that explain it: an empty or nearly empty map
 // (`points` in all) is a failed run (exit 1, nothing written), not files that look like a result.
@@ -72,7 +104,9 @@ FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
   double floor_ms = MillisecondsSince(floor_start);
   clean_job.get();
   out.figures = MapFiguresOf(finished, cleaning);
-  // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders.
+  // The cloud's points, once, for the cloud files, the mesh, the map quality and the renders;
+  // the grid's views for its unseen layers, freed after it.
+  const std::vector<KeyframeView> grid_views = std::move(finished.grid_views);
   out.cloud = finished.TakeCloudPoints();
   ReleaseFreedMemory();
   if (out.cloud.size() < static_cast<size_t>(options.mapping.min_map_points)) {
@@ -87,7 +121,8 @@ FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
       fitted ? *fitted : MapFloor(finished, &out.cloud, posed, options.grid), out.cloud, band);
   out.frame = ChooseMapFrame(floor, inputs, options.frame, posed);
   const Eigen::Vector3d start = posed.trajectory.poses().front().world_from_camera.translation();
-  out.grid = ProjectMapGrid(finished, out.cloud, start, out.frame, options.grid);
+  out.grid = ProjectMapGrid(finished, out.cloud, start, out.frame, options.grid, grid_views,
+                            options.parallel);
   out.grid_ms = floor_ms + MillisecondsSince(refine_start);
   return out;
 }
@@ -96,7 +131,8 @@ std::optional<OccupancyGrid> ProjectMapGrid(const FinishedMap& map,
                                             const std::vector<VoxelPoint>& cloud,
                                             const Eigen::Vector3d& start,
                                             const MapFrameFigures& frame,
-                                            const GridOptions& options) {
+                                            const GridOptions& options,
+                                            const std::vector<KeyframeView>& views, bool parallel) {
   if (!options.enabled || map.occupancy == nullptr) return std::nullopt;
   GridSources sources;
   sources.map = map.occupancy.get();
@@ -105,6 +141,10 @@ std::optional<OccupancyGrid> ProjectMapGrid(const FinishedMap& map,
   sources.cloud = &cloud;
   sources.start = start;
   OccupancyGrid grid = ProjectToGrid(sources, options);
+  if (options.min_unseen_layer_m > 0.0 && !views.empty()) {
+    grid.unseen_layer_cells =
+        UnknownWhereViewsLeaveLayersUnseen(map, views, options, parallel, &grid);
+  }
   grid.world_from_grid = frame.map_from_floor;
   return grid;
 }

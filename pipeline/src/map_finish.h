@@ -41,12 +41,17 @@ FinishedBuildMap FinishMapInFrame(FinishedMap map, const PosedFrames& posed,
 
 // The 2-D grid for planners, from the OctoMap (in the poses' frame) and the cleaned cloud, in
 // the floor frame, placed in the map frame; nothing when grid.enabled is off or there is no
-// OctoMap. `start`: the first camera's position in the poses' frame.
+// OctoMap. `start`: the first camera's position in the poses' frame. `views`: the fused
+// keyframes' grid views (FinishedMap::grid_views, taken out before its cloud points; cameras by
+// KeyframeView::camera in map.cameras), whose rays find the layers of the band left unseen
+// (GridOptions::min_unseen_layer_m; on two threads when `parallel`); none: that check is not
+// made.
 std::optional<OccupancyGrid> ProjectMapGrid(const FinishedMap& map,
                                             const std::vector<VoxelPoint>& cloud,
                                             const Eigen::Vector3d& start,
                                             const MapFrameFigures& frame,
-                                            const GridOptions& options);
+                                            const GridOptions& options,
+                                            const std::vector<KeyframeView>& views, bool parallel);
 
 // The figures of a finished map and its cleaning.
 MapFigures MapFiguresOf(const FinishedMap& map, const MapCleaningResult& cleaning);

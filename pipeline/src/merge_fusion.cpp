@@ -60,7 +60,8 @@ MergeFusion FuseSessions(std::vector<MergeSession>& sessions, const JoinedSessio
                         images.depth_m,
                         cv::Mat(),
                         joined.first_from_keyframe[order[rank]][k],
-                        false};
+                        false,
+                        cv::Mat()};
       // A redundant keyframe's view is not remembered: only fused views leave cells out.
       std::optional<cv::Mat> seen = revisits.Admit(revisits.MakeView(
           id_base + keyframes[k].id, frame.depth_m, cv::Mat(), frame.world_from_camera));

@@ -230,7 +230,8 @@ json GridJson(const OccupancyGrid& grid) {
             {"occupied_unconfirmed_made_unknown", grid.unconfirmed_cells},
             {"occupied_without_cloud_points_in_band", grid.unsupported_cells},
             {"occupied_by_a_neighbours_surface_spill", grid.spilled_cells},
-            {"start_cell_made_free", grid.start_made_free}}},
+            {"start_cell_made_free", grid.start_made_free},
+            {"free_with_an_unseen_layer_made_unknown", grid.unseen_layer_cells}}},
           {"frame",
            fmt::format(
                "x, y in the floor plane, z up from the floor, origin on the floor under the first "

@@ -93,7 +93,8 @@ TEST(MapperTest, ResetAndRefusingGiveTheMapOfTheCorrectedPosesOnly) {
   const Sequence sequence = Sequence::Open(dir.path(), camera);
   auto frame_at = [&](size_t i, const Eigen::Isometry3d& world_from_camera) {
     const Frame frame = sequence.LoadFrame(i);
-    return MapperFrame{frame.time, frame.color, frame.depth_m, cv::Mat(), world_from_camera, false};
+    return MapperFrame{frame.time,        frame.color, frame.depth_m, cv::Mat(),
+                       world_from_camera, false,       cv::Mat()};
   };
   Eigen::Isometry3d drift = Eigen::Isometry3d::Identity();
   drift.translation() = Eigen::Vector3d(0.0, 0.0, 0.2);  // the plane 20 cm off
@@ -203,6 +204,39 @@ TEST(MapperTest, RaysOnlyFramesClearWhatTheySeeThroughButAddNoPoints) {
   EXPECT_GT(without.occupancy->Occupancy({-0.3, 0.0, 2.025}), 0.5);
   EXPECT_GT(count(without, false, true), 100u);
   EXPECT_EQ(count(without, true, false), count(rays, true, false));
+}
+
+// The grid's views (Mapper's keep_grid_views) take every static reading of a frame: the
+// cells the fuser leaves out because earlier keyframes fused them (in `mask`, not in
+// `moving_mask`) are rays the grid needs, the moving pixels are not.
+TEST(MapperTest, GridViewsKeepTheCellsFusedBeforeAndLeaveTheMovingOnesOut) {
+  const Camera camera = testing::SmallCamera(96, 72);
+  cv::Mat depth_m(camera.height, camera.width, CV_32FC1, cv::Scalar(2.0f));
+  cv::Mat moving(depth_m.size(), CV_8UC1, cv::Scalar(0));
+  moving(cv::Rect(0, 0, 24, 72)).setTo(255);  // a person on the left
+  cv::Mat mask = moving.clone();
+  mask(cv::Rect(48, 0, 48, 72)).setTo(255);  // the right half fused before
+  Mapper mapper(camera, OnTheCallingThread(), true);
+  MapperFrame frame{0.0,
+                    cv::Mat(depth_m.size(), CV_8UC3, cv::Scalar(90, 90, 90)),
+                    depth_m,
+                    mask,
+                    Eigen::Isometry3d::Identity(),
+                    false,
+                    moving};
+  mapper.Integrate(frame);
+  const FinishedMap map = mapper.Finish();
+  ASSERT_EQ(map.views.size(), 1u);
+  ASSERT_EQ(map.grid_views.size(), 1u);
+  const KeyframeView& view = map.views.front();
+  const KeyframeView& grid = map.grid_views.front();
+  EXPECT_EQ(grid.depth.cols * grid.block, camera.width);
+  EXPECT_EQ(grid.block, 4);
+  EXPECT_EQ(view.Reading(10, 40), 0.0f);          // fused before: not the cleaning's
+  EXPECT_NEAR(grid.Reading(5, 20), 2.0f, 1e-3f);  // but the grid's
+  EXPECT_EQ(grid.Reading(5, 2), 0.0f);            // the person is no one's
+  EXPECT_EQ(view.Reading(10, 4), 0.0f);
+  EXPECT_NEAR(grid.Reading(5, 8), 2.0f, 1e-3f);  // static, between the two
 }
 
 }  // namespace

@@ -62,7 +62,8 @@ struct MapCleaningOptions {
 };
 
 // A fused keyframe as the view check needs it: its depth at half resolution (the nearest reading
-// of each 2 x 2 block; 0 where any of the block is masked) and its pose. The depth is kept in 16
+// of each 2 x 2 block; 0 where any of the block is masked) and its pose. The grid's unseen layers
+// take views of coarser blocks (`block`). The depth is kept in 16
 // bits, in steps of its largest reading / 65535 (0.1 mm at 6.5 m, far below the check's margin):
 // the views of a long recording add up.
 struct KeyframeView {
@@ -77,6 +78,7 @@ struct KeyframeView {
   // or saw through it is heard.
   int session = 0;
   int camera = 0;  // index of its camera in CleanCloud's `cameras`
+  int block = 2;   // each reading stands for a block this many pixels wide and high
 
   // The reading of block (row, col) [m], 0 = none.
   float Reading(int row, int col) const {
@@ -86,9 +88,10 @@ struct KeyframeView {
   size_t MemoryBytes() const { return sizeof(KeyframeView) + depth.total() * depth.elemSize(); }
 };
 
-// The view of a frame: depth_m (CV_32FC1) and mask (CV_8UC1 or empty) at full resolution.
+// The view of a frame: depth_m (CV_32FC1) and mask (CV_8UC1 or empty) at full resolution, in
+// blocks of `block` x `block` pixels (the map cleaning's: 2).
 KeyframeView MakeKeyframeView(const cv::Mat& depth_m, const cv::Mat& mask,
-                              const Eigen::Isometry3d& world_from_camera);
+                              const Eigen::Isometry3d& world_from_camera, int block = 2);
 
 struct MapCleaningResult {
   size_t seen_through = 0;        // voxels removed because the OctoMap calls their place free

@@ -30,7 +30,6 @@ struct MapperOptions {
   // A build whose cleaned map holds fewer points fails (exit 1) instead of writing files that
   // look like a result: 1000 points of 1 cm cover 0.1 m^2, less than one frame of a wall at 3 m.
   int min_map_points = 1000;
-
   void Validate() const;
   // The maps hold points within +-Extent() of the origin on every axis [m] (the voxel cloud's and,
   // when enabled, the OctoMap's key range).
@@ -63,6 +62,9 @@ struct MapperFrame {
   // (the cleaning reads the OctoMap too). Its view would cost 150 KB at 640 x 480, and took no
   // more ghosts away on the floor (docs/figures.md).
   bool rays_only = false;
+  // The moving pixels alone when `mask` also leaves out cells fused before (the grid's views
+  // take every static ray); empty: `mask` is the moving pixels.
+  cv::Mat moving_mask;
 };
 
 // Totals over all fused frames.
@@ -85,7 +87,7 @@ struct MapperStatistics {
 struct MapperMemory {
   size_t voxel_cloud = 0;  // the voxel table (VoxelCloud::MemoryBytes)
   size_t occupancy = 0;    // the OctoMap's nodes (OccupancyMap::MemoryBytes)
-  size_t views = 0;        // the fused frames' views kept for the map cleaning
+  size_t views = 0;        // the fused frames' views kept for the map cleaning and the grid
 };
 
 // The map a Mapper built, handed out once by Mapper::Finish.
@@ -95,6 +97,9 @@ struct FinishedMap {
   MapperStatistics statistics;
   std::vector<KeyframeView> views;  // of the fused frames, for the map cleaning
   std::vector<Camera> cameras;      // the views' cameras (KeyframeView::camera)
+  // Of the fused frames' whole depth, at a quarter resolution, for the grid (Mapper's
+  // keep_grid_views).
+  std::vector<KeyframeView> grid_views;
 
   // Cleans the cloud (MapCleaningOptions) against the OctoMap and the views; call once, before
   // the cloud is written. Reads the OctoMap only, so it may run while the OctoMap is written.
@@ -112,7 +117,10 @@ struct FinishedMap {
 
 class Mapper {
  public:
-  Mapper(const Camera& camera, const MapperOptions& options);
+  // keep_grid_views: keep a quarter-resolution view of each fused frame's whole depth (its
+  // moving pixels left out, not the cells fused before) for FinishedMap::grid_views: the grid's
+  // unseen layers (GridOptions::min_unseen_layer_m) need every ray.
+  Mapper(const Camera& camera, const MapperOptions& options, bool keep_grid_views = false);
   ~Mapper();
   Mapper(const Mapper&) = delete;
   Mapper& operator=(const Mapper&) = delete;
@@ -144,6 +152,7 @@ class Mapper {
 
  private:
   MapperOptions options_;
+  bool keep_grid_views_ = false;
   DepthBackProjector projector_;
   VoxelCloud cloud_;
   std::unique_ptr<OccupancyMap> occupancy_;  // of the current session
@@ -153,6 +162,7 @@ class Mapper {
   Camera camera_;
   std::vector<Camera> cameras_;                    // every camera so far; camera_ is the last
   std::vector<KeyframeView> views_;                // of the fused frames, for the cleaning
+  std::vector<KeyframeView> grid_views_;           // for the grid (keep_grid_views)
   std::vector<Eigen::Vector3f> occupancy_points_;  // owned by the background insertion
   void Fuse(const MapperFrame& frame);             // on the fusion thread in the background
   void WaitForOccupancy();

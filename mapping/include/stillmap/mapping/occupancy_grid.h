@@ -35,6 +35,16 @@ struct GridOptions {
   // cloud shows the floor there, else unknown. 0: off.
   double surface_spill_m = 0.025;
   double surface_spill_ratio = 64.0;
+  // Unseen layers (band_coverage.h): a free cell becomes unknown where the fused keyframes' rays
+  // left a layer of the band at least this thick uncrossed between layers they crossed, which is
+  // what a flat top seen only edge-on leaves (a table's 4 cm top from a camera 16 cm above it)
+  // [m]; 0: off. The rays are cast from every unseen_layer_block_step-th block of the keyframes'
+  // grid views (Mapper's keep_grid_views: 4 x 4 pixel blocks), across and down. Opt-in (0.03 for
+  // a robot that must keep from under tables): a real sensor's missing readings (dark or shiny
+  // surfaces) leave such layers too, and tum_fr3_teddy_200's grid lost a third of its free cells
+  // to them (docs/figures.md, seventieth session).
+  double min_unseen_layer_m = 0.0;
+  int unseen_layer_block_step = 1;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
   // (grid.floor "a b c d"); otherwise fitted to the map.
   std::optional<Eigen::Vector4d> floor;
@@ -75,6 +85,12 @@ struct GridOptions {
           "over [m] (0: off)");
     visit("surface_spill_ratio", self.surface_spill_ratio,
           "surface spill: how many times as many band points the neighbour holds");
+    visit("min_unseen_layer_m", self.min_unseen_layer_m,
+          "a free cell is unknown where the keyframes' rays left a layer of the band this thick "
+          "uncrossed between layers they crossed, as a table's top seen only edge-on does [m] "
+          "(0: off; 0.03 keeps a robot from under tables)");
+    visit("unseen_layer_block_step", self.unseen_layer_block_step,
+          "unseen layers: rays from every n-th 4 x 4 pixel block of the keyframes' depth");
     visit(
         "floor", self.floor,
         "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 [m] in the "
@@ -163,6 +179,9 @@ struct OccupancyGrid {
   // (GridOptions::surface_spill_m): made free or unknown.
   size_t spilled_cells = 0;
   bool start_made_free = false;  // the cell under the first camera was unknown, now free
+  // Free in the OctoMap, with a layer of the band no ray crossed (GridOptions::min_unseen_layer_m):
+  // made unknown.
+  size_t unseen_layer_cells = 0;
 
   // Whether cell (i, j) lies inside the grid.
   bool Contains(int i, int j) const { return i >= 0 && j >= 0 && i < width && j < height; }

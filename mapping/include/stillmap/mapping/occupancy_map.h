@@ -94,6 +94,7 @@ class OccupancyMap {
   size_t OccupiedLeafCount() const;
   size_t MemoryBytes() const;
   double resolution() const;
+  double max_range() const;  // OccupancyMapOptions::max_range: rays are truncated there [m]
 
   // Writes OctoMap's compact binary format (.bt: maximum-likelihood occupied/free only).
   void WriteBinary(const std::string& path) const;
