@@ -14,6 +14,7 @@
 
 #include "stillmap/io/camera.h"
 #include "stillmap/io/error.h"
+#include "stillmap/synth/synthetic.h"
 
 namespace stillmap {
 namespace {
@@ -23,16 +24,6 @@ constexpr double kWallX = 3.0;
 constexpr double kTableX0 = 1.2, kTableX1 = 2.0, kTableHalfY = 0.5;  // the top's extent [m]
 constexpr double kTopBottom = 0.72, kTopTop = 0.76;
 constexpr double kGrazingCos = 0.17;  // cos(80 degrees): nothing returns beyond it
-
-Camera TestCamera() {
-  Camera camera;
-  camera.width = 640;
-  camera.height = 480;
-  camera.fx = camera.fy = 525.0;
-  camera.cx = 319.5;
-  camera.cy = 239.5;
-  return camera;
-}
 
 // world_from_camera: at (0, 0, kEyeHeight), looking along +x, image x to -y, image y down.
 Eigen::Isometry3d WorldFromCamera() {
@@ -118,7 +109,7 @@ OccupancyGrid RoomGrid() {
 class BandCoverageTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const Camera camera = TestCamera();
+    const Camera camera = SynthCamera();
     coverage_.AddView(RenderView(camera), PixelRays(camera), camera.width, 4.0, 1);
   }
   // The unseen layer over the cell holding (x, y) [m].
@@ -176,7 +167,7 @@ TEST(BandCoverageViewsTest, LayersBetweenTwoViewsFansAreNotAHole) {
   // The bare room seen twice, once by the image's upper rows only and once by its lower rows:
   // the heights the middle rows would have crossed were not looked at, and nothing hid them.
   // The same rows missing from one view (a person masked out, say) are a hole in its fan.
-  const Camera camera = TestCamera();
+  const Camera camera = SynthCamera();
   const std::vector<Eigen::Vector2f> rays = PixelRays(camera);
   const OccupancyGrid grid = RoomGrid();
   const Eigen::Vector2i cell = *grid.CellAtGridPoint(2.02, 0.01);
