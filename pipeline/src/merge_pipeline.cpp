@@ -189,7 +189,6 @@ std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeS
   const MapCleaningResult cleaning = map.CleanCloud(config.mapping.cleaning);
   result->timings.map_cleaning_ms = MillisecondsSince(clean_start);
   result->map = MapFiguresOf(map, cleaning);
-  const std::vector<KeyframeView> views = std::move(map.grid_views);  // for the grid
   std::vector<VoxelPoint> cloud = map.TakeCloudPoints();
   if (cloud.size() < static_cast<size_t>(config.mapping.min_map_points)) {
     throw std::runtime_error(fmt::format(
@@ -200,8 +199,9 @@ std::vector<VoxelPoint> WriteMergedMap(FinishedMap map, const std::vector<MergeS
   const Eigen::Vector3d start =
       sessions[0].record().keyframes.front().map_from_camera.translation();
   const Clock::time_point grid_start = Clock::now();
-  result->grid = ProjectMapGrid(map, cloud, start, result->map_frame, config.grid, views,
-                                request.threads() > 1);
+  // The merge's mapper keeps no grid views: its grid makes no unseen-layer check.
+  result->grid =
+      ProjectMapGrid(map, cloud, start, result->map_frame, config.grid, {}, request.threads() > 1);
   result->timings.grid_ms = MillisecondsSince(grid_start);
   const MapFileOptions files{config.mesh, config.mapping.voxel.leaf_size, request.threads() > 1};
   result->mesh =

@@ -38,12 +38,6 @@ class BandCoverage {
   // lowest and the highest layer one view's rays crossed [m]; 0 when there is none.
   double UnseenLayer(int i, int j) const;
 
-  // Bytes it holds.
-  size_t MemoryBytes() const {
-    return (crossed_.size() + spanned_.size()) * sizeof(std::uint64_t) +
-           view_span_.size() * sizeof(std::pair<int, int>);
-  }
-
  private:
   // Marks the layers from height z0 to z1 [m] (either order) crossed over cell (i, j), and
   // widens the view's span over it.
