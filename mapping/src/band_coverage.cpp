@@ -19,7 +19,7 @@ std::uint64_t BitRange(int first, int last) {
 
 }  // namespace
 
-BandCoverage::BandCoverage(const OccupancyGrid& grid, double layer_m)
+BandCoverage::BandCoverage(const OccupancyGrid& grid, double layer_m, double grazing_deg)
     : width_(grid.width),
       height_(grid.height),
       resolution_(grid.resolution),
@@ -27,6 +27,8 @@ BandCoverage::BandCoverage(const OccupancyGrid& grid, double layer_m)
       grid_from_world_(grid.world_from_grid.inverse()),
       min_height_(grid.min_height),
       layer_m_(layer_m),
+      grazing_slope_(grazing_deg < 90.0 ? std::tan(grazing_deg * M_PI / 180.0)
+                                        : std::numeric_limits<double>::infinity()),
       layers_(std::max(
           1, static_cast<int>(std::ceil((grid.max_height - grid.min_height) / layer_m - 1e-9)))),
       words_((layers_ + kWordBits - 1) / kWordBits),
@@ -41,6 +43,7 @@ void BandCoverage::AddView(const KeyframeView& view, const std::vector<Eigen::Ve
   const Eigen::Isometry3d grid_from_camera =
       grid_from_world_ * view.camera_from_world.inverse().cast<double>();
   const Eigen::Vector3d centre = grid_from_camera.translation();
+  view_centre_ = centre;
   const int rows = view.depth.rows, cols = view.depth.cols;
   const int image_height = static_cast<int>(pixel_rays.size()) / image_width;
   const auto pixel = [&](int u, int v) -> const Eigen::Vector2f& {
@@ -73,10 +76,28 @@ void BandCoverage::AddView(const KeyframeView& view, const std::vector<Eigen::Ve
 void BandCoverage::CloseView() {
   for (const size_t index : touched_) {
     std::pair<int, int>& span = view_span_[index];
-    SetLayers(&spanned_, index, span.first, span.second);
+    const std::pair<int, int> grazing = GrazingLayers(index);
+    const int first = std::max(span.first, grazing.first);
+    const int last = std::min(span.second, grazing.second);
+    if (first <= last) SetLayers(&spanned_, index, first, last);
     span = kNoSpan;
   }
   touched_.clear();
+}
+
+std::pair<int, int> BandCoverage::GrazingLayers(size_t index) const {
+  if (std::isinf(grazing_slope_)) return {0, layers_ - 1};
+  const size_t row_length = static_cast<size_t>(width_);
+  const size_t i = index % row_length, j = index / row_length;
+  const Eigen::Vector2d cell_centre =
+      origin_ +
+      resolution_ * Eigen::Vector2d(static_cast<double>(i) + 0.5, static_cast<double>(j) + 0.5);
+  const double reach = grazing_slope_ * (cell_centre - view_centre_.head<2>()).norm();
+  const double lowest = std::floor((view_centre_.z() - reach - min_height_) / layer_m_);
+  const double highest = std::floor((view_centre_.z() + reach - min_height_) / layer_m_);
+  if (highest < 0.0 || lowest > layers_ - 1) return kNoSpan;
+  return {static_cast<int>(std::max(0.0, lowest)),
+          static_cast<int>(std::min<double>(layers_ - 1, highest))};
 }
 
 void BandCoverage::SetLayers(std::vector<std::uint64_t>* bits, size_t index, int first, int last) {

@@ -70,6 +70,10 @@ void GridOptions::Validate() const {
   if (unseen_layer_block_step < 1 || unseen_layer_block_step > 64) {
     throw InputError(fmt::format("{} must be 1..64", OptionKey(*this, unseen_layer_block_step)));
   }
+  if (!(unseen_layer_grazing_deg > 0.0 && unseen_layer_grazing_deg <= 90.0)) {
+    throw InputError(
+        fmt::format("{} must be in (0, 90] degrees", OptionKey(*this, unseen_layer_grazing_deg)));
+  }
   if (!(occupied_probability >= 0.5 && occupied_probability < 1.0)) {
     throw InputError(fmt::format("{} must be in [0.5, 1)", OptionKey(*this, occupied_probability)));
   }

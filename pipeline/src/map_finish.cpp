@@ -30,7 +30,7 @@ size_t UnknownWhereViewsLeaveLayersUnseen(const FinishedMap& map,
   for (size_t camera = 0; camera < rays.size(); ++camera)
     rays[camera] = PixelRays(map.cameras[camera]);
   auto cast = [&](size_t first, size_t last) {
-    BandCoverage coverage(*grid, kUnseenLayerStepM);
+    BandCoverage coverage(*grid, kUnseenLayerStepM, options.unseen_layer_grazing_deg);
     for (size_t k = first; k < last; ++k) {
       const auto camera = static_cast<size_t>(views[k].camera);
       coverage.AddView(views[k], rays[camera], map.cameras[camera].width,

@@ -25,15 +25,17 @@ constexpr double kTableX0 = 1.2, kTableX1 = 2.0, kTableHalfY = 0.5;  // the top'
 constexpr double kTopBottom = 0.72, kTopTop = 0.76;
 constexpr double kGrazingCos = 0.17;  // cos(80 degrees): nothing returns beyond it
 
-// world_from_camera: at (0, 0, kEyeHeight), looking along +x, image x to -y, image y down.
-Eigen::Isometry3d WorldFromCamera() {
+// world_from_camera: at (0, 0, height), looking along +x pitched down by pitch_deg, image x to
+// -y, image y down.
+Eigen::Isometry3d WorldFromCamera(double height = kEyeHeight, double pitch_deg = 0.0) {
+  const double pitch = pitch_deg * M_PI / 180.0;
   Eigen::Matrix3d axes;
   axes.col(0) = -Eigen::Vector3d::UnitY();
-  axes.col(1) = -Eigen::Vector3d::UnitZ();
-  axes.col(2) = Eigen::Vector3d::UnitX();
+  axes.col(1) = Eigen::Vector3d(-std::sin(pitch), 0.0, -std::cos(pitch));
+  axes.col(2) = Eigen::Vector3d(std::cos(pitch), 0.0, -std::sin(pitch));
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = axes;
-  pose.translation() = Eigen::Vector3d(0.0, 0.0, kEyeHeight);
+  pose.translation() = Eigen::Vector3d(0.0, 0.0, height);
   return pose;
 }
 
@@ -78,8 +80,8 @@ std::optional<Hit> Trace(const Eigen::Vector3d& eye, const Eigen::Vector3d& dir,
 // The camera's view of the scene (with the table or without), image rows [first_row, last_row)
 // only: the nearest reading of each 2 x 2 block, as the map keeps it.
 KeyframeView RenderView(const Camera& camera, bool table = true, int first_row = 0,
-                        int last_row = std::numeric_limits<int>::max()) {
-  const Eigen::Isometry3d world_from_camera = WorldFromCamera();
+                        int last_row = std::numeric_limits<int>::max(),
+                        const Eigen::Isometry3d& world_from_camera = WorldFromCamera()) {
   cv::Mat depth_m(camera.height, camera.width, CV_32FC1, cv::Scalar(0.0f));
   for (int v = std::max(0, first_row); v < std::min(camera.height, last_row); ++v) {
     for (int u = 0; u < camera.width; ++u) {
@@ -186,11 +188,45 @@ TEST(BandCoverageViewsTest, LayersBetweenTwoViewsFansAreNotAHole) {
   EXPECT_GE(one_view.UnseenLayer(cell.x(), cell.y()), 0.25);
 }
 
+TEST(BandCoverageViewsTest, ALayerMissedWhereAViewLooksSteeplyIsNoTopSeenEdgeOn) {
+  // The bare room from 1.6 m, pitched 40 degrees down, its rows 200-280 returning nothing (a dark
+  // patch of floor): over x = 1 m their rays pass at 0.62-0.88 m, 35-44 degrees below the
+  // camera. A flat top there would have returned a reading, so the hole is no top seen edge-on.
+  const Camera camera = SynthCamera();
+  const std::vector<Eigen::Vector2f> rays = PixelRays(camera);
+  const OccupancyGrid grid = RoomGrid();
+  const Eigen::Isometry3d steep = WorldFromCamera(1.6, 40.0);
+  KeyframeView view = RenderView(camera, false, 0, std::numeric_limits<int>::max(), steep);
+  const KeyframeView lower = RenderView(camera, false, 280, std::numeric_limits<int>::max(), steep);
+  view.depth = cv::max(RenderView(camera, false, 0, 200, steep).depth, lower.depth);
+  const Eigen::Vector2i cell = *grid.CellAtGridPoint(1.02, 0.01);
+  BandCoverage every_layer(grid, 0.01, 90.0);
+  every_layer.AddView(view, rays, camera.width, 4.0, 1);
+  EXPECT_GE(every_layer.UnseenLayer(cell.x(), cell.y()), 0.20);
+  BandCoverage grazing(grid, 0.01, 10.0);
+  grazing.AddView(view, rays, camera.width, 4.0, 1);
+  EXPECT_EQ(grazing.UnseenLayer(cell.x(), cell.y()), 0.0);
+}
+
+TEST_F(BandCoverageTest, ATopSeenEdgeOnIsWithinTheGrazingAngle) {
+  // From 0.90 m the top (0.72-0.76 m) over 1.2-2.0 m lies 4-7 degrees below the camera.
+  const Camera camera = SynthCamera();
+  BandCoverage grazing(grid_, 0.01, 10.0);
+  grazing.AddView(RenderView(camera), PixelRays(camera), camera.width, 4.0, 1);
+  const Eigen::Vector2i middle = *grid_.CellAtGridPoint(1.62, 0.01);
+  EXPECT_EQ(grazing.UnseenLayer(middle.x(), middle.y()), UnseenAt(1.62, 0.01));
+  EXPECT_GE(grazing.UnseenLayer(middle.x(), middle.y()), kTopTop - kTopBottom);
+}
+
 TEST(GridOptionsTest, UnseenLayerOptionsAreChecked) {
   GridOptions options;
   options.min_unseen_layer_m = -0.01;
   EXPECT_THROW(options.Validate(), InputError);
   options.min_unseen_layer_m = 0.0;  // off
+  EXPECT_NO_THROW(options.Validate());
+  options.unseen_layer_grazing_deg = 0.0;
+  EXPECT_THROW(options.Validate(), InputError);
+  options.unseen_layer_grazing_deg = 90.0;
   EXPECT_NO_THROW(options.Validate());
   options.unseen_layer_block_step = 0;
   EXPECT_THROW(options.Validate(), InputError);

@@ -60,10 +60,10 @@ struct FieldCount {
 // instead, which compiles only with exactly as many names as the struct has fields.
 template <>
 struct FieldCount<GridOptions> {
-  static constexpr size_t kValue = 17;
+  static constexpr size_t kValue = 18;
 };
-[[maybe_unused]] void GridOptionsHasSeventeenFields(GridOptions& options) {
-  [[maybe_unused]] auto& [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o, p, q] = options;
+[[maybe_unused]] void GridOptionsHasEighteenFields(GridOptions& options) {
+  [[maybe_unused]] auto& [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o, p, q, r] = options;
 }
 
 template <typename Options>

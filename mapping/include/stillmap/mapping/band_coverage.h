@@ -5,7 +5,10 @@
 // top. In layers of a centimetre the top is what it is: a hole in one view's fan of rays over the
 // cell, with rays of that view under it and over it, that no view's rays crossed. Layers between
 // the fans of different views (one looked at the cell from afar and low, another from near and
-// high) are no such hole: nothing was in the way, they were not looked at.
+// high) are no such hole: nothing was in the way, they were not looked at. Nor are layers a view
+// looks at more steeply than a sensor's grazing limit: a flat top there would have returned a
+// reading, so what its rays missed there is a patch the sensor returned nothing for (a dark or
+// distant surface), not a top seen edge-on.
 #pragma once
 
 #include <cstdint>
@@ -20,8 +23,10 @@ namespace stillmap {
 
 class BandCoverage {
  public:
-  // The cells, frame and band of `grid`, in layers layer_m thick [m].
-  BandCoverage(const OccupancyGrid& grid, double layer_m);
+  // The cells, frame and band of `grid`, in layers layer_m thick [m]. A view's span over a cell
+  // counts only the layers within grazing_deg [deg] of its camera's level, seen from the camera
+  // (90: every layer).
+  BandCoverage(const OccupancyGrid& grid, double layer_m, double grazing_deg = 90.0);
 
   // The rays from the view's camera to each of its readings, every `step`-th block across and
   // down, each as wide as its share of the view: crossed up to the reading, or up to max_range_m
@@ -46,6 +51,9 @@ class BandCoverage {
   void SetLayers(std::vector<std::uint64_t>* bits, size_t index, int first, int last);
   // The view's spans into spanned_, and cleared for the next view.
   void CloseView();
+  // The layers over cell `index` that the view's camera sees within the grazing angle of its
+  // level (first > last: none).
+  std::pair<int, int> GrazingLayers(size_t index) const;
   // The segment from a to b (grid frame [m]) walked cell by cell (Amanatides and Woo), the
   // heights it crosses widened by half_spread [rad] times the distance from a: the ray's share
   // of the view, so that a fan of rays leaves no holes of its own.
@@ -56,6 +64,8 @@ class BandCoverage {
   Eigen::Vector2d origin_ = Eigen::Vector2d::Zero();
   Eigen::Isometry3d grid_from_world_ = Eigen::Isometry3d::Identity();
   double min_height_ = 0.0, layer_m_ = 0.01;
+  double grazing_slope_ = 0.0;  // tan(grazing_deg); infinite at 90 degrees
+  Eigen::Vector3d view_centre_ = Eigen::Vector3d::Zero();  // the view being added's camera
   int layers_ = 0, words_ = 0;
   // Per cell (row-major as OccupancyGrid::cells), words_ each: the layers any ray crossed, and
   // those between the lowest and the highest layer one view's rays crossed.

@@ -39,12 +39,16 @@ struct GridOptions {
   // left a layer of the band at least this thick uncrossed between layers they crossed, which is
   // what a flat top seen only edge-on leaves (a table's 4 cm top from a camera 16 cm above it)
   // [m]; 0: off. The rays are cast from every unseen_layer_block_step-th block of the keyframes'
-  // grid views (Mapper's keep_grid_views: 4 x 4 pixel blocks), across and down. Opt-in (0.03 for
-  // a robot that must keep from under tables): a real sensor's missing readings (dark or shiny
-  // surfaces) leave such layers too, and tum_fr3_teddy_200's grid lost a third of its free cells
-  // to them (docs/figures.md, seventieth session).
-  double min_unseen_layer_m = 0.0;
+  // grid views (Mapper's keep_grid_views: 4 x 4 pixel blocks), across and down. 3 cm: a table's
+  // top is 2-5 cm thick, and thinner layers are the gaps a fan of rays leaves between its rays.
+  double min_unseen_layer_m = 0.03;
   int unseen_layer_block_step = 1;
+  // Unseen layers: a keyframe counts a layer over a cell as missed only where it sees that layer
+  // within this angle of its camera's level [deg], where a flat top would return nothing: depth
+  // sensors give no reading beyond about 80 degrees of incidence (the synthetic sensor none
+  // beyond cos 0.17). Layers it looks at more steeply and missed are patches the sensor returned
+  // nothing for (dark or distant surfaces). 90: every layer.
+  double unseen_layer_grazing_deg = 10.0;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
   // (grid.floor "a b c d"); otherwise fitted to the map.
   std::optional<Eigen::Vector4d> floor;
@@ -88,9 +92,12 @@ struct GridOptions {
     visit("min_unseen_layer_m", self.min_unseen_layer_m,
           "a free cell is unknown where the keyframes' rays left a layer of the band this thick "
           "uncrossed between layers they crossed, as a table's top seen only edge-on does [m] "
-          "(0: off; 0.03 keeps a robot from under tables)");
+          "(0: off)");
     visit("unseen_layer_block_step", self.unseen_layer_block_step,
           "unseen layers: rays from every n-th 4 x 4 pixel block of the keyframes' depth");
+    visit("unseen_layer_grazing_deg", self.unseen_layer_grazing_deg,
+          "unseen layers: a keyframe counts a layer as missed only where it sees it within this "
+          "angle of its camera's level, where a flat top returns no depth [deg] (90: every layer)");
     visit(
         "floor", self.floor,
         "auto (fit a plane to the map) or 'a b c d': the floor a x + b y + c z + d = 0 [m] in the "
