@@ -45,9 +45,9 @@ struct GridOptions {
   int unseen_layer_block_step = 1;
   // Unseen layers: a keyframe counts a layer over a cell as missed only where it sees that layer
   // within this angle of its camera's level [deg], where a flat top would return nothing: depth
-  // sensors give no reading beyond about 80 degrees of incidence (the synthetic sensor none
-  // beyond cos 0.17). Layers it looks at more steeply and missed are patches the sensor returned
-  // nothing for (dark or distant surfaces). 90: every layer.
+  // sensors lose their readings near grazing incidence (the synthetic sensor gives none beyond
+  // cos 0.17, 80 degrees). Layers it looks at more steeply and missed are patches the sensor
+  // returned nothing for (dark or distant surfaces). 90: every layer.
   double unseen_layer_grazing_deg = 10.0;
   // The floor plane in the map's world frame, n.x + d = 0 with n pointing up, when given
   // (grid.floor "a b c d"); otherwise fitted to the map.
