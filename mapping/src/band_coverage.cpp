@@ -43,7 +43,6 @@ void BandCoverage::AddView(const KeyframeView& view, const std::vector<Eigen::Ve
   const Eigen::Isometry3d grid_from_camera =
       grid_from_world_ * view.camera_from_world.inverse().cast<double>();
   const Eigen::Vector3d centre = grid_from_camera.translation();
-  view_centre_ = centre;
   const int rows = view.depth.rows, cols = view.depth.cols;
   const int image_height = static_cast<int>(pixel_rays.size()) / image_width;
   const auto pixel = [&](int u, int v) -> const Eigen::Vector2f& {
@@ -70,13 +69,13 @@ void BandCoverage::AddView(const KeyframeView& view, const std::vector<Eigen::Ve
       Walk(centre, grid_from_camera * in_camera, half_spread);
     }
   }
-  CloseView();
+  CloseView(centre);
 }
 
-void BandCoverage::CloseView() {
+void BandCoverage::CloseView(const Eigen::Vector3d& centre) {
   for (const size_t index : touched_) {
     std::pair<int, int>& span = view_span_[index];
-    const std::pair<int, int> grazing = GrazingLayers(index);
+    const std::pair<int, int> grazing = GrazingLayers(index, centre);
     const int first = std::max(span.first, grazing.first);
     const int last = std::min(span.second, grazing.second);
     if (first <= last) SetLayers(&spanned_, index, first, last);
@@ -85,16 +84,20 @@ void BandCoverage::CloseView() {
   touched_.clear();
 }
 
-std::pair<int, int> BandCoverage::GrazingLayers(size_t index) const {
+std::pair<int, int> BandCoverage::GrazingLayers(size_t index, const Eigen::Vector3d& centre) const {
   if (std::isinf(grazing_slope_)) return {0, layers_ - 1};
   const size_t row_length = static_cast<size_t>(width_);
   const size_t i = index % row_length, j = index / row_length;
   const Eigen::Vector2d cell_centre =
       origin_ +
       resolution_ * Eigen::Vector2d(static_cast<double>(i) + 0.5, static_cast<double>(j) + 0.5);
-  const double reach = grazing_slope_ * (cell_centre - view_centre_.head<2>()).norm();
-  const double lowest = std::floor((view_centre_.z() - reach - min_height_) / layer_m_);
-  const double highest = std::floor((view_centre_.z() + reach - min_height_) / layer_m_);
+  const double reach = grazing_slope_ * (cell_centre - centre.head<2>()).norm();
+  return Layers(centre.z() - reach, centre.z() + reach);
+}
+
+std::pair<int, int> BandCoverage::Layers(double z0, double z1) const {
+  const double lowest = std::floor((z0 - min_height_) / layer_m_);
+  const double highest = std::floor((z1 - min_height_) / layer_m_);
   if (highest < 0.0 || lowest > layers_ - 1) return kNoSpan;
   return {static_cast<int>(std::max(0.0, lowest)),
           static_cast<int>(std::min<double>(layers_ - 1, highest))};
@@ -144,11 +147,8 @@ void BandCoverage::Walk(const Eigen::Vector3d& a, const Eigen::Vector3d& b, doub
 void BandCoverage::Mark(int i, int j, double z0, double z1) {
   if (i < 0 || j < 0 || i >= width_ || j >= height_) return;
   if (z0 > z1) std::swap(z0, z1);
-  const double lowest = std::floor((z0 - min_height_) / layer_m_);
-  const double highest = std::floor((z1 - min_height_) / layer_m_);
-  if (highest < 0.0 || lowest > layers_ - 1) return;
-  const int first = static_cast<int>(std::max(0.0, lowest));
-  const int last = static_cast<int>(std::min<double>(layers_ - 1, highest));
+  const auto [first, last] = Layers(z0, z1);
+  if (first > last) return;
   const size_t index =
       static_cast<size_t>(j) * static_cast<size_t>(width_) + static_cast<size_t>(i);
   SetLayers(&crossed_, index, first, last);

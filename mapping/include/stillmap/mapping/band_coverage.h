@@ -49,11 +49,14 @@ class BandCoverage {
   void Mark(int i, int j, double z0, double z1);
   // Sets `words` per cell of `bits` over layers [first, last] of cell `index`.
   void SetLayers(std::vector<std::uint64_t>* bits, size_t index, int first, int last);
-  // The view's spans into spanned_, and cleared for the next view.
-  void CloseView();
-  // The layers over cell `index` that the view's camera sees within the grazing angle of its
+  // The view's spans into spanned_, each within the layers its camera at `centre` (grid frame
+  // [m]) sees near edge-on (GrazingLayers), and cleared for the next view.
+  void CloseView(const Eigen::Vector3d& centre);
+  // The layers over cell `index` that a camera at `centre` sees within the grazing angle of its
   // level (first > last: none).
-  std::pair<int, int> GrazingLayers(size_t index) const;
+  std::pair<int, int> GrazingLayers(size_t index, const Eigen::Vector3d& centre) const;
+  // The layers from height z0 up to z1 [m], within the band (first > last: none).
+  std::pair<int, int> Layers(double z0, double z1) const;
   // The segment from a to b (grid frame [m]) walked cell by cell (Amanatides and Woo), the
   // heights it crosses widened by half_spread [rad] times the distance from a: the ray's share
   // of the view, so that a fan of rays leaves no holes of its own.
@@ -65,7 +68,6 @@ class BandCoverage {
   Eigen::Isometry3d grid_from_world_ = Eigen::Isometry3d::Identity();
   double min_height_ = 0.0, layer_m_ = 0.01;
   double grazing_slope_ = 0.0;  // tan(grazing_deg); infinite at 90 degrees
-  Eigen::Vector3d view_centre_ = Eigen::Vector3d::Zero();  // the view being added's camera
   int layers_ = 0, words_ = 0;
   // Per cell (row-major as OccupancyGrid::cells), words_ each: the layers any ray crossed, and
   // those between the lowest and the highest layer one view's rays crossed.
