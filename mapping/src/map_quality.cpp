@@ -8,6 +8,10 @@
 #include <cmath>
 #include <limits>
 #include <thread>
+#include <utility>
+#include <vector>
+
+#include "cell_grid.h"
 
 namespace stillmap {
 namespace {
@@ -19,24 +23,40 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr ToPcl(const std::vector<VoxelPoint>& points)
   return cloud;
 }
 
-// Distance from every query point to its nearest neighbour in `tree`, searched within `radius`
-// only (an exact search is slow for points far from every data point: 415 s for the ghosts of a
-// walking sequence). Points without a neighbour in that radius get +infinity. Two threads.
-std::vector<float> NearestWithin(const pcl::KdTreeFLANN<pcl::PointXYZ>& tree,
-                                 const pcl::PointCloud<pcl::PointXYZ>& queries, double radius) {
-  std::vector<float> distances(queries.size());
-  auto run = [&](size_t begin, size_t end) {
-    std::vector<int> index;
-    std::vector<float> squared;
-    for (size_t i = begin; i < end; ++i) {
-      distances[i] = tree.radiusSearch(queries[i], radius, index, squared, 1) > 0
-                         ? std::sqrt(squared[0])
-                         : std::numeric_limits<float>::infinity();
-    }
-  };
-  std::thread helper(run, 0, queries.size() / 2);
-  run(queries.size() / 2, queries.size());
+// Runs work(begin, end) over [0, count) on two threads, the first half on a helper.
+template <typename Work>
+void OnTwoThreads(size_t count, Work work) {
+  std::thread helper(work, size_t{0}, count / 2);
+  work(count / 2, count);
   helper.join();
+}
+
+// For every point of `queries` (in its grid's order), the distance to its nearest point of `data`
+// if one lies within `radius` (at most the grids' edge), else +infinity. Two threads.
+std::vector<float> NearestWithin(const CellGrid& queries, const CellGrid& data, float radius) {
+  std::vector<float> distances(queries.points().size());
+  const float radius_squared = radius * radius;
+  OnTwoThreads(queries.cells(), [&](size_t begin, size_t end) {
+    std::vector<std::pair<const Eigen::Vector3f*, const Eigen::Vector3f*>> near;
+    for (size_t cell = begin; cell < end; ++cell) {
+      near.clear();
+      queries.ForNeighbours(data, cell,
+                            [&](const Eigen::Vector3f* first, const Eigen::Vector3f* last) {
+                              near.emplace_back(first, last);
+                            });
+      for (const Eigen::Vector3f* q = queries.begin(cell); q != queries.end(cell); ++q) {
+        float best = std::numeric_limits<float>::infinity();
+        for (const auto& [first, last] : near) {
+          for (const Eigen::Vector3f* p = first; p != last; ++p) {
+            const float dx = q->x() - p->x(), dy = q->y() - p->y(), dz = q->z() - p->z();
+            best = std::min(best, dx * dx + dy * dy + dz * dz);
+          }
+        }
+        distances[static_cast<size_t>(q - queries.points().data())] =
+            best <= radius_squared ? std::sqrt(best) : std::numeric_limits<float>::infinity();
+      }
+    }
+  });
   return distances;
 }
 
@@ -55,18 +75,15 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr CoarseCloud(const std::vector<VoxelPoint>& p
   return ToPcl(voxels.Points());
 }
 
-// Accuracy and ghosts: the map against the ground truth. Its search trees go before the
-// completeness builds the map's own (the two together were the evaluation's peak).
-void MeasureAccuracy(const pcl::PointCloud<pcl::PointXYZ>& map_cloud,
-                     const std::vector<VoxelPoint>& static_groundtruth,
+// Accuracy and ghosts: the map against the ground truth's grid.
+void MeasureAccuracy(const CellGrid& map, const CellGrid& groundtruth,
+                     const pcl::PointCloud<pcl::PointXYZ>::Ptr& coarse_groundtruth,
                      const MapQualityOptions& options, MapQuality* quality) {
-  pcl::KdTreeFLANN<pcl::PointXYZ> groundtruth_tree;
-  groundtruth_tree.setInputCloud(ToPcl(static_groundtruth));
   std::vector<float> to_groundtruth =
-      NearestWithin(groundtruth_tree, map_cloud, options.ghost_distance);
+      NearestWithin(map, groundtruth, static_cast<float>(options.ghost_distance));
   // Ghosts (nothing within the radius): their distance to the coarse ground truth.
   pcl::KdTreeFLANN<pcl::PointXYZ> coarse_tree;
-  coarse_tree.setInputCloud(CoarseCloud(static_groundtruth));
+  coarse_tree.setInputCloud(coarse_groundtruth);
   std::vector<int> index(1);
   std::vector<float> squared(1);
   size_t ghosts = 0, on_surface = 0;
@@ -75,7 +92,9 @@ void MeasureAccuracy(const pcl::PointCloud<pcl::PointXYZ>& map_cloud,
     if (to_groundtruth[i] <= options.surface_distance) ++on_surface;
     if (std::isinf(to_groundtruth[i])) {
       ++ghosts;
-      coarse_tree.nearestKSearch(map_cloud[i], 1, index, squared);
+      pcl::PointXYZ query;
+      query.getVector3fMap() = map.points()[i];
+      coarse_tree.nearestKSearch(query, 1, index, squared);
       to_groundtruth[i] =
           std::max(static_cast<float>(options.ghost_distance), std::sqrt(squared[0]));
     }
@@ -90,24 +109,35 @@ void MeasureAccuracy(const pcl::PointCloud<pcl::PointXYZ>& map_cloud,
   quality->accuracy_median = to_groundtruth[to_groundtruth.size() / 2];
 }
 
+std::vector<Eigen::Vector3f> Positions(const std::vector<VoxelPoint>& points,
+                                       const Eigen::Isometry3f& transform) {
+  std::vector<Eigen::Vector3f> positions;
+  positions.reserve(points.size());
+  for (const VoxelPoint& point : points) positions.push_back(transform * point.position);
+  return positions;
+}
+
 }  // namespace
 
 MapQuality EvaluateMap(const std::vector<VoxelPoint>& map,
-                       const std::vector<VoxelPoint>& static_groundtruth,
-                       const MapQualityOptions& options) {
+                       std::vector<VoxelPoint> static_groundtruth, const MapQualityOptions& options,
+                       const Eigen::Isometry3f& groundtruth_from_map) {
   MapQuality quality;
   quality.map_points = map.size();
   quality.groundtruth_points = static_groundtruth.size();
   if (map.empty() || static_groundtruth.empty()) return quality;
-  const auto map_cloud = ToPcl(map);
-  MeasureAccuracy(*map_cloud, static_groundtruth, options, &quality);
-
-  pcl::KdTreeFLANN<pcl::PointXYZ> map_tree;
-  map_tree.setInputCloud(map_cloud);
-  // The truth as queries is made again rather than kept from the accuracy's tree: kept, it would
-  // sit beside the map's tree.
+  // One edge for both grids: every search radius fits in it. The truth's points go once its
+  // grid and coarse copy are made.
+  const auto edge =
+      static_cast<float>(std::max(options.ghost_distance, options.completeness_distance));
+  const pcl::PointCloud<pcl::PointXYZ>::Ptr coarse = CoarseCloud(static_groundtruth);
+  const CellGrid groundtruth_grid(Positions(static_groundtruth, Eigen::Isometry3f::Identity()),
+                                  edge);
+  std::vector<VoxelPoint>().swap(static_groundtruth);
+  const CellGrid map_grid(Positions(map, groundtruth_from_map), edge);
+  MeasureAccuracy(map_grid, groundtruth_grid, coarse, options, &quality);
   const std::vector<float> to_map =
-      NearestWithin(map_tree, *ToPcl(static_groundtruth), options.completeness_distance);
+      NearestWithin(groundtruth_grid, map_grid, static_cast<float>(options.completeness_distance));
   const size_t covered = static_cast<size_t>(
       std::count_if(to_map.begin(), to_map.end(), [](float d) { return !std::isinf(d); }));
   quality.completeness = static_cast<double>(covered) / static_cast<double>(to_map.size());

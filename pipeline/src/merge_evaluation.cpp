@@ -77,9 +77,7 @@ std::optional<MapQuality> EvaluateMergedMap(const std::vector<MergeSession>& ses
   }
   if (truths.empty()) return std::nullopt;
   const Eigen::Isometry3f truth_from_map = FitPoses(truths, estimates).cast<float>();
-  std::vector<VoxelPoint> points = cloud;
-  for (VoxelPoint& point : points) point.position = truth_from_map * point.position;
-  return EvaluateMap(points, ReadCloud((folder / "static_gt.ply").string()));
+  return EvaluateMap(cloud, ReadCloud((folder / "static_gt.ply").string()), {}, truth_from_map);
 }
 
 }  // namespace
