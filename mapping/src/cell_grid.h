@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include "voxel_key.h"
+
 namespace stillmap {
 
 // The points, in the order of their cells' keys, and each occupied cell's key and first point.
@@ -25,7 +27,7 @@ class CellGrid {
         [this](const Eigen::Vector3f& a, const Eigen::Vector3f& b) { return Key(a) < Key(b); });
     points_ = std::move(points);
     for (size_t i = 0; i < points_.size(); ++i) {
-      const std::uint64_t key = Key(points_[i]);
+      const std::int64_t key = Key(points_[i]);
       if (keys_.empty() || keys_.back() != key) {
         keys_.push_back(key);
         first_.push_back(static_cast<std::uint32_t>(i));
@@ -43,11 +45,11 @@ class CellGrid {
   // points: calls visit(begin, end) for each.
   template <typename Visit>
   void ForNeighbours(const CellGrid& other, size_t cell, Visit visit) const {
-    const std::uint64_t key = keys_[cell];
+    const Eigen::Array3i c = Cell(*begin(cell));
     for (int dx = -1; dx <= 1; ++dx) {
       for (int dy = -1; dy <= 1; ++dy) {
         for (int dz = -1; dz <= 1; ++dz) {
-          const std::uint64_t neighbour = Shifted(key, dx, dy, dz);
+          const std::int64_t neighbour = VoxelKey(c.x() + dx, c.y() + dy, c.z() + dz);
           const auto it = std::lower_bound(other.keys_.begin(), other.keys_.end(), neighbour);
           if (it == other.keys_.end() || *it != neighbour) continue;
           const size_t found = static_cast<size_t>(it - other.keys_.begin());
@@ -58,38 +60,26 @@ class CellGrid {
   }
 
  private:
-  static constexpr int kBits = 21;  // per axis: +-2^20 cells (+-52 km at 5 cm)
-  static constexpr std::int64_t kOffset = std::int64_t{1} << (kBits - 1);
-  static constexpr std::int64_t kLast = (std::int64_t{1} << kBits) - 1;
-
   // The cells are a little larger than asked, so that a point's cell, rounded in float, never
   // leaves a point within the edge two cells away.
   static constexpr float kEdgeMargin = 1e-3f;
 
-  // Cells beyond the key's range are clamped to its edge: their points share the edge's cells,
-  // where a search still measures every distance.
-  std::uint64_t Key(const Eigen::Vector3f& p) const {
-    std::uint64_t key = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-      const float cell = std::floor(p[axis] * per_metre_) + static_cast<float>(kOffset);
-      const float clamped = std::clamp(cell, 1.0f, static_cast<float>(kLast - 1));
-      key = (key << kBits) | static_cast<std::uint64_t>(clamped);
-    }
-    return key;
+  // Clamped so that any finite point has a cell; VoxelKey wraps cells beyond +-2^20 onto
+  // others, whose searches then measure a few more distances, never fewer.
+  int Axis(float coordinate) const {
+    return static_cast<int>(std::clamp(std::floor(coordinate * per_metre_), -1e9f, 1e9f));
   }
-
-  static std::uint64_t Shifted(std::uint64_t key, int dx, int dy, int dz) {
-    const std::uint64_t mask = static_cast<std::uint64_t>(kLast);
-    const std::int64_t x = static_cast<std::int64_t>((key >> (2 * kBits)) & mask) + dx;
-    const std::int64_t y = static_cast<std::int64_t>((key >> kBits) & mask) + dy;
-    const std::int64_t z = static_cast<std::int64_t>(key & mask) + dz;
-    return (static_cast<std::uint64_t>(x) << (2 * kBits)) |
-           (static_cast<std::uint64_t>(y) << kBits) | static_cast<std::uint64_t>(z);
+  Eigen::Array3i Cell(const Eigen::Vector3f& p) const {
+    return {Axis(p.x()), Axis(p.y()), Axis(p.z())};
+  }
+  std::int64_t Key(const Eigen::Vector3f& p) const {
+    const Eigen::Array3i c = Cell(p);
+    return VoxelKey(c.x(), c.y(), c.z());
   }
 
   float per_metre_;                      // 1 / the cells' edge
   std::vector<Eigen::Vector3f> points_;  // sorted by Key
-  std::vector<std::uint64_t> keys_;      // each occupied cell's, ascending
+  std::vector<std::int64_t> keys_;       // each occupied cell's, ascending
   std::vector<std::uint32_t> first_;     // each cell's first point; then points_.size()
 };
 
