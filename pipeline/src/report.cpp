@@ -401,6 +401,14 @@ std::vector<std::string> SummaryLines(const BuildResult& result, const std::stri
         "mm of height and {:.2f} degrees of tilt (median deviations)",
         OptionKey(&TrackerOptions::planar_motion), plane.height_median_deviation_m * 1e3,
         plane.tilt_median_deviation_deg));
+    const std::optional<FloorUpFigures>& floor = result.tracking->planar_floor;
+    if (floor && floor->taken) {
+      lines.push_back(fmt::format(
+          "the camera's tilt taken from the floor {} of {} keyframes saw: {:.2f} degrees from the "
+          "tracked poses' (normals within {:.2f} degrees of their median)",
+          floor->keyframes_seeing_floor, floor->keyframes_read, floor->change_deg,
+          floor->spread_deg));
+    }
   }
   size_t apart_frames = 0, apart_segments = 0;
   for (const SegmentSummary& segment : result.segments) {

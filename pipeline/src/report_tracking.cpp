@@ -66,6 +66,15 @@ json PlanarMotionJson(const TrackingFigures& tracking, const TrackerOptions& opt
   out["tracked_height_median_deviation_m"] = plane.height_median_deviation_m;  // "auto" reads
   out["tracked_tilt_median_deviation_deg"] = plane.tilt_median_deviation_deg;  // these two
   out["heading_spread"] = plane.heading_spread;
+  if (tracking.planar_floor) {  // up_in_camera is the floor's where taken
+    const FloorUpFigures& floor = *tracking.planar_floor;
+    out["tilt_from_floor"] = {{"keyframes_read", floor.keyframes_read},
+                              {"keyframes_seeing_floor", floor.keyframes_seeing_floor},
+                              {"taken", floor.taken},
+                              {"tracked_up_in_camera", vector(floor.tracked_up_in_camera)},
+                              {"change_deg", floor.change_deg},
+                              {"spread_deg", floor.spread_deg}};
+  }
   return out;
 }
 

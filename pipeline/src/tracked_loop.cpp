@@ -6,6 +6,7 @@
 #include <string>
 
 #include "dense_refinement.h"
+#include "floor_up.h"
 #include "keyframe_fuser.h"
 #include "pose_loops.h"
 #include "segment_output.h"
@@ -81,11 +82,13 @@ void SegmentsOntoPlane(const PlanarMotion& plane, const SegmentKeeper& segments,
 
 // tracking.planar_motion: the poses of the map's segments (`in_map`, by frame) fix the plane of
 // motion (nothing when the camera turned too little to find it); their frames and keyframes are
-// put on it, in "auto" only when they kept to it as a robot's do. Segments never joined stay as
+// put on it, in "auto" only when they kept to it as a robot's do, with the camera's tilt from the
+// floor its keyframes saw (tracking.planar_motion_floor_enabled). Segments never joined stay as
 // tracked, in frames of their own.
-void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments,
-                const std::vector<bool>& in_map, Trajectory* trajectory,
-                std::map<int, Eigen::Isometry3d>* world_from_keyframe, TrackingFigures* figures) {
+void PutOnPlane(const Camera& camera, const TrackerOptions& options, const KeyframeFuser& fuser,
+                const SegmentKeeper& segments, const std::vector<bool>& in_map,
+                Trajectory* trajectory, std::map<int, Eigen::Isometry3d>* world_from_keyframe,
+                TrackingFigures* figures) {
   const std::vector<StampedPose>& tracked = trajectory->poses();
   std::vector<Eigen::Isometry3d> poses;
   poses.reserve(tracked.size());
@@ -95,7 +98,13 @@ void PutOnPlane(PlanarMotionMode mode, const SegmentKeeper& segments,
   figures->planar_motion = FitPlanarMotion(poses);
   figures->planar_motion_refused = !figures->planar_motion && !trajectory->empty();
   if (!figures->planar_motion) return;
-  if (mode == PlanarMotionMode::kAuto && !KeptToPlane(*figures->planar_motion)) return;
+  if (options.planar_motion == PlanarMotionMode::kAuto && !KeptToPlane(*figures->planar_motion)) {
+    return;
+  }
+  if (options.planar_floor.enabled) {
+    figures->planar_floor = UpFromFloor(camera, fuser, segments, options.planar_floor,
+                                        &figures->planar_motion->up_in_camera);
+  }
   SegmentsOntoPlane(*figures->planar_motion, segments, in_map, trajectory, world_from_keyframe);
   figures->planar_motion_applied = true;
 }
@@ -231,7 +240,7 @@ void SettlePoses(const Camera& camera, const LoopOptions& options,
   // The frames of the map's segments: the steps below move poses, never frames or segments.
   const std::vector<bool> in_map = segments.FramesInMap(*trajectory);
   if (options.tracking.planar_motion != PlanarMotionMode::kOff) {
-    PutOnPlane(options.tracking.planar_motion, segments, in_map, trajectory, final_poses, figures);
+    PutOnPlane(camera, options.tracking, fuser, segments, in_map, trajectory, final_poses, figures);
     if (std::optional<std::string> warning = PlanarMotionWarning(*figures, options.tracking)) {
       warnings->push_back(std::move(*warning));
     }

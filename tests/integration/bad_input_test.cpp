@@ -191,6 +191,13 @@ TEST_F(BadInputTest, UnknownPlanarMotionModeIsRefused) {
   ExpectRefused("tracking.planar_motion", "--set tracking.planar_motion=sometimes");
 }
 
+TEST_F(BadInputTest, ImpossibleFloorTiltOptionsAreRefused) {
+  ExpectRefused("tracking.planar_motion_floor_max_angle_deg",
+                "--set tracking.planar_motion_floor_max_angle_deg=0");
+  ExpectRefused("tracking.planar_motion_floor_min_keyframes",
+                "--set tracking.planar_motion_floor_min_keyframes=400");
+}
+
 TEST_F(BadInputTest, BadMotionLevelIsRefused) {
   ExpectRefused("detector.levels", "--set detector.levels=chair=sometimes");
 }

@@ -186,8 +186,25 @@ void LoopClosureOptions::Validate() const {
           key(loop_handover_frames), key(global_bundle_adjustment_handover_frames));
 }
 
+void FloorNormalOptions::Validate() const {
+  const OptionKeys key(*this);
+  Require(stride_px >= 1 && stride_px <= 64, "{} must be 1..64", key(stride_px));
+  Require(max_depth_m > 0.0 && layer_m > 0.0 && inlier_m > 0.0, "{}, {} and {} must be positive",
+          key(max_depth_m), key(layer_m), key(inlier_m));
+  Require(min_layer_share >= 0.0 && min_layer_share <= 1.0, "{} must lie in [0, 1]",
+          key(min_layer_share));
+  Require(min_points >= 3, "{} must be at least 3", key(min_points));
+  Require(max_angle_deg > 0.0 && max_angle_deg <= 90.0, "{} must lie in (0, 90]",
+          key(max_angle_deg));
+  Require(min_keyframes >= 1 && max_keyframes >= min_keyframes,
+          "{} must be at least 1 and {} "
+          "at least {}",
+          key(min_keyframes), key(max_keyframes), key(min_keyframes));
+}
+
 void TrackerOptions::Validate() const {
   features.Validate();
+  planar_floor.Validate();
   matching.Validate();
   local_map.Validate();
   const OptionKeys key(*this);

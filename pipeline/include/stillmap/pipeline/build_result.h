@@ -59,6 +59,16 @@ struct FrameCounts {
   size_t frozen_colour = 0;
 };
 
+// The camera's up on its mount from the floor the map's keyframes saw (floor_normal.h).
+struct FloorUpFigures {
+  size_t keyframes_read = 0;
+  size_t keyframes_seeing_floor = 0;
+  Eigen::Vector3d tracked_up_in_camera = Eigen::Vector3d::UnitZ();  // the poses' mean
+  bool taken = false;       // enough keyframes saw the floor: the plane took their median up
+  double change_deg = 0.0;  // between the tracked up and the floor's
+  double spread_deg = 0.0;  // the floors' normals from their median (median angle)
+};
+
 // Per-frame tracking figures (tracked runs).
 struct TrackingFigures {
   std::optional<DenseRefinementFigures> dense_refinement;  // final_poses.dense_enabled
@@ -88,6 +98,9 @@ struct TrackingFigures {
   std::optional<PlanarMotion> planar_motion;
   bool planar_motion_refused = false;
   bool planar_motion_applied = false;
+  // tracking.planar_motion_floor_*: the camera's up from the floor its keyframes saw, where the
+  // plane was applied (nothing when off).
+  std::optional<FloorUpFigures> planar_floor;
 };
 
 // Keyframe selection and the map re-check (tracked runs; with known poses every frame is fused).

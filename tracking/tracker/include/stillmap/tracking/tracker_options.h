@@ -7,6 +7,7 @@
 #include "stillmap/tracking/bundle_adjustment.h"
 #include "stillmap/tracking/depth_correction.h"
 #include "stillmap/tracking/features.h"
+#include "stillmap/tracking/floor_normal.h"
 #include "stillmap/tracking/loop_closure.h"
 #include "stillmap/tracking/planar_motion.h"
 #include "stillmap/tracking/pose_estimation.h"
@@ -295,6 +296,8 @@ struct TrackerOptions {
   // plane of motion (planar_motion.h). "auto": only when the tracked poses kept to a plane as a
   // robot's do (a hand-held camera's rise and tilt more); "on": always; "off": never.
   PlanarMotionMode planar_motion = PlanarMotionMode::kAuto;
+  // ... with the camera's tilt taken from the floor its keyframes see (floor_normal.h).
+  FloorNormalOptions planar_floor;
 
   // Throws InputError naming the first impossible value: each part's, the solvers', and the
   // checks across parts (tracker_options.cpp).
@@ -316,6 +319,7 @@ struct TrackerOptions {
           "auto, on or off: the final poses put on their plane of motion (height and tilt "
           "fixed; x, y and heading as tracked), as a ground robot's camera moves; auto: when the "
           "tracked poses kept within 3 cm of one height and 1 degree of one tilt");
+    visit.Nested("planar_motion_floor_", self.planar_floor);
   }
 };
 
