@@ -13,21 +13,12 @@
 #include <random>
 
 #include "stillmap/io/camera.h"
+#include "stillmap/synth/synthetic.h"
 
 namespace stillmap {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-Camera TestCamera() {
-  Camera camera;
-  camera.width = 640;
-  camera.height = 480;
-  camera.fx = camera.fy = 525.0;
-  camera.cx = 319.5;
-  camera.cy = 239.5;
-  return camera;
-}
 
 // The camera's frame in a floor frame (z up, the camera at the origin 0.9 m above the floor,
 // looking along +x): optical z forward, x right, y down, then pitched and rolled.
@@ -89,7 +80,7 @@ double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 }
 
 TEST(FloorNormalTest, FindsTheCamerasUpFromTheFloorAmongOtherSurfaces) {
-  const Camera camera = TestCamera();
+  const Camera camera = SynthCamera();
   const Eigen::Matrix3d floor_from_camera = FloorFromCamera(8.0, 0.3);
   const Eigen::Vector3d true_up = floor_from_camera.transpose() * Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d guess = Eigen::AngleAxisd(1.0 * kDeg, Eigen::Vector3d::UnitZ()) *
@@ -104,7 +95,7 @@ TEST(FloorNormalTest, FindsTheCamerasUpFromTheFloorAmongOtherSurfaces) {
 }
 
 TEST(FloorNormalTest, AViewWithoutFloorGivesNothing) {
-  const Camera camera = TestCamera();
+  const Camera camera = SynthCamera();
   // Level, so that the floor would be in the lower half: left out of the scene. The lowest
   // layer is then the bottom of the wall, the table and the person: none of it level and wide.
   const Eigen::Matrix3d floor_from_camera = FloorFromCamera(0.0, 0.0);
