@@ -15,7 +15,6 @@
 #include "stillmap/io/sequence.h"
 #include "stillmap/io/truth_files.h"
 #include "stillmap/synth/synthetic.h"
-#include "stillmap/tracking/rgbd_odometry.h"
 #include "test_util.h"
 
 namespace stillmap {
@@ -306,31 +305,6 @@ TEST_F(DenseRefinementTest, KeyframesHeldToTheirPosesMoveLess) {
   std::vector<RefinedKeyframe> loose = drifted;
   RefineKeyframePoses(camera(), Images(), options, &loose);
   EXPECT_LT(LargestError(loose, truth), before / 5.0);
-}
-
-// Consecutive keyframes of the rendered room aligned from their true motion keep the steps'
-// length: the aligned steps against the true ones (least squares) within 0.3 % of 1. With the
-// nearest cell as the reference's surface they came out 1.1 % short, and the refinement's steps
-// with them.
-TEST_F(DenseRefinementTest, AlignmentsFromTheTruthKeepTheStepsLength) {
-  const std::vector<RefinedKeyframe> truth = Truth();
-  const KeyframeImages images = Images();
-  RgbdOdometryOptions options;
-  options.cell_px = DenseRefinementOptions().cell_px;
-  const CellCamera cells(camera(), options.cell_px);
-  double along = 0.0, squares = 0.0;
-  for (size_t k = 0; k + 1 < truth.size(); ++k) {
-    RgbdImages reference, current;
-    images(k, &reference.gray, &reference.depth_m);
-    images(k + 1, &current.gray, &current.depth_m);
-    const Eigen::Isometry3d motion =
-        truth[k].world_from_camera.inverse() * truth[k + 1].world_from_camera;
-    const RgbdAlignment aligned = AlignRgbd(cells, reference, current, motion, options);
-    ASSERT_TRUE(aligned.ok()) << "keyframe " << k;
-    along += aligned.reference_from_current.translation().dot(motion.translation());
-    squares += motion.translation().squaredNorm();
-  }
-  EXPECT_NEAR(along / squares, 1.0, 0.003);
 }
 
 // Each keyframe held to the ones 2, 4, 8 after it, at the relative poses it has: held firmly, a

@@ -195,34 +195,6 @@ bool Photometry(const CellFrame& frame, float x, float y, float* intensity,
   return true;
 }
 
-// The reference's surface where `pixel` (cell units, nearest cell (u, v), which reads) looks:
-// the points of the four cells around it interpolated when all four read the nearest cell's
-// surface, else the nearest cell's point. The nearest cell alone draws the motion towards
-// whole cells: on the rendered static room, steps of 4-7 cm between keyframes came out 1 % short
-// (docs/figures.md, seventy-fifth session).
-Eigen::Vector3f SurfaceAt(const CellCamera& camera, const cv::Mat& depth,
-                          const Eigen::Vector2f& pixel, int u, int v) {
-  const int left = static_cast<int>(std::floor(pixel.x()));
-  const int top = static_cast<int>(std::floor(pixel.y()));
-  if (left < 0 || top < 0 || left + 1 >= depth.cols || top + 1 >= depth.rows) {
-    return CellPoint(camera, depth, u, v);
-  }
-  const float nearest = depth.at<float>(v, u);
-  for (int y = top; y <= top + 1; ++y) {
-    for (int x = left; x <= left + 1; ++x) {
-      const float z = depth.at<float>(y, x);
-      if (z <= 0.0f || std::abs(z - nearest) > kMaxRelativeStep * nearest) {
-        return CellPoint(camera, depth, u, v);
-      }
-    }
-  }
-  const float a = pixel.x() - static_cast<float>(left), b = pixel.y() - static_cast<float>(top);
-  return (1 - a) * (1 - b) * CellPoint(camera, depth, left, top) +
-         a * (1 - b) * CellPoint(camera, depth, left + 1, top) +
-         (1 - a) * b * CellPoint(camera, depth, left, top + 1) +
-         a * b * CellPoint(camera, depth, left + 1, top + 1);
-}
-
 // One pass over the current cells at `reference_from_current`: the whitened normal equations
 // (Huber-weighted) and, unweighted, the information they hold.
 struct Pass {
@@ -288,7 +260,7 @@ Pass Accumulate(const CellCamera& camera, const CellFrame& reference,
     const cv::Vec3f& normal = reference.normals.at<cv::Vec3f>(v, u);
     if (normal == cv::Vec3f()) continue;
     const Eigen::Vector3f n(normal[0], normal[1], normal[2]);
-    const Eigen::Vector3f difference = p - SurfaceAt(camera, depth, pixel, u, v);
+    const Eigen::Vector3f difference = p - CellPoint(camera, depth, u, v);
     if (difference.norm() > bound_m || (rotation * sample.normal).dot(n) < min_cosine) continue;
     const double error = n.dot(difference);
     Vector6 row;
